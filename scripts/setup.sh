@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# One-time machine set-up for mosaicd on Debian: system libraries the build needs and the Python
+# oracles the parity tests and benchmarks compare against. Idempotent; fast when all is present.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+pkgs=()
+# bindgen (used by v4l2-sys-mit and iceoryx2-pal-posix) needs libclang at build time.
+if ! ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/x86_64-linux-gnu/libclang*.so* >/dev/null 2>&1; then
+  pkgs+=(libclang-dev clang)
+fi
+# A TrueType font for the text in evaluation plots.
+[ -f /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] || pkgs+=(fonts-dejavu-core)
+# systemd-analyze verifies the units in systemd/.
+command -v systemd-analyze >/dev/null 2>&1 || pkgs+=(systemd)
+
+if [ ${#pkgs[@]} -gt 0 ]; then
+  echo "setup: installing ${pkgs[*]}" >&2
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${pkgs[@]}" >/dev/null
+fi
+
+# Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing.
+if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy; assert cv2.__version__.startswith("4.")' >/dev/null 2>&1; then
+  echo "setup: installing Python oracles (tests/oracle/requirements.txt)" >&2
+  python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/oracle/requirements.txt
+fi
+echo "setup: ok" >&2

@@ -1,0 +1,1 @@
+//! Typed daemon configuration, validated once at start-up.

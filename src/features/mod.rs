@@ -1,0 +1,6 @@
+//! Feature extraction on mosaics and grey images: gradients, super-pixel scale space, HOG, SIFT.
+
+pub mod gradient;
+pub mod hog;
+pub mod sift;
+pub mod superpixel;

@@ -1,0 +1,1 @@
+//! The conventional ISP path we compare against: demosaicing, grey conversion, reverse ISP, noise.

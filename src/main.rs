@@ -1,0 +1,77 @@
+//! `mosaicd`: a thin CLI over the library. Every subcommand lives in `src/cli/<name>.rs`.
+
+mod cli;
+
+use clap::{Parser, Subcommand};
+
+/// Gradient features and pedestrian detections straight from raw Bayer frames, no ISP.
+#[derive(Parser, Debug)]
+#[command(name = "mosaicd", version, about, long_about = None)]
+struct Cli {
+    /// Log filter (tracing `EnvFilter` syntax), overrides `RUST_LOG`.
+    #[arg(long, global = true)]
+    log: Option<String>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run the daemon from a config file.
+    Run(cli::run::RunArgs),
+    /// Replay an MCAP recording through the daemon pipeline as fast as possible (or at recorded rate).
+    Replay(cli::run::ReplayArgs),
+    /// Make a recording: from a V4L2 device, or from raw files / RGB images with a camera motion.
+    Record(cli::record::RecordArgs),
+    /// Subscribe to a running daemon's iceoryx2 services and print JSON lines.
+    Listen(cli::listen::ListenArgs),
+    /// Detect pedestrians in one frame; boxes as JSON, optional preview PNG.
+    Detect(cli::detect::DetectArgs),
+    /// Compute gradient maps of one input and write them as PNG.
+    Gradients(cli::gradients::GradientsArgs),
+    /// SIFT keypoints of one input (JSON and a picture).
+    Sift(cli::sift::SiftArgs),
+    /// Train a linear SVM pedestrian model.
+    Train(cli::train::TrainArgs),
+    /// The paper's experiments.
+    Eval(cli::eval::EvalArgs),
+    /// Benchmarks against OpenCV run in the same process run; prints ratios.
+    Bench(cli::bench::BenchArgs),
+}
+
+fn init_tracing(filter: Option<&str>) {
+    use tracing_subscriber::EnvFilter;
+    let filter = match filter {
+        Some(f) => EnvFilter::new(f),
+        None => EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info")),
+    };
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_tracing(cli.log.as_deref());
+    let result = match cli.command {
+        Command::Run(a) => cli::run::run(a),
+        Command::Replay(a) => cli::run::replay(a),
+        Command::Record(a) => cli::record::run(a),
+        Command::Listen(a) => cli::listen::run(a),
+        Command::Detect(a) => cli::detect::run(a),
+        Command::Gradients(a) => cli::gradients::run(a),
+        Command::Sift(a) => cli::sift::run(a),
+        Command::Train(a) => cli::train::run(a),
+        Command::Eval(a) => cli::eval::run(a),
+        Command::Bench(a) => cli::bench::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // One clear line (with its causes), non-zero exit.
+            eprintln!("mosaicd: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

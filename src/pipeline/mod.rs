@@ -1,0 +1,1 @@
+//! The daemon pipeline: scheduling, ordering, drop policy, stats, shutdown.

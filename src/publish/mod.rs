@@ -1,0 +1,1 @@
+//! iceoryx2 publishing and the `#[repr(C)]` message types subscribers read.

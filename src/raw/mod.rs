@@ -1,0 +1,145 @@
+//! Raw Bayer frames: the [`Cfa`] pattern type, [`RawFrame`], levels and normalisation, loaders.
+//!
+//! Data assumptions everywhere in mosaicd: pixel values are **linear** sensor values (no gamma, no
+//! white balance, no colour matrix applied), stored LSB-aligned in a `u8` or `u16` container with a
+//! known bit depth, a black level per 2x2 tile position and a white (saturation) level, and a 2x2
+//! pattern phase given physically (RGGB = red at (0, 0)).
+
+pub mod cfa;
+pub mod frame;
+pub mod levels;
+pub mod load;
+pub mod sample;
+
+use std::path::PathBuf;
+
+pub use cfa::{Cfa, CfaChannel, Colour, ParseCfaError};
+pub use frame::{FrameMeta, Levels, RawFrame, RawPixels, RawView};
+
+/// Errors from building, cropping, normalising and loading raw frames.
+#[derive(Debug, thiserror::Error)]
+pub enum RawError {
+    /// Width or height is zero.
+    #[error("empty frame: {width}x{height}")]
+    EmptyFrame {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+    },
+    /// Row stride smaller than the width.
+    #[error("row stride {stride} is smaller than width {width}")]
+    Stride {
+        /// Stride in pixels.
+        stride: usize,
+        /// Width in pixels.
+        width: usize,
+    },
+    /// Bit depth does not fit the container.
+    #[error("bit depth {bit_depth} is not valid for a {container_bits}-bit container (u8: 8, u16: 8..=16)")]
+    BitDepth {
+        /// Requested bit depth.
+        bit_depth: u8,
+        /// Container bits.
+        container_bits: u8,
+    },
+    /// Black/white levels are inconsistent.
+    #[error("levels black {black:?} / white {white} are invalid: need black < white <= {max}")]
+    Levels {
+        /// Black levels.
+        black: [u16; 4],
+        /// White level.
+        white: u16,
+        /// Largest value of the bit depth.
+        max: u16,
+    },
+    /// The pixel buffer is too small.
+    #[error("pixel buffer holds {len} pixels, {width}x{height} with stride {stride} needs {needed}")]
+    BufferSize {
+        /// Pixels present.
+        len: usize,
+        /// Pixels needed.
+        needed: usize,
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Stride.
+        stride: usize,
+    },
+    /// A crop rectangle outside the frame.
+    #[error("crop {w}x{h} at ({x}, {y}) does not fit in {width}x{height}")]
+    Crop {
+        /// Crop x.
+        x: usize,
+        /// Crop y.
+        y: usize,
+        /// Crop width.
+        w: usize,
+        /// Crop height.
+        h: usize,
+        /// Frame width.
+        width: usize,
+        /// Frame height.
+        height: usize,
+    },
+    /// File could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A headerless file's size does not match the format description.
+    #[error("{path}: file is {actual} bytes but {width}x{height} at {bytes_per_pixel} byte(s)/pixel with stride {stride_bytes} bytes needs {expected}")]
+    SizeMismatch {
+        /// File.
+        path: PathBuf,
+        /// Bytes expected.
+        expected: u64,
+        /// Bytes present.
+        actual: u64,
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Bytes per pixel.
+        bytes_per_pixel: usize,
+        /// Row stride in bytes.
+        stride_bytes: usize,
+    },
+    /// A value in a file exceeds the declared bit depth.
+    #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]
+    ValueOutOfRange {
+        /// File.
+        path: PathBuf,
+        /// Value.
+        value: u32,
+        /// x.
+        x: usize,
+        /// y.
+        y: usize,
+        /// Declared depth.
+        bit_depth: u8,
+    },
+    /// The file format is not one we can read, or the file is not what its name says.
+    #[error("{path}: {what}")]
+    Format {
+        /// File.
+        path: PathBuf,
+        /// What is wrong (a fixed description plus the offending values).
+        what: String,
+    },
+    /// Invalid normalisation parameters.
+    #[error("invalid normalisation parameter {name} = {value}: {why}")]
+    Param {
+        /// Parameter name.
+        name: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Allowed range.
+        why: &'static str,
+    },
+}

@@ -1,0 +1,1 @@
+//! MCAP recording: channels, schemas, chunking, rotation, clean finalisation.
