@@ -11,6 +11,7 @@ pub mod eval_detection;
 pub mod eval_isp;
 pub mod eval_sift;
 pub mod gradients;
+pub mod input;
 pub mod listen;
 pub mod record;
 pub mod run;

@@ -1,0 +1,1 @@
+//! Shared input options for the one-frame subcommands (`gradients`, `detect`, `sift`) (in progress).

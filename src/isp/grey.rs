@@ -1,0 +1,1 @@
+//! RGB → grey conversion (in progress).
