@@ -277,12 +277,16 @@ impl Pipeline {
                 maps_pool.clone(),
                 frame_pool.clone(),
             );
+            let kind = kind;
             std::thread::Builder::new()
                 .name(format!("mosaicd-dispatch-{}", spec.camera))
                 .spawn(move || {
                     let mut index = 0u64;
                     let mut size: Option<(usize, usize)> = None;
-                    while let Some(item) = queue.pop() {
+                    while let Some(mut item) = queue.pop() {
+                        if kind == SourceKind::Replay {
+                            item.entered_ns = monotonic_ns();
+                        }
                         if permit_rx.recv().is_err() {
                             break;
                         }
@@ -418,9 +422,12 @@ fn capture_loop(
                 if frame.meta.sensor_sequence.is_some() {
                     last_sensor_seq = frame.meta.sensor_sequence;
                 }
+                // Live: the driver's capture timestamp (same monotonic clock). Replay: stamped
+                // again when the dispatcher takes the frame, so backpressure waiting inside the
+                // reader is not counted as latency.
                 let entered_ns = match kind {
                     SourceKind::Live => frame.meta.timestamp_ns.min(monotonic_ns()),
-                    SourceKind::Replay => monotonic_ns(),
+                    SourceKind::Replay => 0,
                 };
                 match queue.push(Item { frame, entered_ns }) {
                     Push::Queued => {}

@@ -36,6 +36,7 @@ pub mod daemon;
 pub mod engine;
 pub mod pool;
 pub mod queue;
+pub mod record_sink;
 pub mod sinks;
 pub mod sources;
 pub mod stage;

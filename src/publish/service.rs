@@ -58,6 +58,9 @@ pub fn create_node(name: &str, daemon: bool) -> Result<Node<ipc::Service>, Publi
     } else {
         SignalHandlingMode::HandleTerminationRequests
     };
+    // iceoryx2 warns on stderr that no config file was loaded (its defaults are what we want);
+    // keep its log to errors unless IOX2_LOG_LEVEL says otherwise.
+    set_log_level_from_env_or(LogLevel::Error);
     let node = NodeBuilder::new()
         .name(&node_name)
         .signal_handling_mode(mode)
