@@ -277,7 +277,6 @@ impl Pipeline {
                 maps_pool.clone(),
                 frame_pool.clone(),
             );
-            let kind = kind;
             std::thread::Builder::new()
                 .name(format!("mosaicd-dispatch-{}", spec.camera))
                 .spawn(move || {
