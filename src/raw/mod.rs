@@ -15,6 +15,8 @@ use std::path::PathBuf;
 
 pub use cfa::{Cfa, CfaChannel, Colour, ParseCfaError};
 pub use frame::{FrameMeta, Levels, RawFrame, RawPixels, RawView};
+pub use load::{load_input, Container, Endian, InputOptions, LoadedInput, RawFormat};
+pub use sample::{frame_from_rgb8, mosaic_from_rgb};
 
 /// Errors from building, cropping, normalising and loading raw frames.
 #[derive(Debug, thiserror::Error)]
