@@ -34,11 +34,15 @@
 //!
 //! ## Which gains by default
 //! The paper's argument (colour differences vary slowly, so the gradient of any one channel
-//! approximates the scene gradient) assumes channels of similar brightness; raw R and B are often
-//! half as bright as G before white balance. We measured (tests/raw_wb_gains.rs, table in
-//! docs/raw.md) the parity of the mosaic gradient with the gradient of a demosaiced, white-balanced
-//! grey image on every real raw frame we have: white balance improves it on every frame, so the
-//! default is [`Gains::Auto`] (the file's gains when it has them, else grey world).
+//! approximates the scene gradient) does not cover raw R and B being much darker than G before
+//! white balance. We measured (tests/raw_wb_gains.rs, table in docs/raw.md) the parity of the
+//! mosaic gradient with the gradient of a demosaiced, white-balanced BT.601 grey image on the 8
+//! real raw frames we have. White balance does **not** improve parity on average: grey-world gains
+//! win narrowly on 5 of 8 frames but lose clearly on 3 (mean PSNR 35.97 vs 36.20 dB, mean GMSD
+//! 0.0514 vs 0.0455, orientation error 12.2° vs 12.1°), and the sensor's own tuned gains lose on
+//! 4 of 6 frames (they amplify the noise and quantisation of the dark R and B pixels, and colour
+//! edges). So the default is [`Gains::None`]; the other modes are there for callers that want
+//! white-balanced values (display, colour features).
 //!
 //! ## Deviations
 //! Clamping after the gains clips highlights to white (a demosaicing ISP would keep them as
@@ -75,7 +79,7 @@ pub enum Gains {
     Fixed([f32; 3]),
     /// Grey-world estimate from the frame itself.
     GreyWorld,
-    /// The file's gains when it has them, otherwise grey world (the measured default).
+    /// The file's gains when it has them, otherwise grey world.
     Auto,
 }
 
@@ -100,10 +104,10 @@ pub struct NormaliseOptions {
 }
 
 impl Default for NormaliseOptions {
-    /// The measured default: [`Gains::Auto`], no compression.
+    /// The measured default: [`Gains::None`], no compression.
     fn default() -> Self {
         Self {
-            gains: Gains::Auto,
+            gains: Gains::None,
             compression: Compression::None,
         }
     }
