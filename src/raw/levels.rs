@@ -357,6 +357,7 @@ pub fn u16_from_raw(frame: &RawFrame, gains: Option<[f32; 3]>) -> Result<RawFram
     }
     let round = 1u32 << (GAIN_FRAC_BITS - 1);
     let (w, h) = (frame.width(), frame.height());
+    let stride = frame.stride();
     let mut out = vec![0u16; w * h];
     out.par_chunks_mut(w * STRIP_ROWS)
         .enumerate()
@@ -364,12 +365,23 @@ pub fn u16_from_raw(frame: &RawFrame, gains: Option<[f32; 3]>) -> Result<RawFram
             for (dy, row) in strip.chunks_exact_mut(w).enumerate() {
                 let y = i * STRIP_ROWS + dy;
                 let pb = (y & 1) * 2;
-                for (x, o) in row.iter_mut().enumerate() {
-                    let p = pb + (x & 1);
-                    let v = (frame.value(x, y).saturating_sub(lv.black[p])) as u32;
-                    // v < 2^16 and q < 2^16 (gain < 16 in Q4.12): the product fits in u32.
-                    let g = (v * q[p] + round) >> GAIN_FRAC_BITS;
-                    *o = g.min(top as u32) as u16;
+                let b = [lv.black[pb], lv.black[pb + 1]];
+                let g = [q[pb], q[pb + 1]];
+                let start = y * stride;
+                macro_rules! run {
+                    ($src:expr) => {
+                        for (x, (o, &v)) in row.iter_mut().zip($src).enumerate() {
+                            let p = x & 1;
+                            let d = (v as u16).saturating_sub(b[p]) as u32;
+                            // d < 2^16 and g < 2^16 (gain < 16 in Q4.12): the product fits in u32.
+                            let r = (d * g[p] + round) >> GAIN_FRAC_BITS;
+                            *o = r.min(top as u32) as u16;
+                        }
+                    };
+                }
+                match frame.pixels() {
+                    RawPixels::U8(v) => run!(&v[start..start + w]),
+                    RawPixels::U16(v) => run!(&v[start..start + w]),
                 }
             }
         });
@@ -572,6 +584,32 @@ mod tests {
                 assert_eq!(a, b);
                 assert_eq!(a.dimensions(), (w, h));
                 assert!(a.as_slice().iter().all(|v| (0.0..=1.0).contains(v)));
+            }
+        }
+    }
+
+    #[test]
+    fn u16_path_equals_scalar_formula_over_many_strips() {
+        // Strided, 3.5 strips, every tile position with its own black level.
+        let (w, h, stride) = (21, 3 * STRIP_ROWS + 7, 24);
+        let data: Vec<u16> = (0..stride * h)
+            .map(|i| ((i * 2654435761usize) % 16384) as u16)
+            .collect();
+        let lv = Levels {
+            black: [600, 610, 620, 630],
+            white: 15520,
+        };
+        let f = RawFrame::new(w, h, stride, RawPixels::U16(data), Cfa::Bggr, 14, lv).unwrap();
+        let gains = [1.9, 1.0, 1.45];
+        let out = u16_from_raw(&f, Some(gains)).unwrap();
+        let top = 15520 - 630;
+        for y in 0..h {
+            for x in 0..w {
+                let c = colour_index(f.cfa().colour_at(x, y));
+                let q = (gains[c] * 4096.0).round() as u32;
+                let d = f.value(x, y).saturating_sub(f.black_at(x, y)) as u32;
+                let want = ((d * q + 2048) >> 12).min(top);
+                assert_eq!(out.value(x, y) as u32, want, "({x}, {y})");
             }
         }
     }
