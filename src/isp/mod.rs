@@ -6,12 +6,13 @@
 //!   RGB data sets (INRIA crops, Kodak) and recordings from RGB images.
 //! - [`noise`]: the paper's heteroscedastic noise (eq. 24) with its three presets, and an
 //!   estimator of the noise parameters from a raw frame.
-//! - `demosaic`: nearest, bilinear, bicubic, Malvar–He–Cutler and Hamilton–Adams demosaicing.
+//! - [`demosaic`]: nearest, bilinear, bicubic, Malvar–He–Cutler and Hamilton–Adams demosaicing.
 //! - `forward`: a minimal forward ISP (black level, white balance, demosaic, colour matrix,
 //!   sRGB gamma) so that a reverse → forward round trip can be measured.
 //!
 //! All of them report errors through [`IspError`].
 
+pub mod demosaic;
 pub mod grey;
 pub mod noise;
 pub mod profile;
@@ -19,6 +20,7 @@ pub mod reverse;
 
 use std::path::PathBuf;
 
+pub use demosaic::DemosaicMethod;
 pub use noise::{add_noise, add_noise_to_raw, estimate_noise, NoiseEstimate, NoiseLevel, NoiseParams};
 pub use profile::CameraProfile;
 pub use reverse::{raw_from_srgb, ReverseIspOptions};
@@ -106,7 +108,6 @@ pub enum IspError {
 /// `'mirror'`: `-1 → 1`, `n → n - 2`). Mirroring by an even or odd offset keeps the parity of the
 /// offset, so a mirrored neighbour has the same CFA colour as the missing one.
 #[inline]
-#[allow(dead_code)] // used by the demosaicing kernels
 pub(crate) fn mirror(i: isize, n: usize) -> usize {
     let n = n as isize;
     if n == 1 {
