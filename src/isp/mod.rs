@@ -7,12 +7,13 @@
 //! - [`noise`]: the paper's heteroscedastic noise (eq. 24) with its three presets, and an
 //!   estimator of the noise parameters from a raw frame.
 //! - [`demosaic`]: nearest, bilinear, bicubic, Malvar–He–Cutler and Hamilton–Adams demosaicing.
-//! - `forward`: a minimal forward ISP (black level, white balance, demosaic, colour matrix,
+//! - [`forward`]: a minimal forward ISP (black level, white balance, demosaic, colour matrix,
 //!   sRGB gamma) so that a reverse → forward round trip can be measured.
 //!
 //! All of them report errors through [`IspError`].
 
 pub mod demosaic;
+pub mod forward;
 pub mod grey;
 pub mod noise;
 pub mod profile;
@@ -21,6 +22,7 @@ pub mod reverse;
 use std::path::PathBuf;
 
 pub use demosaic::DemosaicMethod;
+pub use forward::{srgb_from_raw, ForwardIspOptions};
 pub use noise::{add_noise, add_noise_to_raw, estimate_noise, NoiseEstimate, NoiseLevel, NoiseParams};
 pub use profile::CameraProfile;
 pub use reverse::{raw_from_srgb, ReverseIspOptions};

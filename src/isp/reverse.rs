@@ -30,7 +30,7 @@
 //!
 //! ## Deviations
 //! - Buckler et al. also invert tone mapping and gamut mapping of a specific camera; we invert the
-//!   plain sRGB curve only (the forward ISP in `forward` applies exactly that curve).
+//!   plain sRGB curve only (the forward ISP in [`super::forward`] applies exactly that curve).
 //! - Black and white levels of the profile are rescaled when a different bit depth is asked for
 //!   ([`CameraProfile::levels_at`]).
 //! - Out-of-gamut colours can give camera values below 0 or above 1; they are clipped at quantisation.
