@@ -38,6 +38,12 @@
 //! refitted once without bins whose residual exceeds 3 robust standard deviations.
 //! This is in the spirit of Foi et al. 2008 (local mean/variance pairs on smooth regions), simpler.
 //!
+//! Accuracy (tests `tests/isp_reverse_noise.rs`): on a smooth synthetic 1024² frame with each
+//! preset injected, `a` comes out 1–4 % low (cutting the upper tail of the patch variances at
+//! 1.5× the median removes a little true noise too) and `b` within about ±12 %; on the real
+//! Nikon rose frame the injected `(a, b)` is recovered within 9 % / 3 % (Low, Medium), while at
+//! High `b` is ~15 % low because dark patches clip below the black level and are dropped.
+//!
 //! ## References
 //! - W. Zhou, L. Zhang, S. Gao, X. Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
 //!   Images", eq. 24 and Sec. V (noise levels).
@@ -59,7 +65,7 @@ pub const NOISE_STRIP_ROWS: usize = 32;
 
 /// Patches whose residual variance exceeds this multiple of their bin's median are treated as
 /// structure (edges, texture) and dropped by the estimator.
-pub const EDGE_REJECT_FACTOR: f64 = 2.0;
+pub const EDGE_REJECT_FACTOR: f64 = 1.5;
 
 /// `Var(y − mean of 4 independent neighbours) = σ² (1 + 4/16)`.
 const RESIDUAL_VARIANCE_GAIN: f64 = 1.25;
@@ -220,6 +226,9 @@ pub struct NoiseEstimateOptions {
     pub bins: usize,
     /// Minimum number of patches for a bin to be used.
     pub min_patches_per_bin: usize,
+    /// Patches whose variance exceeds this multiple of their bin's median are dropped as
+    /// structure (default [`EDGE_REJECT_FACTOR`]).
+    pub reject_factor: f64,
 }
 
 impl Default for NoiseEstimateOptions {
@@ -228,6 +237,7 @@ impl Default for NoiseEstimateOptions {
             patch: 8,
             bins: 40,
             min_patches_per_bin: 8,
+            reject_factor: EDGE_REJECT_FACTOR,
         }
     }
 }
@@ -325,7 +335,7 @@ pub fn estimate_noise(frame: &RawFrame, opts: &NoiseEstimateOptions) -> Result<N
         let median = sorted[sorted.len() / 2];
         let (mut sm, mut sv, mut k) = (0.0, 0.0, 0usize);
         for (v, m) in vars.iter().zip(means) {
-            if *v <= EDGE_REJECT_FACTOR * median {
+            if *v <= opts.reject_factor * median {
                 sm += m;
                 sv += v;
                 k += 1;
