@@ -145,6 +145,18 @@ pub enum HogError {
         /// Grid height in blocks.
         nby: usize,
     },
+    /// Colour planes of different sizes.
+    #[error("colour plane is {width}x{height}, the first plane is {want_width}x{want_height}")]
+    PlaneSize {
+        /// Plane width.
+        width: usize,
+        /// Plane height.
+        height: usize,
+        /// First plane width.
+        want_width: usize,
+        /// First plane height.
+        want_height: usize,
+    },
     /// Output buffer has the wrong length.
     #[error("output buffer holds {actual} values, {expected} needed")]
     BadOutput {
@@ -294,6 +306,8 @@ pub enum HogInput<'a> {
     GreyF32(ImageView<'a, f32>),
     /// 8-bit RGB (R, G, B order); OpenCV's per-pixel max-magnitude channel.
     Rgb8(ImageView<'a, [u8; 3]>),
+    /// Float colour planes (R, G, B) in 8-bit units; OpenCV's max-magnitude channel.
+    ColourF32([ImageView<'a, f32>; 3]),
     /// A Bayer mosaic, black-subtracted and scaled to 0..=255 (see [`mosaic_from_raw`]); gradients
     /// use same-colour taps two pixels apart.
     Mosaic(ImageView<'a, f32>),
@@ -307,6 +321,7 @@ impl HogInput<'_> {
             HogInput::GreyU16 { image, .. } => (image.width(), image.height()),
             HogInput::GreyF32(v) | HogInput::Mosaic(v) => (v.width(), v.height()),
             HogInput::Rgb8(v) => (v.width(), v.height()),
+            HogInput::ColourF32(p) => (p[0].width(), p[0].height()),
         }
     }
 }
@@ -415,6 +430,19 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
             }
             tap = 2;
             vec![plane_map(*v, |p| g(p.max(0.0)))]
+        }
+        HogInput::ColourF32(p) => {
+            for q in &p[1..] {
+                if (q.width(), q.height()) != (w, h) {
+                    return Err(HogError::PlaneSize {
+                        width: q.width(),
+                        height: q.height(),
+                        want_width: w,
+                        want_height: h,
+                    });
+                }
+            }
+            (0..3).map(|c| plane_map(p[2 - c], |v| g(v.max(0.0)))).collect()
         }
         HogInput::Rgb8(v) => {
             let lut: Vec<f32> = (0..256).map(|i| g(i as f32)).collect();
@@ -611,11 +639,37 @@ pub enum Exec {
     Serial,
 }
 
-/// Compute the normalised block grid of `input` into `dst` (buffers reused).
-pub fn block_grid(spec: &HogSpec, input: &HogInput, exec: Exec, dst: &mut BlockGrid) -> Result<(), HogError> {
+/// Wall time of the HOG stages of one [`block_grid`] call.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct HogTimings {
+    /// Input conversion and gamma.
+    pub gamma: std::time::Duration,
+    /// Gradients, orientation binning and weighted cell histograms (fused, one pass).
+    pub cells: std::time::Duration,
+    /// Block assembly from cells and L2-Hys normalisation.
+    pub blocks: std::time::Duration,
+}
+
+impl std::ops::AddAssign for HogTimings {
+    fn add_assign(&mut self, o: Self) {
+        self.gamma += o.gamma;
+        self.cells += o.cells;
+        self.blocks += o.blocks;
+    }
+}
+
+/// Compute the normalised block grid of `input` into `dst` (buffers reused); returns stage times.
+pub fn block_grid(
+    spec: &HogSpec,
+    input: &HogInput,
+    exec: Exec,
+    dst: &mut BlockGrid,
+) -> Result<HogTimings, HogError> {
+    let t0 = std::time::Instant::now();
     let planes = planes_from_input(spec, input)?;
-    block_grid_from_planes(spec, &planes, exec, dst);
-    Ok(())
+    let gamma = t0.elapsed();
+    let (cells, blocks) = block_grid_from_planes(spec, &planes, exec, dst);
+    Ok(HogTimings { gamma, cells, blocks })
 }
 
 /// Allocating [`block_grid`] (parallel).
@@ -630,7 +684,13 @@ fn cell_len(nbins: usize) -> usize {
     PROFILES * PROFILES * nbins
 }
 
-fn block_grid_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, dst: &mut BlockGrid) {
+fn block_grid_from_planes(
+    spec: &HogSpec,
+    p: &Planes,
+    exec: Exec,
+    dst: &mut BlockGrid,
+) -> (std::time::Duration, std::time::Duration) {
+    let t0 = std::time::Instant::now();
     let nb = spec.nbins();
     let ncx = p.width / CELL_SIZE;
     let ncy = p.height / CELL_SIZE;
@@ -676,6 +736,8 @@ fn block_grid_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, dst: &mut Bloc
         Exec::Serial => cells.chunks_mut(strip.max(1)).enumerate().for_each(work),
     }
 
+    let t_cells = t0.elapsed();
+    let t1 = std::time::Instant::now();
     // Blocks from cells, then L2-Hys.
     let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
     let nby = ncy.saturating_sub(BLOCK_CELLS - 1);
@@ -715,6 +777,7 @@ fn block_grid_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, dst: &mut Bloc
             Exec::Serial => dst.data.chunks_mut(nbx * bl).enumerate().for_each(row_work),
         }
     }
+    (t_cells, t1.elapsed())
 }
 
 /// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again.
