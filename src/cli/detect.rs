@@ -18,8 +18,8 @@ pub struct DetectArgs {
     pub raw: RawInputArgs,
     /// Interpret an image as `colour`, `grey`, or `mosaic` (a colour image is then sampled through
     /// --cfa into a mosaic, no ISP). Default: mosaic for raw input, colour for colour images.
-    #[arg(long = "as")]
-    pub as_domain: Option<String>,
+    #[arg(long = "as", value_enum)]
+    pub as_domain: Option<DomainArg>,
     /// Model: a file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default`
     /// (OpenCV's people detector from $MOSAICD_DATA/opencv_hog).
     #[arg(long, default_value = "opencv-default")]
@@ -76,21 +76,52 @@ pub struct DetectorArgs {
     #[arg(long, default_value_t = 1.0)]
     pub upsample: f64,
     /// Suppression: `group` (OpenCV groupRectangles, threshold 2, eps 0.2), `greedy` (IoU 0.5), `none`.
-    #[arg(long, default_value = "group")]
-    pub nms: String,
+    #[arg(long, value_enum, default_value_t = NmsArg::Group)]
+    pub nms: NmsArg,
+}
+
+/// `--nms` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NmsArg {
+    /// OpenCV groupRectangles (threshold 2, eps 0.2).
+    Group,
+    /// Greedy IoU 0.5.
+    Greedy,
+    /// Keep every hit.
+    None,
+}
+
+/// `--as` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DomainArg {
+    /// Raw Bayer mosaic.
+    Mosaic,
+    /// Grey.
+    Grey,
+    /// Colour.
+    Colour,
+}
+
+impl From<DomainArg> for Domain {
+    fn from(d: DomainArg) -> Self {
+        match d {
+            DomainArg::Mosaic => Domain::Mosaic,
+            DomainArg::Grey => Domain::Grey,
+            DomainArg::Colour => Domain::Colour,
+        }
+    }
 }
 
 impl DetectorArgs {
     /// To library options.
     pub fn options(&self) -> anyhow::Result<DetectorOptions> {
-        let nms = match self.nms.as_str() {
-            "group" => NmsMethod::Group {
+        let nms = match self.nms {
+            NmsArg::Group => NmsMethod::Group {
                 threshold: 2,
                 eps: 0.2,
             },
-            "greedy" => NmsMethod::Greedy { iou: 0.5 },
-            "none" => NmsMethod::None,
-            o => bail!("--nms {o}: expected group, greedy or none"),
+            NmsArg::Greedy => NmsMethod::Greedy { iou: 0.5 },
+            NmsArg::None => NmsMethod::None,
         };
         Ok(DetectorOptions {
             scale_step: self.scale_step,
@@ -200,10 +231,8 @@ pub fn read_raw(path: &Path, a: &RawInputArgs) -> anyhow::Result<RawFrame> {
 }
 
 /// Load any supported input as a frame.
-pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<&str>) -> anyhow::Result<Frame> {
-    let want: Option<Domain> = as_domain
-        .map(|s| s.parse().map_err(anyhow::Error::msg))
-        .transpose()?;
+pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>) -> anyhow::Result<Frame> {
+    let want: Option<Domain> = as_domain.map(Domain::from);
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -311,7 +340,7 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
-    let frame = load_frame(&args.input, &args.raw, args.as_domain.as_deref())?;
+    let frame = load_frame(&args.input, &args.raw, args.as_domain)?;
     let model = load_model(&args.model, Domain::Grey)?;
     let det = Detector::new(model, &args.det.options()?)?;
     let pool = rayon::ThreadPoolBuilder::new()
