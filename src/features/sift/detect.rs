@@ -447,7 +447,12 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                     for &r in strip {
                         let cur = &dog[i];
                         let row = cur.row(r);
-                        for (c, &val) in row.iter().enumerate().take(cols - SIFT_IMG_BORDER).skip(SIFT_IMG_BORDER) {
+                        for (c, &val) in row
+                            .iter()
+                            .enumerate()
+                            .take(cols - SIFT_IMG_BORDER)
+                            .skip(SIFT_IMG_BORDER)
+                        {
                             if val.abs() <= threshold
                                 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach)
                             {
