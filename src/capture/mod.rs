@@ -11,6 +11,8 @@ use crate::raw::RawFrame;
 
 pub mod clock;
 pub mod mcap_source;
+pub mod v4l2;
+pub mod v4l2_formats;
 
 pub use clock::{Clock, FakeClock, MonotonicClock};
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
@@ -70,6 +72,53 @@ pub enum CaptureError {
         wanted: String,
         /// Topics present.
         found: String,
+    },
+    /// A V4L2 format or buffer that cannot be interpreted.
+    #[error(transparent)]
+    Format(#[from] v4l2_formats::V4l2FormatError),
+    /// The camera device node does not exist.
+    #[error("camera {path} does not exist (is the camera connected and its driver loaded? `v4l2-ctl --list-devices` lists cameras)")]
+    DeviceMissing {
+        /// Device path.
+        path: PathBuf,
+    },
+    /// The device cannot stream video capture.
+    #[error("{path} ({card}) is not a streaming video-capture device")]
+    NotCapture {
+        /// Device path.
+        path: PathBuf,
+        /// The driver's card name.
+        card: String,
+    },
+    /// The device offers no Bayer format we can read.
+    #[error("the device offers no Bayer format we support (offered: {offered}; preferred: {preferred:?}); see capture::v4l2_formats for the list")]
+    NoBayerFormat {
+        /// FourCCs offered.
+        offered: String,
+        /// FourCC asked for.
+        preferred: Option<String>,
+    },
+    /// The device stopped delivering frames (unplugged, driver error); reopening follows.
+    #[error("camera {path} was lost: {source}; reopening with back-off")]
+    DeviceLost {
+        /// Device path.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A reopen attempt failed; the next one is after the back-off.
+    #[error("camera {path} unavailable (attempt {attempt}, next in {retry_in_ms} ms): {source}")]
+    DeviceUnavailable {
+        /// Device path.
+        path: PathBuf,
+        /// Failed attempts so far.
+        attempt: u32,
+        /// Delay before the next attempt (ms).
+        retry_in_ms: u64,
+        /// Why this attempt failed.
+        #[source]
+        source: Box<CaptureError>,
     },
     /// An invalid source option.
     #[error("invalid source option {name} = {value}: {why}")]
