@@ -18,54 +18,24 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 
+use super::input::InputArgs;
+
 use mosaicd::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
-use mosaicd::raw::{Cfa, Colour, Levels, RawFrame, RawView};
+use mosaicd::raw::RawView;
 
 /// Percentile of the magnitude mapped to full scale in the 8-bit PNGs.
 const NORM_PERCENTILE: f64 = 0.995;
 /// Orientation bins of the visualisation (10° each over 0–360°).
 const VIS_BINS: usize = 36;
 
-/// Parse `--black`: one value, or four comma-separated values in tile order.
-fn parse_black(s: &str) -> Result<[u16; 4], String> {
-    let vals: Result<Vec<u16>, _> = s.split(',').map(|v| v.trim().parse::<u16>()).collect();
-    match vals.map_err(|e| format!("{s:?}: {e}"))?.as_slice() {
-        [b] => Ok([*b; 4]),
-        [a, b, c, d] => Ok([*a, *b, *c, *d]),
-        v => Err(format!("expected 1 or 4 comma-separated values, got {}", v.len())),
-    }
-}
-
 /// Arguments of `mosaicd gradients`.
 #[derive(clap::Args, Debug)]
 pub struct GradientsArgs {
-    /// Input: headerless raw (needs --width/--height), 16-bit or 8-bit grey PNG mosaic (needs --cfa),
-    /// or an 8-bit RGB PNG/JPEG (resampled to --cfa, default RGGB).
-    #[arg(required_unless_present = "raw")]
-    pub input: Option<PathBuf>,
-    /// Same as INPUT (kept for the Makefile's `--raw FILE`).
-    #[arg(long, conflicts_with = "input")]
-    pub raw: Option<PathBuf>,
-    /// Width in pixels of a headerless raw file.
-    #[arg(long)]
-    pub width: Option<usize>,
-    /// Height in pixels of a headerless raw file.
-    #[arg(long)]
-    pub height: Option<usize>,
-    /// Significant bits per sample (8..=16).
-    #[arg(long, value_parser = clap::value_parser!(u8).range(8..=16))]
-    pub bit_depth: Option<u8>,
-    /// Physical CFA pattern (RGGB = red at (0,0)).
-    #[arg(long)]
-    pub cfa: Option<Cfa>,
-    /// Black level: one value or four per tile position (cancels in the differences; reported only).
-    #[arg(long, value_parser = parse_black)]
-    pub black: Option<[u16; 4]>,
-    /// White level (default 2^bit_depth − 1).
-    #[arg(long)]
-    pub white: Option<u16>,
+    /// The input frame and how to read it (shared with `detect` and `sift`).
+    #[command(flatten)]
+    pub input: InputArgs,
     /// Derivative operator.
     #[arg(long, default_value = "central")]
     pub operator: Operator,
@@ -99,99 +69,6 @@ impl From<BorderArg> for Border {
             BorderArg::MosaicExtrapolate => Border::MosaicExtrapolate,
         }
     }
-}
-
-/// What was loaded: a mosaic frame, plus the RGB image when the input was RGB.
-struct Loaded {
-    frame: RawFrame,
-    rgb: Option<Image<[u8; 3]>>,
-}
-
-fn levels(args: &GradientsArgs, bits: u8) -> Levels {
-    let white = args.white.unwrap_or(((1u32 << bits) - 1) as u16);
-    Levels {
-        black: args.black.unwrap_or([0; 4]),
-        white,
-    }
-}
-
-fn mosaic_from_rgb(rgb: &Image<[u8; 3]>, cfa: Cfa) -> Image<u8> {
-    Image::from_fn(rgb.width(), rgb.height(), |x, y| {
-        let p = rgb.get(x, y);
-        match cfa.colour_at(x, y) {
-            Colour::Red => p[0],
-            Colour::Green => p[1],
-            Colour::Blue => p[2],
-        }
-    })
-}
-
-/// A minimal loader (headerless raw, grey PNG mosaic, RGB image), until the shared `InputArgs`
-/// loader reaches main.
-fn load(args: &GradientsArgs, path: &Path) -> anyhow::Result<Loaded> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    if ext == "png" || ext == "jpg" || ext == "jpeg" {
-        let img = image::open(path).with_context(|| format!("reading image {}", path.display()))?;
-        let (w, h) = (img.width() as usize, img.height() as usize);
-        return match img {
-            image::DynamicImage::ImageLuma16(g) => {
-                let cfa = args.cfa.context("a grey PNG mosaic needs --cfa")?;
-                let bits = args.bit_depth.unwrap_or(16);
-                let frame = RawFrame::from_u16(w, h, g.into_raw(), cfa, bits, levels(args, bits))?;
-                Ok(Loaded { frame, rgb: None })
-            }
-            image::DynamicImage::ImageLuma8(g) => {
-                let cfa = args.cfa.context("a grey PNG mosaic needs --cfa")?;
-                let frame = RawFrame::from_u8(w, h, g.into_raw(), cfa, levels(args, 8))?;
-                Ok(Loaded { frame, rgb: None })
-            }
-            other => {
-                let rgb8 = other.to_rgb8();
-                let rgb = Image::from_fn(w, h, |x, y| rgb8.get_pixel(x as u32, y as u32).0);
-                let cfa = args.cfa.unwrap_or(Cfa::Rggb);
-                let frame =
-                    RawFrame::from_u8(w, h, mosaic_from_rgb(&rgb, cfa).into_vec(), cfa, levels(args, 8))?;
-                Ok(Loaded {
-                    frame,
-                    rgb: Some(rgb),
-                })
-            }
-        };
-    }
-    let (Some(w), Some(h)) = (args.width, args.height) else {
-        bail!(
-            "{}: a headerless raw file needs --width and --height",
-            path.display()
-        );
-    };
-    let cfa = args.cfa.context("a headerless raw file needs --cfa")?;
-    let bits = args
-        .bit_depth
-        .context("a headerless raw file needs --bit-depth")?;
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let bpp = if bits == 8 { 1 } else { 2 };
-    if bytes.len() != w * h * bpp {
-        bail!(
-            "{}: {} bytes, but {w}x{h} at {bits} bits needs {} ({bpp} byte(s) per sample)",
-            path.display(),
-            bytes.len(),
-            w * h * bpp
-        );
-    }
-    let frame = if bpp == 1 {
-        RawFrame::from_u8(w, h, bytes, cfa, levels(args, 8))?
-    } else {
-        let px = bytes
-            .chunks_exact(2)
-            .map(|b| u16::from_le_bytes([b[0], b[1]]))
-            .collect();
-        RawFrame::from_u16(w, h, px, cfa, bits, levels(args, bits))?
-    };
-    Ok(Loaded { frame, rgb: None })
 }
 
 /// Value of the `p`-quantile of `v` (at least 1, so it can divide).
@@ -242,12 +119,7 @@ fn save_l8(path: &Path, w: usize, h: usize, data: Vec<u8>) -> anyhow::Result<()>
 
 /// Run `mosaicd gradients`.
 pub fn run(args: GradientsArgs) -> anyhow::Result<()> {
-    let path = args
-        .input
-        .clone()
-        .or(args.raw.clone())
-        .context("no input given")?;
-    let loaded = load(&args, &path)?;
+    let loaded = args.input.load()?;
     let f = &loaded.frame;
     let (w, h) = (f.width(), f.height());
     let spec = MagBinSpec::new(MagBinOptions {
