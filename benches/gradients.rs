@@ -27,7 +27,11 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.measurement_time(std::time::Duration::from_secs(3));
     g.warm_up_time(std::time::Duration::from_millis(500));
-    for (name, w, h) in SIZES {
+    // `cargo test --all-targets` runs this once in test mode (no `--bench`): keep that smoke run
+    // cheap with a small frame instead of generating 12 MP in the dev profile.
+    let bench_mode = std::env::args().any(|a| a == "--bench");
+    let sizes: &[(&str, usize, usize)] = if bench_mode { &SIZES } else { &[("smoke", 64, 48)] };
+    for &(name, w, h) in sizes {
         let m16 = synthetic_mosaic(w, h, 12, SEED);
         let m8 = m16.map(|v| (v >> 4) as u8);
         for bits in BITS {
