@@ -10,7 +10,8 @@ thread (cv2.setNumThreads(1)), the median of --repeats runs of:
               our magnitude + orientation bin)
 
 Physical RGGB (red at (0,0)) is OpenCV's COLOR_BayerBG2BGR: OpenCV names the pattern by the
-second row's first two pixels. Prints one JSON line: {"mag_ms": .., "mag_phase_ms": .., ...}.
+second row's first two pixels. Prints one JSON line: {"mag_ms": .., "mag_phase_ms": .., ...}: median
+wall time and median CPU time of the calling thread (with one thread OpenCV runs its loops there).
 """
 import argparse
 import json
@@ -44,14 +45,19 @@ def pipeline(mosaic, code, with_phase):
 
 
 def median_ms(fn, repeats):
+    """Median wall time and median CPU time of this thread (robust when the machine is shared:
+    time during which other processes ran is not counted), in ms."""
     fn()  # warm-up (allocations, page faults)
-    ts = []
+    wall, cpu = [], []
     for _ in range(repeats):
+        c = time.thread_time()
         t = time.perf_counter()
         fn()
-        ts.append((time.perf_counter() - t) * 1e3)
-    ts.sort()
-    return ts[len(ts) // 2]
+        wall.append((time.perf_counter() - t) * 1e3)
+        cpu.append((time.thread_time() - c) * 1e3)
+    wall.sort()
+    cpu.sort()
+    return wall[len(wall) // 2], cpu[len(cpu) // 2]
 
 
 def main():
@@ -67,13 +73,15 @@ def main():
         print(f"peer: need a 2-D uint8/uint16 mosaic, got {mosaic.dtype} {mosaic.shape}", file=sys.stderr)
         return 2
     code = CODES[args.cfa]
-    mag_ms = median_ms(lambda: pipeline(mosaic, code, False), args.repeats)
-    mag_phase_ms = median_ms(lambda: pipeline(mosaic, code, True), args.repeats)
+    mag_ms, mag_cpu_ms = median_ms(lambda: pipeline(mosaic, code, False), args.repeats)
+    mag_phase_ms, mag_phase_cpu_ms = median_ms(lambda: pipeline(mosaic, code, True), args.repeats)
     print(
         json.dumps(
             {
                 "mag_ms": mag_ms,
                 "mag_phase_ms": mag_phase_ms,
+                "mag_cpu_ms": mag_cpu_ms,
+                "mag_phase_cpu_ms": mag_phase_cpu_ms,
                 "opencv": cv2.__version__,
                 "threads": cv2.getNumThreads(),
                 "shape": list(mosaic.shape),

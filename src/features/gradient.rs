@@ -1029,8 +1029,12 @@ fn mag_bin_typed<T: RawSample>(
 }
 
 /// The fused kernel: a `u8`/`u16` mosaic (or grey image) → `u16` magnitude and `u8` orientation bin,
-/// one pass, row strips on the current rayon pool, using the fastest path this CPU has.
-/// `bit_depth` sets the magnitude shift ([`MagBinSpec::mag_shift`]).
+/// one pass, using the fastest path this CPU has ([`KernelPath::best`]).
+///
+/// Row strips of [`STRIP_ROWS`] run on the *current* rayon pool: the daemon calls it inside its own
+/// `ThreadPool::install`; with `serial` set in the options it stays on the calling thread.
+/// `bit_depth` sets the magnitude shift ([`MagBinSpec::mag_shift`]). The black level is not needed:
+/// it cancels in every difference (module docs). No allocation.
 pub fn mag_bin(
     src: RawView<'_>,
     bit_depth: u8,
