@@ -54,7 +54,10 @@
 //! Images" §III (gamma compression of raw); Dalal & Triggs 2005 and OpenCV `hog.cpp` (sqrt gamma);
 //! Buchsbaum 1980 (grey-world assumption).
 
+use std::str::FromStr;
+
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::{Colour, RawError, RawFrame, RawPixels};
 use crate::image::Image;
@@ -69,7 +72,12 @@ pub const MAX_GAIN: f32 = 16.0;
 pub const GAIN_FRAC_BITS: u32 = 12;
 
 /// Where per-colour gains come from.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// In config files (serde, kebab-case): `"none"`, `"from-file"`, `"grey-world"`, `"auto"` or
+/// `{ fixed = [r, g, b] }`. On the command line (`FromStr`): `none`, `file`,
+/// `grey-world`, `auto` or `R,G,B`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Gains {
     /// No white balance: R, G, B as the sensor saw them.
     None,
@@ -84,7 +92,11 @@ pub enum Gains {
 }
 
 /// Tone compression applied after white balance.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// In config files: `"none"`, `"sqrt"` or `{ gamma = 0.4545 }`; on the command line: `none`,
+/// `sqrt` or `gamma:EXPONENT`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Compression {
     /// Linear output.
     None,
@@ -95,7 +107,8 @@ pub enum Compression {
 }
 
 /// Normalisation options, validated by [`NormaliseOptions::build`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct NormaliseOptions {
     /// White-balance gains.
     pub gains: Gains,
@@ -109,6 +122,62 @@ impl Default for NormaliseOptions {
         Self {
             gains: Gains::None,
             compression: Compression::None,
+        }
+    }
+}
+
+/// Error parsing a [`Gains`] or [`Compression`] from text.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot parse {text:?}: expected {expected}")]
+pub struct ParseOptionError {
+    /// The text given.
+    pub text: String,
+    /// What was expected.
+    pub expected: &'static str,
+}
+
+impl FromStr for Gains {
+    type Err = ParseOptionError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = || ParseOptionError {
+            text: s.to_string(),
+            expected: "none, file, grey-world, auto or R,G,B",
+        };
+        match s.trim().to_ascii_lowercase().as_str() {
+            "none" => Ok(Gains::None),
+            "file" | "from-file" => Ok(Gains::FromFile),
+            "grey-world" | "gray-world" => Ok(Gains::GreyWorld),
+            "auto" => Ok(Gains::Auto),
+            other => {
+                let v: Vec<f32> = other
+                    .split(',')
+                    .map(|t| t.trim().parse::<f32>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| err())?;
+                match v.as_slice() {
+                    [r, g, b] => Ok(Gains::Fixed([*r, *g, *b])),
+                    _ => Err(err()),
+                }
+            }
+        }
+    }
+}
+
+impl FromStr for Compression {
+    type Err = ParseOptionError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = || ParseOptionError {
+            text: s.to_string(),
+            expected: "none, sqrt or gamma:EXPONENT",
+        };
+        match s.trim().to_ascii_lowercase().as_str() {
+            "none" => Ok(Compression::None),
+            "sqrt" => Ok(Compression::Sqrt),
+            other => other
+                .strip_prefix("gamma:")
+                .and_then(|e| e.trim().parse::<f32>().ok())
+                .map(Compression::Gamma)
+                .ok_or_else(err),
         }
     }
 }
@@ -515,6 +584,39 @@ mod tests {
         )
         .unwrap();
         assert!(close(&grey_world_gains(&sat), &[2.0, 1.0, 4.0]));
+    }
+
+    #[test]
+    fn options_parse_from_text_and_toml() {
+        assert_eq!("none".parse::<Gains>().unwrap(), Gains::None);
+        assert_eq!("file".parse::<Gains>().unwrap(), Gains::FromFile);
+        assert_eq!("Grey-World".parse::<Gains>().unwrap(), Gains::GreyWorld);
+        assert_eq!("auto".parse::<Gains>().unwrap(), Gains::Auto);
+        assert_eq!(
+            "1.5, 1, 2".parse::<Gains>().unwrap(),
+            Gains::Fixed([1.5, 1.0, 2.0])
+        );
+        assert!("1,2".parse::<Gains>().is_err());
+        assert!("warm".parse::<Gains>().is_err());
+        assert_eq!("sqrt".parse::<Compression>().unwrap(), Compression::Sqrt);
+        assert_eq!(
+            "gamma:0.5".parse::<Compression>().unwrap(),
+            Compression::Gamma(0.5)
+        );
+        assert!("gamma".parse::<Compression>().is_err());
+        let o: NormaliseOptions =
+            toml::from_str("gains = { fixed = [2.0, 1.0, 1.5] }\ncompression = { gamma = 0.45 }").unwrap();
+        assert_eq!(o.gains, Gains::Fixed([2.0, 1.0, 1.5]));
+        assert_eq!(o.compression, Compression::Gamma(0.45));
+        let o: NormaliseOptions = toml::from_str("gains = \"grey-world\"").unwrap();
+        assert_eq!(
+            o,
+            NormaliseOptions {
+                gains: Gains::GreyWorld,
+                ..NormaliseOptions::default()
+            }
+        );
+        assert!(toml::from_str::<NormaliseOptions>("gain = \"none\"").is_err());
     }
 
     #[test]
