@@ -112,7 +112,8 @@ impl RawFormat {
 
     /// Row stride in bytes.
     pub fn stride(&self) -> usize {
-        self.stride_bytes.unwrap_or(self.width * self.container.bytes())
+        self.stride_bytes
+            .unwrap_or(self.width.saturating_mul(self.container.bytes()))
     }
 
     /// Exact file size this format describes (`height * stride`).
@@ -260,6 +261,12 @@ fn mosaic_frame(
     origin: &Path,
 ) -> Result<RawFrame, RawError> {
     let bit_depth = fmt.bit_depth.unwrap_or(file_bits);
+    if !(8..=16).contains(&bit_depth) {
+        return Err(RawError::BitDepth {
+            bit_depth,
+            container_bits: 16,
+        });
+    }
     let pixels = match pixels {
         RawPixels::U8(v) if bit_depth > 8 => RawPixels::U16(v.into_iter().map(u16::from).collect()),
         RawPixels::U16(v) => {
@@ -767,6 +774,57 @@ mod tests {
         ));
     }
 
+    /// Round trip with a pinned seed: random sizes, depths, endians and padding.
+    #[test]
+    fn random_headerless_round_trips() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261122);
+        for _ in 0..200 {
+            let (w, h) = (rng.random_range(1..20usize), rng.random_range(1..12usize));
+            let container = if rng.random_bool(0.5) {
+                Container::U8
+            } else {
+                Container::U16
+            };
+            let bits: u8 = if container == Container::U8 {
+                8
+            } else {
+                rng.random_range(8..=16)
+            };
+            let endian = if rng.random_bool(0.5) {
+                Endian::Little
+            } else {
+                Endian::Big
+            };
+            let bpp = container.bytes();
+            let pad = rng.random_range(0..3usize) * bpp;
+            let max = ((1u32 << bits) - 1) as u16;
+            let vals: Vec<u16> = (0..w * h).map(|_| rng.random_range(0..=max)).collect();
+            let mut bytes = Vec::new();
+            for row in vals.chunks(w) {
+                for &v in row {
+                    match (container, endian) {
+                        (Container::U8, _) => bytes.push(v as u8),
+                        (Container::U16, Endian::Little) => bytes.extend_from_slice(&v.to_le_bytes()),
+                        (Container::U16, Endian::Big) => bytes.extend_from_slice(&v.to_be_bytes()),
+                    }
+                }
+                bytes.extend(std::iter::repeat_n(0xAAu8, pad));
+            }
+            let cfa = Cfa::ALL[rng.random_range(0..4usize)];
+            let mut fmt = RawFormat::new(w, h, bits, cfa, container, endian, Levels::uniform(0, max));
+            fmt.stride_bytes = Some(w * bpp + pad);
+            let f = frame_from_bytes(&bytes, &fmt, &origin()).unwrap();
+            assert_eq!(f.to_u16_vec(), vals);
+            assert_eq!((f.width(), f.height(), f.cfa(), f.bit_depth()), (w, h, cfa, bits));
+            // One byte short is always a size mismatch.
+            assert!(matches!(
+                frame_from_bytes(&bytes[..bytes.len() - 1], &fmt, &origin()),
+                Err(RawError::SizeMismatch { .. })
+            ));
+        }
+    }
+
     #[test]
     fn truncated_and_oversized_are_size_mismatch() {
         let bytes = vec![0u8; 3 * 2 * 2];
@@ -896,6 +954,18 @@ mod tests {
         let g = load_png_mosaic(&p, &fmt).unwrap();
         assert_eq!(g.to_u16_vec(), f.to_u16_vec());
         assert_eq!((g.width(), g.height(), g.cfa()), (2, 3, Cfa::Gbrg));
+        // Impossible bit depths are errors, not panics.
+        for bits in [0u8, 7, 17, 40] {
+            let bad = MosaicFormat {
+                bit_depth: Some(bits),
+                white: None,
+                ..fmt
+            };
+            assert!(
+                matches!(load_png_mosaic(&p, &bad), Err(RawError::BitDepth { .. })),
+                "{bits}"
+            );
+        }
         // Declaring too few bits is caught.
         let small = MosaicFormat {
             bit_depth: Some(10),
