@@ -408,18 +408,84 @@ pub fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawE
     mosaic_frame(w, h, pixels, bits_for(maxval as u32), fmt, path)
 }
 
-/// Write a frame as a 16-bit grey PNG (values as stored, not scaled; the pattern, bit depth and
-/// levels are not recorded in the file).
+/// Keyword of the PNG `tEXt` chunk in which [`write_png16`] records the pattern, bit depth and
+/// levels, so that our own mosaic PNGs load without flags.
+pub const PNG_TEXT_KEY: &str = "mosaicd-mosaic";
+
+/// What a mosaic PNG written by [`write_png16`] says about itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PngMosaicMeta {
+    /// Pattern at (0, 0).
+    pub cfa: Cfa,
+    /// Significant bits.
+    pub bit_depth: u8,
+    /// Levels.
+    pub levels: Levels,
+}
+
+impl PngMosaicMeta {
+    /// The text stored in the chunk: `cfa=RGGB bit_depth=14 black=600,600,600,600 white=15520`.
+    pub fn to_text(&self) -> String {
+        let b = self.levels.black;
+        format!(
+            "cfa={} bit_depth={} black={},{},{},{} white={}",
+            self.cfa, self.bit_depth, b[0], b[1], b[2], b[3], self.levels.white
+        )
+    }
+
+    /// Parse [`PngMosaicMeta::to_text`]'s format; every field is required.
+    pub fn parse(text: &str) -> Option<Self> {
+        let (mut cfa, mut bits, mut black, mut white) = (None, None, None, None);
+        for field in text.split_whitespace() {
+            let (k, v) = field.split_once('=')?;
+            match k {
+                "cfa" => cfa = v.parse::<Cfa>().ok(),
+                "bit_depth" => bits = v.parse::<u8>().ok(),
+                "black" => {
+                    let b: Vec<u16> = v.split(',').map(|t| t.parse().ok()).collect::<Option<_>>()?;
+                    black = <[u16; 4]>::try_from(b).ok();
+                }
+                "white" => white = v.parse::<u16>().ok(),
+                _ => return None,
+            }
+        }
+        Some(Self {
+            cfa: cfa?,
+            bit_depth: bits?,
+            levels: Levels {
+                black: black?,
+                white: white?,
+            },
+        })
+    }
+}
+
+/// Write a frame as a 16-bit grey PNG: values as stored (not scaled), with the pattern, bit depth
+/// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`load_input`] reads.
 pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let (w, h) = (frame.width(), frame.height());
-    let data = frame.to_u16_vec();
-    let buf = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w as u32, h as u32, data)
-        .ok_or_else(|| format_err(path, format!("frame {w}x{h} too large for PNG")))?;
-    buf.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| match e {
-            image::ImageError::IoError(io) => io_err(path, io),
-            other => format_err(path, format!("cannot write PNG: {other}")),
-        })
+    let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
+        return Err(format_err(path, format!("frame {w}x{h} too large for PNG")));
+    };
+    let meta = PngMosaicMeta {
+        cfa: frame.cfa(),
+        bit_depth: frame.bit_depth(),
+        levels: *frame.levels(),
+    };
+    let png_err = |e: png::EncodingError| match e {
+        png::EncodingError::IoError(io) => io_err(path, io),
+        other => format_err(path, format!("cannot write PNG: {other}")),
+    };
+    let file = std::fs::File::create(path).map_err(|e| io_err(path, e))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w32, h32);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Sixteen);
+    enc.add_text_chunk(PNG_TEXT_KEY.to_string(), meta.to_text())
+        .map_err(png_err)?;
+    let mut writer = enc.write_header().map_err(png_err)?;
+    let bytes: Vec<u8> = frame.to_u16_vec().iter().flat_map(|v| v.to_be_bytes()).collect();
+    writer.write_image_data(&bytes).map_err(png_err)?;
+    writer.finish().map_err(png_err)
 }
 
 /// Write a frame as a binary PGM (`P5`) with maxval `2^bit_depth - 1` (big-endian 16-bit samples
@@ -625,14 +691,33 @@ pub fn headerless_format(path: &Path, opts: &InputOptions) -> Result<RawFormat, 
     })
 }
 
-/// Read a PNG header's colour type without decoding the pixels.
-fn png_is_single_channel(path: &Path) -> Result<bool, RawError> {
+/// Read a PNG's header without decoding the pixels: whether it is 1-channel grey, and our
+/// [`PNG_TEXT_KEY`] description when it has one (a malformed description is an error).
+fn png_header(path: &Path) -> Result<(bool, Option<PngMosaicMeta>), RawError> {
     let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
     let decoder = png::Decoder::new(std::io::BufReader::new(file));
     let reader = decoder
         .read_info()
         .map_err(|e| format_err(path, format!("cannot read PNG header: {e}")))?;
-    Ok(matches!(reader.info().color_type, png::ColorType::Grayscale))
+    let info = reader.info();
+    let grey = matches!(info.color_type, png::ColorType::Grayscale);
+    let meta =
+        match info
+            .uncompressed_latin1_text
+            .iter()
+            .find(|t| t.keyword == PNG_TEXT_KEY)
+        {
+            None => None,
+            Some(t) => Some(PngMosaicMeta::parse(&t.text).ok_or_else(|| {
+                format_err(path, format!("malformed {PNG_TEXT_KEY} text chunk {:?}", t.text))
+            })?),
+        };
+    Ok((grey, meta))
+}
+
+/// Read the mosaic description [`write_png16`] stores in a PNG, if any.
+pub fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
+    Ok(png_header(path)?.1)
 }
 
 /// Load any supported input, choosing the loader by options, extension and content:
@@ -665,10 +750,25 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
             frame: load_pgm_mosaic(path, &mosaic_fmt("a PGM mosaic")?)?,
             rgb: None,
         }),
-        "png" if png_is_single_channel(path)? => Ok(LoadedInput {
-            frame: load_png_mosaic(path, &mosaic_fmt("a grey PNG mosaic")?)?,
-            rgb: None,
-        }),
+        "png" => match png_header(path)? {
+            (true, meta) => {
+                // Flags override what the file says about itself.
+                let fmt = match meta {
+                    Some(m) => MosaicFormat {
+                        cfa: opts.cfa.unwrap_or(m.cfa),
+                        bit_depth: Some(opts.bit_depth.unwrap_or(m.bit_depth)),
+                        black: opts.black.unwrap_or(m.levels.black),
+                        white: Some(opts.white.unwrap_or(m.levels.white)),
+                    },
+                    None => mosaic_fmt("a grey PNG mosaic")?,
+                };
+                Ok(LoadedInput {
+                    frame: load_png_mosaic(path, &fmt)?,
+                    rgb: None,
+                })
+            }
+            (false, _) => rgb_input(path, opts),
+        },
         "png" | "jpg" | "jpeg" => {
             let rgb = load_rgb8(path)?;
             let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
@@ -683,6 +783,16 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
             rgb: None,
         }),
     }
+}
+
+fn rgb_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    let rgb = load_rgb8(path)?;
+    let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
+    frame.meta = meta_for(path);
+    Ok(LoadedInput {
+        frame,
+        rgb: Some(rgb),
+    })
 }
 
 /// A path for error messages when there is no file.
@@ -976,9 +1086,41 @@ mod tests {
             load_png_mosaic(&p, &small),
             Err(RawError::ValueOutOfRange { .. })
         ));
-        // Through the dispatcher: pattern required.
-        let opts = InputOptions::default();
-        assert!(matches!(load_input(&p, &opts), Err(RawError::Format { .. })));
+        // Through the dispatcher, our own PNG describes itself: no flags needed.
+        assert_eq!(
+            png_mosaic_meta(&p).unwrap(),
+            Some(PngMosaicMeta {
+                cfa: Cfa::Gbrg,
+                bit_depth: 14,
+                levels: Levels::uniform(600, 15520)
+            })
+        );
+        let l = load_input(&p, &InputOptions::default()).unwrap();
+        assert_eq!(l.frame.to_u16_vec(), f.to_u16_vec());
+        assert_eq!((l.frame.cfa(), l.frame.bit_depth()), (Cfa::Gbrg, 14));
+        assert_eq!(*l.frame.levels(), Levels::uniform(600, 15520));
+        // Flags override the description.
+        let l = load_input(
+            &p,
+            &InputOptions {
+                cfa: Some(Cfa::Rggb),
+                white: Some(16000),
+                ..InputOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(l.frame.cfa(), Cfa::Rggb);
+        assert_eq!(*l.frame.levels(), Levels::uniform(600, 16000));
+        // A grey PNG without the description needs its pattern.
+        let plain = dir.path().join("plain.png");
+        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(2, 1, vec![1, 2])
+            .unwrap()
+            .save(&plain)
+            .unwrap();
+        assert!(matches!(
+            load_input(&plain, &InputOptions::default()),
+            Err(RawError::Format { .. })
+        ));
         let opts = InputOptions {
             cfa: Some(Cfa::Gbrg),
             bit_depth: Some(14),
@@ -990,6 +1132,29 @@ mod tests {
         assert!(l.rgb.is_none());
         assert_eq!(l.frame.to_u16_vec(), f.to_u16_vec());
         assert_eq!(*l.frame.levels(), Levels::uniform(600, 15520));
+    }
+
+    #[test]
+    fn png_description_round_trips_and_rejects_garbage() {
+        let m = PngMosaicMeta {
+            cfa: Cfa::Bggr,
+            bit_depth: 12,
+            levels: Levels {
+                black: [1, 2, 3, 4],
+                white: 4000,
+            },
+        };
+        assert_eq!(m.to_text(), "cfa=BGGR bit_depth=12 black=1,2,3,4 white=4000");
+        assert_eq!(PngMosaicMeta::parse(&m.to_text()), Some(m));
+        for bad in [
+            "",
+            "cfa=BGGR bit_depth=12 black=1,2,3 white=4000",
+            "cfa=XYZW bit_depth=12 black=1,2,3,4 white=4000",
+            "cfa=BGGR bit_depth=12 black=1,2,3,4",
+            "cfa=BGGR bit_depth=12 black=1,2,3,4 white=4000 extra=1",
+        ] {
+            assert_eq!(PngMosaicMeta::parse(bad), None, "{bad:?}");
+        }
     }
 
     #[test]
