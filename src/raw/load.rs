@@ -769,15 +769,7 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
             }
             (false, _) => rgb_input(path, opts),
         },
-        "png" | "jpg" | "jpeg" => {
-            let rgb = load_rgb8(path)?;
-            let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
-            frame.meta = meta_for(path);
-            Ok(LoadedInput {
-                frame,
-                rgb: Some(rgb),
-            })
-        }
+        "jpg" | "jpeg" => rgb_input(path, opts),
         _ => Ok(LoadedInput {
             frame: load_camera_raw(path)?,
             rgb: None,
