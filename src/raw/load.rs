@@ -1168,6 +1168,24 @@ mod tests {
         assert_eq!(l.frame.cfa(), Cfa::Grbg);
         // GRBG row 0: G R G R; row 1: B G B G
         assert_eq!(l.frame.to_u16_vec(), vec![10, 1, 10, 3, 100, 11, 100, 11]);
+        // JPEG: lossy, so only the shape and the kept RGB are checked; grey JPEG is refused.
+        let j = dir.path().join("c.jpg");
+        img.save(&j).unwrap();
+        let l = load_input(&j, &InputOptions::default()).unwrap();
+        assert_eq!(
+            (l.frame.width(), l.frame.height(), l.frame.cfa()),
+            (4, 2, Cfa::Rggb)
+        );
+        let rgb = l.rgb.expect("rgb kept");
+        assert_eq!(l.frame.value(0, 0), rgb.get(0, 0)[0] as u16);
+        let g = dir.path().join("g.jpg");
+        image::GrayImage::from_pixel(4, 2, image::Luma([9]))
+            .save(&g)
+            .unwrap();
+        assert!(matches!(
+            load_input(&g, &InputOptions::default()),
+            Err(RawError::Format { .. })
+        ));
     }
 
     #[test]
