@@ -26,6 +26,12 @@
 //! to our per-tile-position black levels, the bit depth is the smallest that holds the white level
 //! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
 //! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
+//! Refused with rawloader's or our message: cameras rawloader 0.37 does not know (among them the
+//! Kodak DC40/DC50 with RADC compression, e.g. the shared `RAW_KODAK_DC50.KDC`), floating-point
+//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
+//!
+//! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
+//! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.
 //!
 //! References: Netpbm PGM specification (16-bit samples are big-endian); PNG specification
 //! (16-bit samples are big-endian, the `png`/`image` crates return native values).
