@@ -100,8 +100,22 @@ impl InputArgs {
 
     /// Load the input.
     pub fn load(&self) -> anyhow::Result<LoadedInput> {
-        load_input(&self.input, &self.options())
-            .with_context(|| format!("loading input {}", self.input.display()))
+        let loaded = load_input(&self.input, &self.options())
+            .with_context(|| format!("loading input {}", self.input.display()))?;
+        let f = &loaded.frame;
+        tracing::info!(
+            input = %self.input.display(),
+            width = f.width(),
+            height = f.height(),
+            cfa = %f.cfa(),
+            bit_depth = f.bit_depth(),
+            black = ?f.levels().black,
+            white = f.levels().white,
+            wb_gains = ?f.wb_gains,
+            rgb = loaded.rgb.is_some(),
+            "loaded input"
+        );
+        Ok(loaded)
     }
 }
 
@@ -114,6 +128,54 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         input: InputArgs,
+    }
+
+    #[test]
+    fn loads_the_demo_frame() {
+        let p = mosaicd::data::require("raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw");
+        let c = Cli::try_parse_from([
+            "x".as_ref(),
+            p.as_os_str(),
+            "--width".as_ref(),
+            "768".as_ref(),
+            "--height".as_ref(),
+            "512".as_ref(),
+            "--bit-depth".as_ref(),
+            "14".as_ref(),
+            "--cfa".as_ref(),
+            "RGGB".as_ref(),
+            "--black".as_ref(),
+            "600".as_ref(),
+            "--white".as_ref(),
+            "15520".as_ref(),
+        ])
+        .unwrap();
+        let l = c.input.load().unwrap();
+        assert_eq!(
+            (l.frame.width(), l.frame.height(), l.frame.bit_depth()),
+            (768, 512, 14)
+        );
+        assert_eq!(l.frame.cfa(), Cfa::Rggb);
+        assert!(l.rgb.is_none());
+        // A wrong size is one clear error naming the file.
+        let c = Cli::try_parse_from([
+            "x".as_ref(),
+            p.as_os_str(),
+            "--width".as_ref(),
+            "700".as_ref(),
+            "--height".as_ref(),
+            "512".as_ref(),
+            "--bit-depth".as_ref(),
+            "14".as_ref(),
+            "--cfa".as_ref(),
+            "RGGB".as_ref(),
+        ])
+        .unwrap();
+        let e = format!("{:#}", c.input.load().unwrap_err());
+        assert!(
+            e.contains("DSC_1339_768x512_rggb.raw") && e.contains("786432"),
+            "{e}"
+        );
     }
 
     #[test]
