@@ -70,9 +70,10 @@ use std::str::FromStr;
 
 use rayon::prelude::*;
 
+use super::noise::linear_from_raw;
 use super::{mirror, IspError};
 use crate::image::{Image, ImageView};
-use crate::raw::{Cfa, Colour};
+use crate::raw::{Cfa, Colour, RawFrame};
 
 /// Rows per parallel strip.
 pub const DEMOSAIC_STRIP_ROWS: usize = 16;
@@ -690,6 +691,14 @@ pub fn rgb_from_mosaic_hamilton_adams(
     rgb_from_mosaic(src, cfa, DemosaicMethod::HamiltonAdams)
 }
 
+/// Demosaic a raw frame into linear camera RGB: each value is first normalised with the frame's
+/// levels to `y = (v − black) / (white − black)` (no white balance, no colour matrix), then
+/// demosaiced with `method` (unclipped `f32`).
+pub fn rgb_from_raw(frame: &RawFrame, method: DemosaicMethod) -> Result<Image<[f32; 3]>, IspError> {
+    let lin = linear_from_raw(frame);
+    rgb_from_mosaic(lin.view(), frame.cfa(), method)
+}
+
 /// Demosaic an 8-bit mosaic; results are rounded and clamped to `0..=255`.
 pub fn rgb_from_mosaic_u8(
     src: ImageView<'_, u8>,
@@ -937,6 +946,48 @@ mod tests {
                 assert_eq!(a, c, "{cfa} {method}: interior fast path != mirrored path");
             }
         }
+    }
+
+    #[test]
+    fn crop_at_any_offset_with_rephased_pattern_matches_the_full_result() {
+        // Demosaicing a crop (pattern re-phased by Cfa::shifted) equals cropping the full result,
+        // away from the crop's border (3 pixels: the largest tap radius). Nearest only at even
+        // offsets: its tiles are aligned to the image origin.
+        let rgb = Image::from_fn(30, 26, |x, y| {
+            let v = ((x * 5 + y * 11) % 13) as f32 / 13.0;
+            [v, (x as f32 * 0.3).cos().abs(), 1.0 - v * 0.5]
+        });
+        for cfa in Cfa::ALL {
+            let m = mosaic_of(&rgb, cfa);
+            for method in DemosaicMethod::all() {
+                let full = rgb_from_mosaic(m.view(), cfa, method).unwrap();
+                for (ox, oy) in [(1, 0), (0, 1), (1, 1), (3, 2), (2, 4)] {
+                    if method == DemosaicMethod::Nearest && (ox % 2 == 1 || oy % 2 == 1) {
+                        continue; // nearest copies from 2x2 tiles aligned to even coordinates
+                    }
+                    let crop = m.view().crop(ox, oy, 20, 18).unwrap();
+                    let part = rgb_from_mosaic(crop, cfa.shifted(ox, oy), method).unwrap();
+                    for y in 3..15 {
+                        for x in 3..17 {
+                            assert_eq!(
+                                part.get(x, y),
+                                full.get(x + ox, y + oy),
+                                "{cfa} {method} +({ox},{oy})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn raw_frames_are_normalised_before_demosaicing() {
+        use crate::raw::Levels;
+        // flat raw 600 with black 100, white 1100 -> 0.5 everywhere
+        let f = RawFrame::from_u16(6, 4, vec![600; 24], Cfa::Gbrg, 12, Levels::uniform(100, 1100)).unwrap();
+        let rgb = rgb_from_raw(&f, DemosaicMethod::HamiltonAdams).unwrap();
+        assert!(rgb.as_slice().iter().all(|p| *p == [0.5; 3]));
     }
 
     #[test]
