@@ -212,12 +212,6 @@ fn chan(cfa: Cfa, x: isize, y: isize) -> usize {
     ci(cfa.colour_at((x & 1) as usize, (y & 1) as usize))
 }
 
-/// Bilinear kernels (colour-demosaicing's `H_G` and `H_RB`), `[dy + 1][dx + 1]`, over 4.
-const BILINEAR_G: [[f32; 3]; 3] = [[0.0, 1.0, 0.0], [1.0, 4.0, 1.0], [0.0, 1.0, 0.0]];
-const BILINEAR_RB: [[f32; 3]; 3] = [[1.0, 2.0, 1.0], [2.0, 4.0, 2.0], [1.0, 2.0, 1.0]];
-/// Both bilinear kernels are divided by this.
-const BILINEAR_NORM: f32 = 4.0;
-
 /// Malvar–He–Cutler kernels `[dy + 2][dx + 2]`, over [`MALVAR_NORM`]: G at R/B sites.
 const MALVAR_G_AT_RB: [[f32; 5]; 5] = [
     [0.0, 0.0, -1.0, 0.0, 0.0],
@@ -338,18 +332,23 @@ fn px_nearest<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
 }
 
 fn px_bilinear<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+    // The masked-plane convolution with H_G = [0 1 0; 1 4 1; 0 1 0]/4 and
+    // H_RB = [1 2 1; 2 4 2; 1 2 1]/4, written per site (taps summed in kernel order).
+    let own = chan(cfa, x, y);
+    let v = s.at(x, y);
+    let (l, r, u, d) = (s.at(x - 1, y), s.at(x + 1, y), s.at(x, y - 1), s.at(x, y + 1));
     let mut out = [0.0; 3];
-    for dy in -1..=1isize {
-        for dx in -1..=1isize {
-            let c = chan(cfa, x + dx, y + dy);
-            let k = if c == 1 { &BILINEAR_G } else { &BILINEAR_RB };
-            let w = k[(dy + 1) as usize][(dx + 1) as usize];
-            if w != 0.0 {
-                out[c] += w * s.at(x + dx, y + dy);
-            }
-        }
+    out[own] = v;
+    if own == 1 {
+        let row_c = chan(cfa, x + 1, y);
+        out[row_c] = (l + r) / 2.0;
+        out[2 - row_c] = (u + d) / 2.0;
+    } else {
+        out[1] = (u + l + r + d) / 4.0;
+        let diag = s.at(x - 1, y - 1) + s.at(x + 1, y - 1) + s.at(x - 1, y + 1) + s.at(x + 1, y + 1);
+        out[2 - own] = diag / 4.0;
     }
-    out.map(|v| v / BILINEAR_NORM)
+    out
 }
 
 fn px_bicubic<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
