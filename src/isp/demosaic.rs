@@ -800,6 +800,33 @@ mod tests {
     }
 
     #[test]
+    fn bicubic_reproduces_quadratics_where_bilinear_does_not() {
+        // Keys' cubic (a = -1/2) reproduces polynomials up to degree 2, on the square R/B lattices
+        // and (in rotated coordinates) on the green quincunx.
+        let q = |x: f32, y: f32, k: f32| 0.2 + 0.003 * k * (x * x) - 0.002 * (x * y) + 0.001 * (y * y);
+        let rgb = Image::from_fn(24, 20, |x, y| {
+            let (x, y) = (x as f32, y as f32);
+            [q(x, y, 1.0), q(x, y, 2.0), q(x, y, 0.5)]
+        });
+        for cfa in Cfa::ALL {
+            let m = mosaic_of(&rgb, cfa);
+            let bc = rgb_from_mosaic_bicubic(m.view(), cfa).unwrap();
+            let bl = rgb_from_mosaic_bilinear(m.view(), cfa).unwrap();
+            let (mut bc_err, mut bl_err) = (0f32, 0f32);
+            for y in 3..17 {
+                for x in 3..21 {
+                    for c in 0..3 {
+                        bc_err = bc_err.max((bc.get(x, y)[c] - rgb.get(x, y)[c]).abs());
+                        bl_err = bl_err.max((bl.get(x, y)[c] - rgb.get(x, y)[c]).abs());
+                    }
+                }
+            }
+            assert!(bc_err < 2e-5, "{cfa}: bicubic error {bc_err}");
+            assert!(bl_err > 1e-3, "{cfa}: bilinear error {bl_err}");
+        }
+    }
+
+    #[test]
     fn bilinear_hand_computed() {
         // RGGB 4x4 mosaic with values = index; at B (1,1): R = mean of the 4 diagonal R
         // (0,0)=0,(2,0)=2,(0,2)=8,(2,2)=10 -> 5; G = mean of (1,0)=1,(0,1)=4,(2,1)=6,(1,2)=9 -> 5
