@@ -5,6 +5,9 @@
 //! | [`gradients`] | Table III: mosaic vs grey gradient maps (Kodak and real raw frames) |
 //! | [`channels`] | Fig. 9: GMSD of the mosaic gradient vs grey / R / G / B / colour-max gradients |
 //! | [`scale_space`] | Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize |
+//! | [`demosaic`] | Table IV: each demosaicing method vs true colour |
+//! | [`pipeline`] | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first) |
+//! | [`noise`] | gradient and HOG-input degradation under the three noise levels of eq. 24 |
 //! | [`plot`] | PNG line, band, histogram and box plots (used by the HOG and SIFT evaluations too) |
 //!
 //! Each experiment is `run(&EvalOptions) -> Result<Report>`; a [`common::Report`] prints as text and
@@ -12,7 +15,10 @@
 
 pub mod channels;
 pub mod common;
+pub mod demosaic;
 pub mod gradients;
+pub mod noise;
+pub mod pipeline;
 pub mod plot;
 pub mod scale_space;
 
