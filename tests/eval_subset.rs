@@ -52,9 +52,11 @@ fn gradients_table3_subset() {
     assert!(m > 0.9 && m < 1.0, "MSSIM {m}");
     assert!(p > 30.0, "PSNR {p}");
     assert!(g > 0.0 && g < 0.1, "GMSD {g}");
+    // Unscaled magnitudes: PSNR exactly 20·log10(2) dB lower (same error, doubled).
+    assert!((cell(&r, 0, 1, 4) - (p - 20.0 * 2f64.log10())).abs() < 2e-3);
     // One raw frame row.
-    assert_eq!(r.tables[0].rows[1][1], "1");
-    assert!(cell(&r, 0, 1, 2) > 0.8);
+    assert_eq!(r.tables[0].rows[2][1], "1");
+    assert!(cell(&r, 0, 2, 2) > 0.8);
 }
 
 #[test]

@@ -348,7 +348,7 @@ impl Table {
     /// GitHub markdown.
     pub fn to_markdown(&self) -> String {
         let mut s = format!(
-            "**{}**\n\n| {} |\n|{}|\n",
+            "**{}**\n\n| {} |\n|{}\n",
             self.title,
             self.headers.join(" | "),
             "---|".repeat(self.headers.len())
@@ -493,7 +493,7 @@ mod tests {
         let mut t = Table::new("T", &["a", "bb"]);
         t.row(vec!["1".into(), "2".into()]);
         assert!(t.to_text().contains("a  bb"));
-        assert!(t.to_markdown().contains("| 1 | 2 |"));
+        assert!(t.to_markdown().contains("| a | bb |\n|---|---|\n| 1 | 2 |"));
         assert_eq!(finite_mean(&[1.0, f64::INFINITY, 3.0]), (2.0, 1));
     }
 }
