@@ -489,47 +489,107 @@ fn reflect101(i: isize, n: usize) -> usize {
     r.clamp(0, n - 1) as usize
 }
 
+/// Scratch rows for [`gradient_row`].
+struct RowScratch {
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    m: Vec<f32>,
+}
+
+impl RowScratch {
+    fn new(w: usize) -> Self {
+        Self {
+            dx: vec![0.0; w],
+            dy: vec![0.0; w],
+            m: vec![0.0; w],
+        }
+    }
+}
+
+/// Derivatives of one plane's row `y` into `dx`, `dy` (reflect-101 at the borders).
+#[inline]
+fn derivatives(
+    plane: &Image<f32>,
+    tap: usize,
+    y: usize,
+    ym: usize,
+    yp: usize,
+    dx: &mut [f32],
+    dy: &mut [f32],
+) {
+    let w = plane.width();
+    let r = plane.row(y);
+    let (rm, rp) = (plane.row(ym), plane.row(yp));
+    for ((d, a), b) in dy.iter_mut().zip(rp).zip(rm) {
+        *d = a - b;
+    }
+    if w > 2 * tap {
+        for ((d, a), b) in dx[tap..w - tap].iter_mut().zip(&r[2 * tap..]).zip(r) {
+            *d = a - b;
+        }
+    }
+    let t = tap as isize;
+    for x in (0..tap.min(w)).chain(w.saturating_sub(tap).max(tap.min(w))..w) {
+        dx[x] = r[reflect101(x as isize + t, w)] - r[reflect101(x as isize - t, w)];
+    }
+}
+
 /// One row of quantised gradients: two bins and two weights per pixel (OpenCV `qangle`, `grad`).
-fn gradient_row(p: &Planes, y: usize, nbins: usize, bins: &mut [[u8; 2]], wts: &mut [[f32; 2]]) {
+fn gradient_row(
+    p: &Planes,
+    y: usize,
+    nbins: usize,
+    sc: &mut RowScratch,
+    bins: &mut [[u8; 2]],
+    wts: &mut [[f32; 2]],
+) {
     let w = p.width;
     let t = p.tap as isize;
     let ym = reflect101(y as isize - t, p.height);
     let yp = reflect101(y as isize + t, p.height);
-    let half_if_mosaic = if p.tap == 2 { 0.5f32 } else { 1.0 };
-    let angle_scale = (nbins as f64 / std::f64::consts::PI) as f32;
-    let to_rad = (std::f64::consts::PI / 180.0) as f32;
     let n = bins.len().min(w);
-    for x in 0..n {
-        let (xm, xp) = if x >= p.tap && x + p.tap < w {
-            (x - p.tap, x + p.tap)
-        } else {
-            (reflect101(x as isize - t, w), reflect101(x as isize + t, w))
-        };
-        let mut best = (0.0f32, 0.0f32, -1.0f32);
-        for (c, plane) in p.planes.iter().enumerate() {
-            let r = plane.row(y);
-            let dx = r[xp] - r[xm];
-            let dy = plane.row(yp)[x] - plane.row(ym)[x];
-            let m = dx * dx + dy * dy;
-            // OpenCV colour rule: R beats G only if strictly larger, and the winner beats B only if
-            // strictly larger (planes are B, G, R here).
-            if c == 0 || m > best.2 {
-                best = (dx, dy, m);
+    derivatives(&p.planes[0], p.tap, y, ym, yp, &mut sc.dx, &mut sc.dy);
+    if p.planes.len() > 1 {
+        // OpenCV colour rule: a later plane (B, G, R order) wins only when strictly larger.
+        for (d, (a, b)) in sc.m.iter_mut().zip(sc.dx.iter().zip(&sc.dy)) {
+            *d = a * a + b * b;
+        }
+        let mut dx2 = vec![0.0f32; w];
+        let mut dy2 = vec![0.0f32; w];
+        for plane in &p.planes[1..] {
+            derivatives(plane, p.tap, y, ym, yp, &mut dx2, &mut dy2);
+            for x in 0..w {
+                let m = dx2[x] * dx2[x] + dy2[x] * dy2[x];
+                if m > sc.m[x] {
+                    sc.m[x] = m;
+                    sc.dx[x] = dx2[x];
+                    sc.dy[x] = dy2[x];
+                }
             }
         }
-        let (dx, dy) = (best.0 * half_if_mosaic, best.1 * half_if_mosaic);
+    }
+    if p.tap == 2 {
+        // Same-colour taps are two pixels apart: halve to keep the [-1,0,1] scale.
+        sc.dx.iter_mut().for_each(|v| *v *= 0.5);
+        sc.dy.iter_mut().for_each(|v| *v *= 0.5);
+    }
+    let angle_scale = (nbins as f64 / std::f64::consts::PI) as f32;
+    let to_rad = (std::f64::consts::PI / 180.0) as f32;
+    let nb = nbins as i32;
+    for x in 0..n {
+        let (dx, dy) = (sc.dx[x], sc.dy[x]);
         let mag = (dx * dx + dy * dy).sqrt();
         let ang = fast_atan2_deg(dy, dx) * to_rad * angle_scale - 0.5;
         let hf = ang.floor();
         let frac = ang - hf;
         let mut h = hf as i32;
         if h < 0 {
-            h += nbins as i32;
-        } else if h >= nbins as i32 {
-            h -= nbins as i32;
+            h += nb;
+        } else if h >= nb {
+            h -= nb;
         }
-        let h = (h.clamp(0, nbins as i32 - 1)) as usize;
-        let h1 = if h + 1 < nbins { h + 1 } else { 0 };
+        let h = h.clamp(0, nb - 1);
+        let h1 = if h + 1 < nb { h + 1 } else { 0 };
         bins[x] = [h as u8, h1 as u8];
         wts[x] = [mag * (1.0 - frac), mag * frac];
     }
@@ -697,22 +757,32 @@ fn block_grid_from_planes(
     let cl = cell_len(nb);
     let mut cells = vec![0.0f32; ncx * ncy * cl];
     let strip = STRIP_CELL_ROWS * ncx * cl;
+    // Non-zero x-profiles per pixel column of a cell (3 of 4 for the default geometry).
+    let nonzero: Vec<Vec<(usize, f32)>> = (0..CELL_SIZE)
+        .map(|j| {
+            (0..PROFILES)
+                .filter(|&px| spec.profile[px][j] != 0.0)
+                .map(|px| (px, spec.profile[px][j]))
+                .collect()
+        })
+        .collect();
+    let nonzero = &nonzero;
     let work = |(s, chunk): (usize, &mut [f32])| {
         let mut bins = vec![[0u8; 2]; ncx * CELL_SIZE];
         let mut wts = vec![[0.0f32; 2]; ncx * CELL_SIZE];
+        let mut sc = RowScratch::new(p.width);
         let mut rowacc = vec![0.0f32; PROFILES * nb];
         for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
             let cy = s * STRIP_CELL_ROWS + k;
             for i in 0..CELL_SIZE {
-                gradient_row(p, cy * CELL_SIZE + i, nb, &mut bins, &mut wts);
+                gradient_row(p, cy * CELL_SIZE + i, nb, &mut sc, &mut bins, &mut wts);
                 for (cx, cell) in cell_row.chunks_mut(cl).enumerate() {
                     rowacc.iter_mut().for_each(|v| *v = 0.0);
-                    for j in 0..CELL_SIZE {
-                        let x = cx * CELL_SIZE + j;
-                        let [b0, b1] = bins[x];
-                        let [w0, w1] = wts[x];
-                        for (px, acc) in rowacc.chunks_mut(nb).enumerate() {
-                            let pw = spec.profile[px][j];
+                    let x0 = cx * CELL_SIZE;
+                    let cols = bins[x0..x0 + CELL_SIZE].iter().zip(&wts[x0..x0 + CELL_SIZE]);
+                    for (nz, (&[b0, b1], &[w0, w1])) in nonzero.iter().zip(cols) {
+                        for &(px, pw) in nz {
+                            let acc = &mut rowacc[px * nb..(px + 1) * nb];
                             acc[b0 as usize] += pw * w0;
                             acc[b1 as usize] += pw * w1;
                         }
