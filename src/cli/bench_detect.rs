@@ -69,6 +69,9 @@ pub struct BenchDetectArgs {
     /// Maximum pyramid levels (both sides).
     #[arg(long, default_value_t = 64)]
     pub max_levels: usize,
+    /// Feature-pyramid approximation for our side (1 = exact; see `mosaicd detect --approx`).
+    #[arg(long, default_value_t = 1)]
+    pub approx: usize,
     /// Skip the OpenCV peer.
     #[arg(long)]
     pub no_peer: bool,
@@ -119,6 +122,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let opts = DetectorOptions {
         scale_step: a.scale_step,
         max_levels: a.max_levels,
+        approx_levels: a.approx,
         ..Default::default()
     };
     let det = Detector::new(model, &opts)?;
@@ -147,6 +151,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         acc.resize += stats.resize;
         acc.hog += stats.hog;
         acc.svm += stats.svm;
+        acc.cell_resample += stats.cell_resample;
         acc.nms += stats.nms;
         boxes = nb;
     }
@@ -193,13 +198,13 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let report = serde_json::json!({
         "input": path.display().to_string(), "width": a.width, "height": a.height, "bit_depth": a.bit_depth,
         "cfa": a.cfa.name(), "threads": a.threads, "frames": a.frames, "commit": commit,
-        "scale_step": a.scale_step, "max_levels": a.max_levels, "levels": acc.levels, "windows": acc.windows,
+        "scale_step": a.scale_step, "approx_levels": a.approx, "max_levels": a.max_levels, "levels": acc.levels, "windows": acc.windows,
         "ours": {
             "fps": 1.0 / ours_s, "frame_ms": ours_s * 1e3, "boxes": boxes,
             "stage_ms_per_frame (normalise wall; others CPU summed over levels)": {
                 "normalise": ms(norm) / f as f64, "resize": ms(acc.resize) / f as f64,
                 "gamma": ms(acc.hog.gamma) / f as f64, "gradients+cells": ms(acc.hog.cells) / f as f64,
-                "blocks": ms(acc.hog.blocks) / f as f64, "svm": ms(acc.svm) / f as f64, "nms": ms(acc.nms) / f as f64,
+                "blocks": ms(acc.hog.blocks) / f as f64, "cell_resample": ms(acc.cell_resample) / f as f64, "svm": ms(acc.svm) / f as f64, "nms": ms(acc.nms) / f as f64,
             }
         },
         "opencv": peer.as_ref().map(|p| serde_json::json!({

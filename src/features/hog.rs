@@ -751,11 +751,116 @@ fn block_grid_from_planes(
     dst: &mut BlockGrid,
 ) -> (std::time::Duration, std::time::Duration) {
     let t0 = std::time::Instant::now();
+    let mut cells = CellGrid::empty();
+    cells_from_planes(spec, p, exec, &mut cells);
+    let t_cells = t0.elapsed();
+    let t1 = std::time::Instant::now();
+    blocks_from_cells(spec, &cells, exec, dst);
+    (t_cells, t1.elapsed())
+}
+
+/// Per-cell weighted histograms of one image at one scale: for each 8x8 cell, 4 y-profiles x 4
+/// x-profiles x nbins values (see the module docs). Blocks are sums of four cells' entries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellGrid {
+    ncx: usize,
+    ncy: usize,
+    cell_len: usize,
+    data: Vec<f32>,
+}
+
+impl CellGrid {
+    /// An empty grid.
+    pub fn empty() -> Self {
+        Self {
+            ncx: 0,
+            ncy: 0,
+            cell_len: 0,
+            data: Vec::new(),
+        }
+    }
+    /// Cells across.
+    pub fn cells_x(&self) -> usize {
+        self.ncx
+    }
+    /// Cells down.
+    pub fn cells_y(&self) -> usize {
+        self.ncy
+    }
+}
+
+/// Compute the cell grid of `input` (the expensive, per-pixel part of HOG).
+pub fn cell_grid(spec: &HogSpec, input: &HogInput, exec: Exec, dst: &mut CellGrid) -> Result<(), HogError> {
+    let planes = planes_from_input(spec, input)?;
+    cells_from_planes(spec, &planes, exec, dst);
+    Ok(())
+}
+
+/// Bilinear resampling of a cell grid to `new_ncx x new_ncy` cells, times `gain` — the
+/// feature-pyramid approximation of Dollár et al. (2014): the cells of a level between exact
+/// levels are predicted from the nearest finer exact level. Cell centres are aligned with
+/// half-cell offsets (as `cv2.resize`).
+pub fn resize_cell_grid(
+    src: &CellGrid,
+    new_ncx: usize,
+    new_ncy: usize,
+    gain: f32,
+    exec: Exec,
+    dst: &mut CellGrid,
+) {
+    let cl = src.cell_len;
+    dst.ncx = new_ncx;
+    dst.ncy = new_ncy;
+    dst.cell_len = cl;
+    dst.data.clear();
+    dst.data.resize(new_ncx * new_ncy * cl, 0.0);
+    if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
+        return;
+    }
+    let taps = |n: usize, m: usize| -> Vec<(usize, usize, f32)> {
+        let sc = n as f32 / m as f32;
+        (0..m)
+            .map(|d| {
+                let s = ((d as f32 + 0.5) * sc - 0.5).clamp(0.0, (n - 1) as f32);
+                let i = s.floor() as usize;
+                (i, (i + 1).min(n - 1), s - i as f32)
+            })
+            .collect()
+    };
+    let tx = taps(src.ncx, new_ncx);
+    let ty = taps(src.ncy, new_ncy);
+    let work = |(y, row): (usize, &mut [f32])| {
+        let (y0, y1, fy) = ty[y];
+        for (x, out) in row.chunks_mut(cl).enumerate() {
+            let (x0, x1, fx) = tx[x];
+            let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
+            let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
+            let w00 = (1.0 - fx) * (1.0 - fy) * gain;
+            let w10 = fx * (1.0 - fy) * gain;
+            let w01 = (1.0 - fx) * fy * gain;
+            let w11 = fx * fy * gain;
+            for k in 0..cl {
+                out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
+            }
+        }
+    };
+    match exec {
+        Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
+        Exec::Serial => dst.data.chunks_mut(new_ncx * cl).enumerate().for_each(work),
+    }
+}
+
+fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
     let nb = spec.nbins();
     let ncx = p.width / CELL_SIZE;
     let ncy = p.height / CELL_SIZE;
     let cl = cell_len(nb);
-    let mut cells = vec![0.0f32; ncx * ncy * cl];
+    out.ncx = ncx;
+    out.ncy = ncy;
+    out.cell_len = cl;
+    out.data.clear();
+    out.data.resize(ncx * ncy * cl, 0.0);
+    let cells = &mut out.data;
     let strip = STRIP_CELL_ROWS * ncx * cl;
     // Non-zero x-profiles per pixel column of a cell (3 of 4 for the default geometry).
     let nonzero: Vec<Vec<(usize, f32)>> = (0..CELL_SIZE)
@@ -805,10 +910,12 @@ fn block_grid_from_planes(
         Exec::Parallel => cells.par_chunks_mut(strip.max(1)).enumerate().for_each(work),
         Exec::Serial => cells.chunks_mut(strip.max(1)).enumerate().for_each(work),
     }
+}
 
-    let t_cells = t0.elapsed();
-    let t1 = std::time::Instant::now();
-    // Blocks from cells, then L2-Hys.
+/// Assemble and L2-Hys-normalise every block from a cell grid.
+pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+    let nb = spec.nbins();
+    let (ncx, ncy, cl) = (cg.ncx, cg.ncy, cg.cell_len);
     let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
     let nby = ncy.saturating_sub(BLOCK_CELLS - 1);
     let bl = spec.block_len();
@@ -819,7 +926,7 @@ fn block_grid_from_planes(
     dst.data.resize(nbx * nby * bl, 0.0);
     let thresh = spec.opts.l2hys_threshold;
     let eps1 = bl as f32 * L2HYS_EPS_PER_ELEMENT;
-    let cells = &cells;
+    let cells = &cg.data;
     let row_work = |(by, row): (usize, &mut [f32])| {
         for (bx, blk) in row.chunks_mut(bl).enumerate() {
             for bcx in 0..BLOCK_CELLS {
@@ -847,7 +954,6 @@ fn block_grid_from_planes(
             Exec::Serial => dst.data.chunks_mut(nbx * bl).enumerate().for_each(row_work),
         }
     }
-    (t_cells, t1.elapsed())
 }
 
 /// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again.
