@@ -494,6 +494,45 @@ impl Detector {
         (dets, stats)
     }
 
+    /// Visit every window of the exact pyramid (levels in order, windows row-major) with its level,
+    /// the level's block grid, its block position and its score. For training and evaluation.
+    pub fn for_each_window(
+        &self,
+        input: &HogInput,
+        mut f: impl FnMut(&Level, &BlockGrid, usize, usize, f32),
+    ) -> Result<usize, DetectError> {
+        let (w, h) = input.dimensions();
+        let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
+        if w < ww || h < wh {
+            return Err(HogError::ImageTooSmall {
+                width: w,
+                height: h,
+                win_width: ww,
+                win_height: wh,
+            }
+            .into());
+        }
+        let mosaic = matches!(input, HogInput::Mosaic(_));
+        if mosaic && (w % 2 != 0 || h % 2 != 0) {
+            return Err(HogError::OddMosaic { width: w, height: h }.into());
+        }
+        let linear = linear_from_input(input);
+        let mut stats = DetectStats::default();
+        let mut grid = BlockGrid::empty();
+        let mut count = 0;
+        for lv in self.levels(w, h, mosaic) {
+            let cells = self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats)?;
+            blocks_from_cells(&self.hog, &cells, Exec::Parallel, &mut grid);
+            let scores = self.score_grid(&grid);
+            let (nwx, _) = grid.windows(&self.hog);
+            for (i, &sc) in scores.iter().enumerate() {
+                f(&lv, &grid, i % nwx, i / nwx, sc);
+            }
+            count += scores.len();
+        }
+        Ok(count)
+    }
+
     /// Scores of every window of one block grid (row-major, `windows()` wide).
     pub fn score_grid(&self, grid: &BlockGrid) -> Vec<f32> {
         let (nwx, nwy) = grid.windows(&self.hog);
