@@ -35,6 +35,8 @@ use crate::raw::{Cfa, Colour};
 
 /// Kodak images that show people (never negatives).
 pub const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
+/// Hard-negative candidates kept per image and round (highest scores).
+const HARD_PER_IMAGE: usize = 30;
 /// Offset of the 64x128 window inside the 96x160 INRIA crops, in cells.
 const POS_WINDOW_CELL: usize = 16 / CELL_SIZE;
 
@@ -424,15 +426,30 @@ pub fn train(
     for round in 1..=o.mining_rounds {
         let model = model_from(w.clone(), b, o, &split, x.len());
         let det = Detector::new(model, &DetectorOptions::default())?;
+        // Bounded memory: per image at most HARD_PER_IMAGE (highest scores), overall at most
+        // `max_hard_per_round`.
+        let keep_top = |v: &mut Vec<(f32, Vec<f32>)>, k: usize| {
+            v.sort_by(|a, b| b.0.total_cmp(&a.0));
+            v.truncate(k);
+        };
         let mut hard: Vec<(f32, Vec<f32>)> = Vec::new();
         for (i, img) in neg_imgs.iter().enumerate() {
+            let mut local: Vec<(f32, Vec<f32>)> = Vec::new();
             det.for_each_window(&img.input(), |_, grid, wx, wy, s| {
                 if s >= 0.0 {
                     if let Ok(d) = grid.window_descriptor(&spec, wx, wy) {
-                        hard.push((s, d));
+                        local.push((s, d));
+                        if local.len() >= 4 * HARD_PER_IMAGE {
+                            keep_top(&mut local, HARD_PER_IMAGE);
+                        }
                     }
                 }
             })?;
+            keep_top(&mut local, HARD_PER_IMAGE);
+            hard.extend(local);
+            if hard.len() >= 2 * o.max_hard_per_round {
+                keep_top(&mut hard, o.max_hard_per_round);
+            }
             if i % 50 == 0 {
                 progress(&format!(
                     "mining round {round}: image {}/{} ({} hard)",
