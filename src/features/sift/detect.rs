@@ -55,9 +55,9 @@ pub(crate) struct Candidate {
 fn layer_sigmas(spec: &SiftSpec) -> Vec<f64> {
     let n = spec.n_octave_layers;
     let k = 2f64.powf(1.0 / n as f64);
-    let mut sig = vec![spec.sigma; n + 3];
+    let mut sig = vec![spec.sigma_px(); n + 3];
     for (i, s) in sig.iter_mut().enumerate().skip(1) {
-        let prev = k.powi(i as i32 - 1) * spec.sigma;
+        let prev = k.powi(i as i32 - 1) * spec.sigma_px();
         let total = prev * k;
         *s = (total * total - prev * prev).sqrt();
     }
@@ -101,7 +101,8 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
     } else {
         SIFT_INIT_SIGMA
     };
-    let sig_diff = (spec.sigma * spec.sigma - init_sigma * init_sigma)
+    let init_sigma = init_sigma * spec.unit();
+    let sig_diff = (spec.sigma_px() * spec.sigma_px() - init_sigma * init_sigma)
         .max(0.01)
         .sqrt();
     let mut base = Image::new(0, 0);
@@ -486,7 +487,7 @@ fn orient(
     let s = spec.step();
     let n = SIFT_ORI_HIST_BINS;
     // Keypoint sigma in octave pixels.
-    let scl_octv = spec.sigma as f32 * 2f32.powf((rf.layer as f32 + rf.xi) / nl);
+    let scl_octv = spec.sigma_px() as f32 * 2f32.powf((rf.layer as f32 + rf.xi) / nl);
     let omax = orientation_hist(
         &pyr.gauss[o][rf.layer],
         rf.c,
@@ -577,9 +578,13 @@ mod tests {
 
     #[test]
     fn mosaic_coordinates_map_back_to_the_phase() {
-        let spec = SiftSpec::mosaic();
+        let spec = SiftSpec::mosaic().with_double_image(false);
         // Pixel 9 (plane index 4, phase 1) at octave 1 sits at plane 8 of the base: mosaic 17.
         assert_eq!(to_input(9, 0.0, 1, &spec), 17.0);
         assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
+        // Doubled planes: plane index 8 of the doubled plane is plane coordinate 3.75 originally.
+        let spec = SiftSpec::mosaic();
+        assert_eq!(to_input(16, 0.0, 0, &spec), 7.5);
+        assert_eq!(to_input(17, 0.0, 0, &spec), 8.5);
     }
 }
