@@ -1,10 +1,390 @@
-//! `mosaicd detect` (in progress).
+//! `mosaicd detect`: pedestrian detection on one frame (raw mosaic, grey or colour image).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod};
+use mosaicd::features::hog::{mosaic_from_raw, HogInput};
+use mosaicd::image::Image;
+use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 /// Arguments of `mosaicd detect`.
 #[derive(clap::Args, Debug)]
-pub struct DetectArgs {}
+pub struct DetectArgs {
+    /// Input: a headerless raw mosaic (`.raw`, little-endian u16, or u8 with --bit-depth 8), or a
+    /// PNG/JPEG image (colour or grey; a 16-bit grey PNG with --cfa is read as a mosaic).
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub raw: RawInputArgs,
+    /// Interpret an image as `colour`, `grey`, or `mosaic` (a colour image is then sampled through
+    /// --cfa into a mosaic, no ISP). Default: mosaic for raw input, colour for colour images.
+    #[arg(long = "as", value_enum)]
+    pub as_domain: Option<DomainArg>,
+    /// Model: a file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default`
+    /// (OpenCV's people detector from $MOSAICD_DATA/opencv_hog).
+    #[arg(long, default_value = "opencv-default")]
+    pub model: String,
+    #[command(flatten)]
+    pub det: DetectorArgs,
+    /// Print JSON (boxes, scores, stage times) instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the boxes on a preview PNG.
+    #[arg(long)]
+    pub preview: Option<PathBuf>,
+    /// Worker threads (own rayon pool; 0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
+
+/// Raw-frame description for headerless input.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RawInputArgs {
+    /// Raw width in pixels.
+    #[arg(long)]
+    pub width: Option<usize>,
+    /// Raw height in pixels.
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// Bits per sample (8..=16).
+    #[arg(long, default_value_t = 12)]
+    pub bit_depth: u8,
+    /// CFA pattern, physical name (RGGB = red at (0,0)).
+    #[arg(long)]
+    pub cfa: Option<Cfa>,
+    /// Black level.
+    #[arg(long, default_value_t = 0)]
+    pub black: u16,
+    /// White level (default 2^bit_depth − 1).
+    #[arg(long)]
+    pub white: Option<u16>,
+}
+
+/// Detector options on the command line.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DetectorArgs {
+    /// Hit threshold on the SVM score.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub threshold: f32,
+    /// Scale step between pyramid levels.
+    #[arg(long, default_value_t = 1.05)]
+    pub scale_step: f64,
+    /// Maximum pyramid levels.
+    #[arg(long, default_value_t = 64)]
+    pub max_levels: usize,
+    /// Start the pyramid magnified (2 finds people ~64 px tall).
+    #[arg(long, default_value_t = 1.0)]
+    pub upsample: f64,
+    /// Suppression: `group` (OpenCV groupRectangles, threshold 2, eps 0.2), `greedy` (IoU 0.5), `none`.
+    #[arg(long, value_enum, default_value_t = NmsArg::Group)]
+    pub nms: NmsArg,
+}
+
+/// `--nms` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NmsArg {
+    /// OpenCV groupRectangles (threshold 2, eps 0.2).
+    Group,
+    /// Greedy IoU 0.5.
+    Greedy,
+    /// Keep every hit.
+    None,
+}
+
+/// `--as` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DomainArg {
+    /// Raw Bayer mosaic.
+    Mosaic,
+    /// Grey.
+    Grey,
+    /// Colour.
+    Colour,
+}
+
+impl From<DomainArg> for Domain {
+    fn from(d: DomainArg) -> Self {
+        match d {
+            DomainArg::Mosaic => Domain::Mosaic,
+            DomainArg::Grey => Domain::Grey,
+            DomainArg::Colour => Domain::Colour,
+        }
+    }
+}
+
+impl DetectorArgs {
+    /// To library options.
+    pub fn options(&self) -> anyhow::Result<DetectorOptions> {
+        let nms = match self.nms {
+            NmsArg::Group => NmsMethod::Group {
+                threshold: 2,
+                eps: 0.2,
+            },
+            NmsArg::Greedy => NmsMethod::Greedy { iou: 0.5 },
+            NmsArg::None => NmsMethod::None,
+        };
+        Ok(DetectorOptions {
+            scale_step: self.scale_step,
+            max_levels: self.max_levels,
+            upsample: self.upsample,
+            hit_threshold: self.threshold,
+            nms,
+        })
+    }
+}
+
+/// Load a model by name (`opencv-default` or a path).
+pub fn load_model(name: &str, domain_for_opencv: Domain) -> anyhow::Result<LinearModel> {
+    if name == "opencv-default" {
+        let p = mosaicd::data::data_path("opencv_hog/default_people_detector_64x128.npy")?;
+        return Ok(LinearModel::load(&p, domain_for_opencv)?);
+    }
+    Ok(LinearModel::load(Path::new(name), domain_for_opencv)?)
+}
+
+/// A decoded input frame in the domain it will be detected in.
+pub enum Frame {
+    /// Normalised mosaic (8-bit units) and its pattern.
+    Mosaic(Image<f32>, Cfa),
+    /// Grey.
+    Grey(Image<u8>),
+    /// Colour (RGB).
+    Colour(Image<[u8; 3]>),
+}
+
+impl Frame {
+    /// The HOG input view.
+    pub fn input(&self) -> HogInput<'_> {
+        match self {
+            Frame::Mosaic(m, _) => HogInput::Mosaic(m.view()),
+            Frame::Grey(g) => HogInput::GreyU8(g.view()),
+            Frame::Colour(c) => HogInput::Rgb8(c.view()),
+        }
+    }
+    /// CFA pattern of a mosaic frame.
+    pub fn cfa(&self) -> Option<Cfa> {
+        match self {
+            Frame::Mosaic(_, c) => Some(*c),
+            _ => None,
+        }
+    }
+    /// Domain.
+    pub fn domain(&self) -> Domain {
+        match self {
+            Frame::Mosaic(..) => Domain::Mosaic,
+            Frame::Grey(_) => Domain::Grey,
+            Frame::Colour(_) => Domain::Colour,
+        }
+    }
+    /// An RGB preview (mosaic shown as grey values).
+    pub fn preview(&self) -> Image<[u8; 3]> {
+        match self {
+            Frame::Mosaic(m, _) => m.map(|v| {
+                let g = v.clamp(0.0, 255.0) as u8;
+                [g, g, g]
+            }),
+            Frame::Grey(g) => g.map(|v| [v, v, v]),
+            Frame::Colour(c) => c.clone(),
+        }
+    }
+}
+
+/// Read a headerless raw file into a frame.
+pub fn read_raw(path: &Path, a: &RawInputArgs) -> anyhow::Result<RawFrame> {
+    let (Some(w), Some(h)) = (a.width, a.height) else {
+        bail!("{}: raw input needs --width and --height", path.display());
+    };
+    let cfa = a
+        .cfa
+        .with_context(|| format!("{}: raw input needs --cfa", path.display()))?;
+    let white = a.white.unwrap_or(((1u32 << a.bit_depth.min(16)) - 1) as u16);
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let levels = Levels::uniform(a.black, white);
+    if a.bit_depth == 8 {
+        if bytes.len() < w * h {
+            bail!(
+                "{}: truncated raw frame: {} bytes, {}x{} u8 needs {}",
+                path.display(),
+                bytes.len(),
+                w,
+                h,
+                w * h
+            );
+        }
+        return Ok(RawFrame::from_u8(w, h, bytes[..w * h].to_vec(), cfa, levels)?);
+    }
+    if bytes.len() < w * h * 2 {
+        bail!(
+            "{}: truncated raw frame: {} bytes, {}x{} u16 needs {}",
+            path.display(),
+            bytes.len(),
+            w,
+            h,
+            w * h * 2
+        );
+    }
+    let data: Vec<u16> = bytes[..w * h * 2]
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .collect();
+    Ok(RawFrame::from_u16(w, h, data, cfa, a.bit_depth, levels)?)
+}
+
+/// Load any supported input as a frame.
+pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>) -> anyhow::Result<Frame> {
+    let want: Option<Domain> = as_domain.map(Domain::from);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if ext == "raw" || ext == "bin" {
+        let f = read_raw(path, raw)?;
+        if f.width() % 2 != 0 || f.height() % 2 != 0 {
+            bail!(
+                "{}: mosaic size {}x{} must be even",
+                path.display(),
+                f.width(),
+                f.height()
+            );
+        }
+        let m = mosaic_from_raw(&f);
+        return match want.unwrap_or(Domain::Mosaic) {
+            Domain::Mosaic => Ok(Frame::Mosaic(m, f.cfa())),
+            d => bail!("raw input can only be detected as mosaic, not {d:?}"),
+        };
+    }
+    let img = image::open(path).with_context(|| format!("decoding {}", path.display()))?;
+    if let (image::DynamicImage::ImageLuma16(g), Some(cfa)) = (&img, raw.cfa) {
+        let (w, h) = g.dimensions();
+        let f = RawFrame::from_u16(
+            w as usize,
+            h as usize,
+            g.as_raw().clone(),
+            cfa,
+            raw.bit_depth,
+            Levels::uniform(
+                raw.black,
+                raw.white.unwrap_or(((1u32 << raw.bit_depth) - 1) as u16),
+            ),
+        )?;
+        return Ok(Frame::Mosaic(mosaic_from_raw(&f), cfa));
+    }
+    let is_grey = matches!(
+        img.color(),
+        image::ColorType::L8 | image::ColorType::L16 | image::ColorType::La8
+    );
+    let rgb = img.to_rgb8();
+    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    let colour = Image::from_vec(w, h, rgb.pixels().map(|p| p.0).collect())?;
+    match want.unwrap_or(if is_grey { Domain::Grey } else { Domain::Colour }) {
+        Domain::Colour => Ok(Frame::Colour(colour)),
+        Domain::Grey => Ok(Frame::Grey(grey_from_rgb_opencv(&colour))),
+        Domain::Mosaic => {
+            let cfa = raw.cfa.unwrap_or(Cfa::Rggb);
+            if w % 2 != 0 || h % 2 != 0 {
+                bail!("{}: {w}x{h} must be even to sample a mosaic", path.display());
+            }
+            let m = Image::from_fn(w, h, |x, y| {
+                let p = colour.get(x, y);
+                match cfa.colour_at(x, y) {
+                    mosaicd::raw::Colour::Red => p[0] as f32,
+                    mosaicd::raw::Colour::Green => p[1] as f32,
+                    mosaicd::raw::Colour::Blue => p[2] as f32,
+                }
+            });
+            Ok(Frame::Mosaic(m, cfa))
+        }
+    }
+}
+
+/// OpenCV `COLOR_RGB2GRAY` (fixed point, 14-bit coefficients 4899/9617/1868).
+pub fn grey_from_rgb_opencv(c: &Image<[u8; 3]>) -> Image<u8> {
+    c.map(|p| ((p[0] as u32 * 4899 + p[1] as u32 * 9617 + p[2] as u32 * 1868 + (1 << 13)) >> 14) as u8)
+}
+
+/// Draw box outlines (2 px, green) on an RGB image.
+pub fn draw_boxes(img: &mut Image<[u8; 3]>, dets: &[Detection]) {
+    let (w, h) = img.dimensions();
+    for d in dets {
+        let x0 = d.x.max(0.0) as usize;
+        let y0 = d.y.max(0.0) as usize;
+        let x1 = ((d.x + d.width) as usize).min(w.saturating_sub(1));
+        let y1 = ((d.y + d.height) as usize).min(h.saturating_sub(1));
+        for t in 0..2 {
+            for x in x0..=x1 {
+                for y in [y0 + t, y1.saturating_sub(t)] {
+                    if y < h && x < w {
+                        img.set(x, y, [0, 255, 0]);
+                    }
+                }
+            }
+            for y in y0..=y1 {
+                for x in [x0 + t, x1.saturating_sub(t)] {
+                    if y < h && x < w {
+                        img.set(x, y, [0, 255, 0]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Save an RGB image as PNG.
+pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
+    let (w, h) = img.dimensions();
+    let buf: Vec<u8> = img.as_slice().iter().flat_map(|p| p.iter().copied()).collect();
+    image::save_buffer(path, &buf, w as u32, h as u32, image::ColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}
 
 /// Run `mosaicd detect`.
-pub fn run(_args: DetectArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd detect` is not built yet")
+pub fn run(args: DetectArgs) -> anyhow::Result<()> {
+    let frame = load_frame(&args.input, &args.raw, args.as_domain)?;
+    let model = load_model(&args.model, Domain::Grey)?;
+    let det = Detector::new(model, &args.det.options()?)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()?;
+    let (boxes, stats) = pool.install(|| det.detect(&frame.input()))?;
+    if args.json {
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        let out = serde_json::json!({
+            "input": args.input.display().to_string(),
+            "domain": frame.domain(),
+            "cfa": frame.cfa().map(|c| c.name()),
+            "model": args.model,
+            "model_domain": det.model().domain,
+            "detections": boxes,
+            "stats": {
+                "levels": stats.levels, "windows": stats.windows, "hits": stats.hits,
+                "total_ms": ms(stats.total), "resize_cpu_ms": ms(stats.resize), "gamma_cpu_ms": ms(stats.hog.gamma),
+                "cells_cpu_ms": ms(stats.hog.cells), "blocks_cpu_ms": ms(stats.hog.blocks),
+                "svm_cpu_ms": ms(stats.svm), "nms_ms": ms(stats.nms),
+            }
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{}: {} detections ({} levels, {} windows, {} hits, {:.1} ms)",
+            args.input.display(),
+            boxes.len(),
+            stats.levels,
+            stats.windows,
+            stats.hits,
+            stats.total.as_secs_f64() * 1e3
+        );
+        for b in &boxes {
+            println!(
+                "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
+                b.x, b.y, b.width, b.height, b.score
+            );
+        }
+    }
+    if let Some(p) = &args.preview {
+        let mut img = frame.preview();
+        draw_boxes(&mut img, &boxes);
+        save_png(&img, p)?;
+    }
+    Ok(())
 }

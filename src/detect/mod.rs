@@ -1,6 +1,12 @@
 //! Pedestrian detection: linear SVM models, multi-scale sliding windows, non-maximum suppression,
 //! training.
 
+pub mod detector;
+pub mod model;
+pub mod nms;
+pub mod pyramid;
 pub mod types;
 
+pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod};
+pub use model::{Domain, LinearModel};
 pub use types::Detection;

@@ -1,0 +1,602 @@
+//! Multi-scale sliding-window detection: a scale pyramid, one HOG block grid per level, linear SVM
+//! scores for every window (stride 8) read from the grid, then non-maximum suppression.
+//!
+//! ```
+//! use mosaicd::detect::detector::{Detector, DetectorOptions};
+//! use mosaicd::detect::model::{Domain, LinearModel};
+//! use mosaicd::features::hog::HogInput;
+//! use mosaicd::image::Image;
+//! let mut w = vec![0.0f32; 3781];
+//! w[3780] = -1.0; // bias: nothing fires
+//! let model = LinearModel::from_opencv_vector(&w, Domain::Grey, "toy").unwrap();
+//! let det = Detector::new(model, &DetectorOptions::default()).unwrap();
+//! let img = Image::<u8>::filled(200, 300, 100);
+//! let (boxes, stats) = det.detect(&HogInput::GreyU8(img.view())).unwrap();
+//! assert!(boxes.is_empty());
+//! assert_eq!(stats.levels, det.levels(200, 300, false).len());
+//! ```
+//!
+//! # Method
+//! Level `i` has scale `s_i = s_0 · step^i` (`s_0 = 1/upsample`), size `round(W/s_i) x round(H/s_i)`
+//! (rounded to even for mosaics), stopping when a window no longer fits or after `max_levels`
+//! levels — OpenCV `detectMultiScale`'s rule. Grey and colour levels are bilinear resizes (as
+//! OpenCV); mosaic levels use the CFA-preserving super-pixel resize so mosaic gradients stay valid.
+//! A window at block (wx, wy) of a level scores `b + Σ_{bx<7, by<15} w_{bx,by} · B(wx+bx, wy+by)`
+//! where `B` is the level's normalised block grid — each block is computed once per level, never per
+//! window. A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
+//! pixels (rounded like OpenCV), then NMS merges hits.
+//!
+//! # Deviations from OpenCV
+//! No window padding (OpenCV `detectMultiScale` pads by 0 by default for `winStride` 8 as well);
+//! pyramid levels are resized in f32 (OpenCV: 8-bit fixed point), so only level 0 is bit-comparable.
+
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use super::model::{Domain, LinearModel, ModelError};
+use super::nms::{greedy_nms, group_rectangles};
+use super::pyramid::{resize_bilinear, resize_mosaic, PyramidError};
+use super::Detection;
+use crate::features::hog::{block_grid, BlockGrid, Exec, HogError, HogInput, HogSpec, HogTimings, CELL_SIZE};
+use crate::image::Image;
+
+/// Window rows scored per parallel task.
+const SCORE_STRIP_ROWS: usize = 4;
+
+/// Errors of the detector.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectError {
+    /// HOG failed (e.g. image smaller than a window).
+    #[error(transparent)]
+    Hog(#[from] HogError),
+    /// Pyramid failed.
+    #[error(transparent)]
+    Pyramid(#[from] PyramidError),
+    /// Model invalid.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// An option out of range.
+    #[error("detector option {what} = {value} is out of range ({allowed})")]
+    BadOption {
+        /// Option name.
+        what: &'static str,
+        /// Value given.
+        value: String,
+        /// Allowed range.
+        allowed: &'static str,
+    },
+}
+
+/// Non-maximum suppression method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NmsMethod {
+    /// Return every hit.
+    None,
+    /// Greedy IoU suppression.
+    Greedy {
+        /// IoU above which the weaker box goes.
+        iou: f32,
+    },
+    /// OpenCV `groupRectangles` (detectMultiScale's `finalThreshold` = 2, eps 0.2).
+    Group {
+        /// A group needs more than this many boxes.
+        threshold: usize,
+        /// Similarity tolerance.
+        eps: f32,
+    },
+}
+
+/// Detector options (defaults = OpenCV `detectMultiScale`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetectorOptions {
+    /// Scale factor between pyramid levels (OpenCV `scale` 1.05).
+    pub scale_step: f64,
+    /// Maximum number of levels (OpenCV `nlevels` 64).
+    pub max_levels: usize,
+    /// Start the pyramid at this magnification (1 = full resolution; 2 finds people of 64 px).
+    pub upsample: f64,
+    /// Score a window needs to be a hit (OpenCV `hitThreshold` 0).
+    pub hit_threshold: f32,
+    /// Suppression.
+    pub nms: NmsMethod,
+}
+
+impl Default for DetectorOptions {
+    fn default() -> Self {
+        Self {
+            scale_step: 1.05,
+            max_levels: 64,
+            upsample: 1.0,
+            hit_threshold: 0.0,
+            nms: NmsMethod::Group {
+                threshold: 2,
+                eps: 0.2,
+            },
+        }
+    }
+}
+
+/// Validated detector options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetectorSpec {
+    opts: DetectorOptions,
+}
+
+impl DetectorSpec {
+    /// Validate.
+    pub fn new(o: &DetectorOptions) -> Result<Self, DetectError> {
+        let bad = |what, value: String, allowed| Err(DetectError::BadOption { what, value, allowed });
+        if !(o.scale_step.is_finite() && o.scale_step > 1.0 && o.scale_step <= 4.0) {
+            return bad("scale_step", o.scale_step.to_string(), "(1, 4]");
+        }
+        if !(1..=1000).contains(&o.max_levels) {
+            return bad("max_levels", o.max_levels.to_string(), "1..=1000");
+        }
+        if !(o.upsample.is_finite() && (1.0..=8.0).contains(&o.upsample)) {
+            return bad("upsample", o.upsample.to_string(), "[1, 8]");
+        }
+        if !o.hit_threshold.is_finite() {
+            return bad("hit_threshold", o.hit_threshold.to_string(), "finite");
+        }
+        match o.nms {
+            NmsMethod::Greedy { iou } if !(0.0..=1.0).contains(&iou) => {
+                return bad("nms iou", iou.to_string(), "[0, 1]")
+            }
+            NmsMethod::Group { eps, .. } if !(eps.is_finite() && eps >= 0.0) => {
+                return bad("nms eps", eps.to_string(), "≥ 0")
+            }
+            _ => {}
+        }
+        Ok(Self { opts: *o })
+    }
+    /// Options.
+    pub fn options(&self) -> &DetectorOptions {
+        &self.opts
+    }
+}
+
+/// Per-frame statistics; stage times are summed over levels (CPU time when levels run in parallel).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DetectStats {
+    /// Levels scored.
+    pub levels: usize,
+    /// Windows scored.
+    pub windows: usize,
+    /// Windows at or above the hit threshold (before NMS).
+    pub hits: usize,
+    /// Pyramid resizes.
+    pub resize: Duration,
+    /// HOG stage times.
+    pub hog: HogTimings,
+    /// SVM scoring.
+    pub svm: Duration,
+    /// NMS.
+    pub nms: Duration,
+    /// Wall time of the whole call.
+    pub total: Duration,
+}
+
+/// One pyramid level: scale and size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Level {
+    /// Original size / level size.
+    pub scale: f64,
+    /// Level width.
+    pub width: usize,
+    /// Level height.
+    pub height: usize,
+}
+
+/// A ready-to-run detector: model, HOG spec and options.
+#[derive(Debug, Clone)]
+pub struct Detector {
+    spec: DetectorSpec,
+    hog: HogSpec,
+    model: LinearModel,
+}
+
+/// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
+enum Linear {
+    Grey(Image<f32>),
+    Colour([Image<f32>; 3]),
+    Mosaic(Image<f32>),
+}
+
+fn linear_from_input(input: &HogInput) -> Linear {
+    match input {
+        HogInput::GreyU8(v) => Linear::Grey(v.to_image().map(|p| p as f32)),
+        HogInput::GreyU16 { image, max_value } => {
+            let s = 255.0 / (*max_value).max(1) as f32;
+            Linear::Grey(image.to_image().map(|p| p as f32 * s))
+        }
+        HogInput::GreyF32(v) => Linear::Grey(v.to_image()),
+        HogInput::Mosaic(v) => Linear::Mosaic(v.to_image()),
+        HogInput::Rgb8(v) => {
+            let img = v.to_image();
+            Linear::Colour([0, 1, 2].map(|c| img.map(|p| p[c] as f32)))
+        }
+        HogInput::ColourF32(p) => Linear::Colour([p[0].to_image(), p[1].to_image(), p[2].to_image()]),
+    }
+}
+
+impl Detector {
+    /// Validate the model and options.
+    pub fn new(model: LinearModel, opts: &DetectorOptions) -> Result<Self, DetectError> {
+        let hog = model.hog_spec("detector model")?;
+        Ok(Self {
+            spec: DetectorSpec::new(opts)?,
+            hog,
+            model,
+        })
+    }
+    /// The model.
+    pub fn model(&self) -> &LinearModel {
+        &self.model
+    }
+    /// The HOG spec.
+    pub fn hog_spec(&self) -> &HogSpec {
+        &self.hog
+    }
+    /// The options.
+    pub fn spec(&self) -> &DetectorSpec {
+        &self.spec
+    }
+
+    /// Pyramid levels for an input of `width x height` (mosaic sizes rounded to even).
+    pub fn levels(&self, width: usize, height: usize, mosaic: bool) -> Vec<Level> {
+        let o = &self.spec.opts;
+        let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
+        let mut out = Vec::new();
+        let mut scale = 1.0 / o.upsample;
+        for _ in 0..o.max_levels {
+            let (w, h) = if mosaic {
+                (
+                    2 * (width as f64 / scale / 2.0).round() as usize,
+                    2 * (height as f64 / scale / 2.0).round() as usize,
+                )
+            } else {
+                (
+                    (width as f64 / scale).round() as usize,
+                    (height as f64 / scale).round() as usize,
+                )
+            };
+            if w < ww || h < wh {
+                break;
+            }
+            out.push(Level {
+                scale,
+                width: w,
+                height: h,
+            });
+            scale *= o.scale_step;
+        }
+        out
+    }
+
+    /// Detect in one frame (parallel over levels and rows in the current rayon pool).
+    pub fn detect(&self, input: &HogInput) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        self.detect_with(input, Exec::Parallel)
+    }
+
+    /// Every hit before NMS plus stats; `exec` picks parallel or serial.
+    pub fn detect_raw(
+        &self,
+        input: &HogInput,
+        exec: Exec,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let t0 = Instant::now();
+        let (w, h) = input.dimensions();
+        let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
+        if w < ww || h < wh {
+            return Err(HogError::ImageTooSmall {
+                width: w,
+                height: h,
+                win_width: ww,
+                win_height: wh,
+            }
+            .into());
+        }
+        let mosaic = matches!(input, HogInput::Mosaic(_));
+        if mosaic && (w % 2 != 0 || h % 2 != 0) {
+            return Err(HogError::OddMosaic { width: w, height: h }.into());
+        }
+        let linear = linear_from_input(input);
+        let levels = self.levels(w, h, mosaic);
+        let run = |lv: &Level| self.detect_level(&linear, lv, exec);
+        let per_level: Vec<Result<(Vec<Detection>, DetectStats), DetectError>> = match exec {
+            Exec::Parallel => levels.par_iter().map(run).collect(),
+            Exec::Serial => levels.iter().map(run).collect(),
+        };
+        let mut stats = DetectStats {
+            levels: levels.len(),
+            ..Default::default()
+        };
+        let mut hits = Vec::new();
+        for r in per_level {
+            let (d, s) = r?;
+            hits.extend(d);
+            stats.windows += s.windows;
+            stats.resize += s.resize;
+            stats.hog += s.hog;
+            stats.svm += s.svm;
+        }
+        stats.hits = hits.len();
+        stats.total = t0.elapsed();
+        Ok((hits, stats))
+    }
+
+    fn detect_with(
+        &self,
+        input: &HogInput,
+        exec: Exec,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let t0 = Instant::now();
+        let (hits, mut stats) = self.detect_raw(input, exec)?;
+        let t = Instant::now();
+        let out = match self.spec.opts.nms {
+            NmsMethod::None => hits,
+            NmsMethod::Greedy { iou } => greedy_nms(&hits, iou),
+            NmsMethod::Group { threshold, eps } => group_rectangles(&hits, threshold, eps),
+        };
+        stats.nms = t.elapsed();
+        stats.total = t0.elapsed();
+        Ok((out, stats))
+    }
+
+    /// Serial detection (the oracle for the parallel path).
+    pub fn detect_serial(&self, input: &HogInput) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        self.detect_with(input, Exec::Serial)
+    }
+
+    fn detect_level(
+        &self,
+        linear: &Linear,
+        lv: &Level,
+        exec: Exec,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let mut stats = DetectStats::default();
+        let t = Instant::now();
+        let resize = |src: &Image<f32>, mosaic: bool| -> Result<Option<Image<f32>>, PyramidError> {
+            if src.dimensions() == (lv.width, lv.height) {
+                return Ok(None);
+            }
+            let mut d = Image::new(0, 0);
+            if mosaic {
+                resize_mosaic(src.view(), lv.width, lv.height, &mut d)?;
+            } else {
+                resize_bilinear(src.view(), lv.width, lv.height, &mut d)?;
+            }
+            Ok(Some(d))
+        };
+        let mut grid = BlockGrid::empty();
+        let hog_t = match linear {
+            Linear::Grey(p) => {
+                let r = resize(p, false)?;
+                stats.resize = t.elapsed();
+                let v = r.as_ref().unwrap_or(p).view();
+                block_grid(&self.hog, &HogInput::GreyF32(v), exec, &mut grid)?
+            }
+            Linear::Mosaic(p) => {
+                let r = resize(p, true)?;
+                stats.resize = t.elapsed();
+                let v = r.as_ref().unwrap_or(p).view();
+                block_grid(&self.hog, &HogInput::Mosaic(v), exec, &mut grid)?
+            }
+            Linear::Colour(ps) => {
+                let r: Vec<Option<Image<f32>>> =
+                    ps.iter().map(|p| resize(p, false)).collect::<Result<_, _>>()?;
+                stats.resize = t.elapsed();
+                let v = [0, 1, 2].map(|c| r[c].as_ref().unwrap_or(&ps[c]).view());
+                block_grid(&self.hog, &HogInput::ColourF32(v), exec, &mut grid)?
+            }
+        };
+        stats.hog = hog_t;
+        let t = Instant::now();
+        let (nwx, nwy) = grid.windows(&self.hog);
+        let mut scores = vec![0.0f32; nwx * nwy];
+        score_windows(&self.hog, &self.model, &grid, &mut scores, exec);
+        stats.svm = t.elapsed();
+        stats.windows = nwx * nwy;
+        let thr = self.spec.opts.hit_threshold;
+        let s = lv.scale;
+        let (ww, wh) = (self.hog.win_width() as f64, self.hog.win_height() as f64);
+        let mut dets = Vec::new();
+        for wy in 0..nwy {
+            for wx in 0..nwx {
+                let sc = scores[wy * nwx + wx];
+                if sc >= thr {
+                    dets.push(Detection {
+                        x: ((wx * CELL_SIZE) as f64 * s).round() as f32,
+                        y: ((wy * CELL_SIZE) as f64 * s).round() as f32,
+                        width: (ww * s).round() as f32,
+                        height: (wh * s).round() as f32,
+                        score: sc,
+                    });
+                }
+            }
+        }
+        Ok((dets, stats))
+    }
+
+    /// Scores of every window of one block grid (row-major, `windows()` wide).
+    pub fn score_grid(&self, grid: &BlockGrid) -> Vec<f32> {
+        let (nwx, nwy) = grid.windows(&self.hog);
+        let mut scores = vec![0.0f32; nwx * nwy];
+        score_windows(&self.hog, &self.model, grid, &mut scores, Exec::Parallel);
+        scores
+    }
+}
+
+/// 8-lane dot product (vectorises on SSE2/AVX2).
+#[inline]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = acc.iter().sum::<f32>();
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
+}
+
+/// Window scores: for each window row, accumulate block-row by block-row the dot products of each
+/// block with the weight slice for its position in the window.
+fn score_windows(hog: &HogSpec, model: &LinearModel, grid: &BlockGrid, scores: &mut [f32], exec: Exec) {
+    let (bw, bh) = hog.blocks_per_window();
+    let bl = hog.block_len();
+    let (nwx, _) = grid.windows(hog);
+    if nwx == 0 {
+        return;
+    }
+    let w = &model.weights;
+    let work = |(s, chunk): (usize, &mut [f32])| {
+        for (k, row) in chunk.chunks_mut(nwx).enumerate() {
+            let wy = s * SCORE_STRIP_ROWS + k;
+            row.iter_mut().for_each(|v| *v = model.bias);
+            for by in 0..bh {
+                let brow = grid.block_row(wy + by);
+                for bx in 0..bw {
+                    let ws = &w[(bx * bh + by) * bl..][..bl];
+                    for (wx, v) in row.iter_mut().enumerate() {
+                        *v += dot(&brow[(wx + bx) * bl..][..bl], ws);
+                    }
+                }
+            }
+        }
+    };
+    match exec {
+        Exec::Parallel => scores
+            .par_chunks_mut(nwx * SCORE_STRIP_ROWS)
+            .enumerate()
+            .for_each(work),
+        Exec::Serial => scores
+            .chunks_mut(nwx * SCORE_STRIP_ROWS)
+            .enumerate()
+            .for_each(work),
+    }
+}
+
+/// The input domain a [`HogInput`] belongs to.
+pub fn domain_of(input: &HogInput) -> Domain {
+    match input {
+        HogInput::Mosaic(_) => Domain::Mosaic,
+        HogInput::Rgb8(_) | HogInput::ColourF32(_) => Domain::Colour,
+        _ => Domain::Grey,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(seed: u32) -> LinearModel {
+        let v: Vec<f32> = (0..3781u32)
+            .map(|i| ((i.wrapping_mul(2654435761) ^ seed) % 1000) as f32 / 1000.0 - 0.5)
+            .collect();
+        LinearModel::from_opencv_vector(&v, Domain::Grey, "test").unwrap()
+    }
+
+    #[test]
+    fn levels_follow_opencv_rule() {
+        let d = Detector::new(model(1), &DetectorOptions::default()).unwrap();
+        let l = d.levels(1920, 1080, false);
+        assert_eq!(
+            l[0],
+            Level {
+                scale: 1.0,
+                width: 1920,
+                height: 1080
+            }
+        );
+        // 1080 / 1.05^n ≥ 128 → n ≤ 43.7
+        assert_eq!(l.len(), 44);
+        assert!(l.last().unwrap().height >= 128);
+        let m = d.levels(1920, 1080, true);
+        assert!(m.iter().all(|l| l.width % 2 == 0 && l.height % 2 == 0));
+    }
+
+    #[test]
+    fn bad_options_and_small_images_are_errors() {
+        let o = DetectorOptions {
+            scale_step: 1.0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            Detector::new(model(1), &o),
+            Err(DetectError::BadOption {
+                what: "scale_step",
+                ..
+            })
+        ));
+        let d = Detector::new(model(1), &DetectorOptions::default()).unwrap();
+        let img = Image::<u8>::new(64, 100);
+        assert!(matches!(
+            d.detect(&HogInput::GreyU8(img.view())),
+            Err(DetectError::Hog(HogError::ImageTooSmall { .. }))
+        ));
+        let img = Image::<f32>::new(0, 0);
+        assert!(d.detect(&HogInput::Mosaic(img.view())).is_err());
+    }
+
+    #[test]
+    fn scores_equal_descriptor_dot_product() {
+        let img = Image::<u8>::from_fn(150, 170, |x, y| ((x * 31 + y * 17 + x * y) % 256) as u8);
+        let d = Detector::new(model(3), &DetectorOptions::default()).unwrap();
+        let mut grid = BlockGrid::empty();
+        block_grid(
+            d.hog_spec(),
+            &HogInput::GreyU8(img.view()),
+            Exec::Serial,
+            &mut grid,
+        )
+        .unwrap();
+        let scores = d.score_grid(&grid);
+        let (nwx, nwy) = grid.windows(d.hog_spec());
+        assert_eq!((nwx, nwy), (11, 6));
+        for wy in 0..nwy {
+            for wx in 0..nwx {
+                let desc = grid.window_descriptor(d.hog_spec(), wx, wy).unwrap();
+                let want: f64 = desc
+                    .iter()
+                    .zip(&d.model().weights)
+                    .map(|(&a, &b)| a as f64 * b as f64)
+                    .sum::<f64>()
+                    + d.model().bias as f64;
+                assert!((scores[wy * nwx + wx] as f64 - want).abs() < 1e-4);
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_equals_serial_all_domains() {
+        let o = DetectorOptions {
+            hit_threshold: -1e9,
+            nms: NmsMethod::None,
+            ..Default::default()
+        };
+        let d = Detector::new(model(7), &o).unwrap();
+        let grey = Image::<u8>::from_fn(220, 260, |x, y| ((x * x + 7 * y) % 256) as u8);
+        let mosaic = grey.map(|p| p as f32 * 0.9);
+        let rgb = Image::<[u8; 3]>::from_fn(220, 260, |x, y| {
+            [(x % 256) as u8, (y % 256) as u8, ((x ^ y) % 256) as u8]
+        });
+        for inp in [
+            HogInput::GreyU8(grey.view()),
+            HogInput::Mosaic(mosaic.view()),
+            HogInput::Rgb8(rgb.view()),
+        ] {
+            let (a, sa) = d.detect(&inp).unwrap();
+            let (b, sb) = d.detect_serial(&inp).unwrap();
+            assert_eq!(a, b);
+            assert_eq!((sa.levels, sa.windows), (sb.levels, sb.windows));
+            assert!(sa.windows > 0 && a.len() == sa.windows);
+        }
+    }
+}

@@ -1,0 +1,438 @@
+//! Linear SVM detector models: our file format, validation, and import of OpenCV weight vectors.
+//!
+//! # File format (`.json`, format `mosaicd-hog-svm`, version 1)
+//!
+//! One JSON object:
+//!
+//! ```json
+//! { "format": "mosaicd-hog-svm", "version": 1,
+//!   "win_width": 64, "win_height": 128, "cell_size": 8, "block_size": 16, "block_stride": 8,
+//!   "nbins": 9, "gamma_correction": true, "l2hys_threshold": 0.2,
+//!   "domain": "mosaic",            // mosaic | grey | colour: the input the weights were trained on
+//!   "provenance": { ... },         // free-form: command, seed, data, date, metrics
+//!   "bias": -0.5, "weights": [ ... 3780 values in OpenCV descriptor order ... ] }
+//! ```
+//!
+//! The score of a window is `weights · descriptor + bias`; a window "fires" when the score is at
+//! least the detector's hit threshold. OpenCV stores the bias as element 3780 of the same vector
+//! (`getDefaultPeopleDetector()`); [`LinearModel::from_opencv_vector`] splits it off.
+//!
+//! ```
+//! use mosaicd::detect::model::{Domain, LinearModel};
+//! let m = LinearModel::from_opencv_vector(&vec![0.0; 3781], Domain::Grey, "zeros").unwrap();
+//! assert_eq!(m.weights.len(), 3780);
+//! assert!(LinearModel::from_opencv_vector(&[0.0; 10], Domain::Grey, "short").is_err());
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::features::hog::{HogOptions, HogSpec, BLOCK_SIZE, BLOCK_STRIDE, CELL_SIZE};
+use crate::npy::NpyArray;
+
+/// Format tag written in every model file.
+pub const FORMAT: &str = "mosaicd-hog-svm";
+/// Current format version.
+pub const VERSION: u32 = 1;
+
+/// Errors loading or validating a model.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// File unreadable.
+    #[error("cannot read model {path}: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// Not parseable.
+    #[error("model {origin} is not valid: {what}")]
+    Parse {
+        /// File or description.
+        origin: String,
+        /// What is wrong.
+        what: String,
+    },
+    /// Weight vector length does not match the geometry.
+    #[error("model {origin} has {actual} weights but its geometry (window {win_width}x{win_height}, {nbins} bins) needs {expected} (+1 optional bias for OpenCV vectors)")]
+    WrongLength {
+        /// File or description.
+        origin: String,
+        /// Weights present.
+        actual: usize,
+        /// Weights needed.
+        expected: usize,
+        /// Window width.
+        win_width: usize,
+        /// Window height.
+        win_height: usize,
+        /// Bins.
+        nbins: usize,
+    },
+    /// Geometry this implementation does not compute.
+    #[error("model {origin}: {what} is {actual}, only {supported} is supported")]
+    Unsupported {
+        /// File or description.
+        origin: String,
+        /// Field.
+        what: &'static str,
+        /// Value found.
+        actual: String,
+        /// Value supported.
+        supported: String,
+    },
+    /// The model was trained on another input domain than the one it is applied to (only an
+    /// error where the caller asks for strict matching).
+    #[error("model {origin} is for {model:?} input, the frame is {input:?}")]
+    DomainMismatch {
+        /// File.
+        origin: String,
+        /// Model domain.
+        model: Domain,
+        /// Input domain.
+        input: Domain,
+    },
+}
+
+/// The input a model was trained on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Domain {
+    /// Raw Bayer mosaic, mosaic gradients.
+    Mosaic,
+    /// Grey image.
+    Grey,
+    /// Colour image (OpenCV max-magnitude channel).
+    Colour,
+}
+
+impl std::str::FromStr for Domain {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "mosaic" | "raw" | "bayer" => Ok(Domain::Mosaic),
+            "grey" | "gray" => Ok(Domain::Grey),
+            "colour" | "color" | "rgb" => Ok(Domain::Colour),
+            o => Err(format!("unknown domain '{o}' (mosaic, grey, colour)")),
+        }
+    }
+}
+
+/// A linear SVM over HOG descriptors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinearModel {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// Always [`VERSION`].
+    pub version: u32,
+    /// Window width.
+    pub win_width: usize,
+    /// Window height.
+    pub win_height: usize,
+    /// Cell size (8).
+    pub cell_size: usize,
+    /// Block size (16).
+    pub block_size: usize,
+    /// Block stride (8).
+    pub block_stride: usize,
+    /// Orientation bins.
+    pub nbins: usize,
+    /// Square-root gamma.
+    pub gamma_correction: bool,
+    /// L2-Hys clip.
+    pub l2hys_threshold: f32,
+    /// Training input domain.
+    pub domain: Domain,
+    /// Where the weights came from (command, seed, data, metrics).
+    #[serde(default)]
+    pub provenance: serde_json::Value,
+    /// Bias b in `w·x + b`.
+    pub bias: f32,
+    /// Weights in OpenCV descriptor order.
+    pub weights: Vec<f32>,
+}
+
+impl LinearModel {
+    /// A model with OpenCV's default geometry from a weight vector of 3780 (+ optional bias).
+    pub fn from_opencv_vector(v: &[f32], domain: Domain, origin: &str) -> Result<Self, ModelError> {
+        let o = HogOptions::default();
+        let spec = HogSpec::new(&o).expect("default options are valid");
+        let n = spec.descriptor_len();
+        let (weights, bias) = if v.len() == n {
+            (v.to_vec(), 0.0)
+        } else if v.len() == n + 1 {
+            (v[..n].to_vec(), v[n])
+        } else {
+            return Err(ModelError::WrongLength {
+                origin: origin.to_string(),
+                actual: v.len(),
+                expected: n,
+                win_width: o.win_width,
+                win_height: o.win_height,
+                nbins: o.nbins,
+            });
+        };
+        Ok(Self {
+            format: FORMAT.into(),
+            version: VERSION,
+            win_width: o.win_width,
+            win_height: o.win_height,
+            cell_size: CELL_SIZE,
+            block_size: BLOCK_SIZE,
+            block_stride: BLOCK_STRIDE,
+            nbins: o.nbins,
+            gamma_correction: o.gamma_correction,
+            l2hys_threshold: o.l2hys_threshold,
+            domain,
+            provenance: serde_json::json!({ "imported_from": origin }),
+            bias,
+            weights,
+        })
+    }
+
+    /// The HOG spec this model needs, after validating geometry and length.
+    pub fn hog_spec(&self, origin: &str) -> Result<HogSpec, ModelError> {
+        let unsupported = |what, actual: usize, supported: usize| ModelError::Unsupported {
+            origin: origin.to_string(),
+            what,
+            actual: actual.to_string(),
+            supported: supported.to_string(),
+        };
+        if self.format != FORMAT {
+            return Err(ModelError::Parse {
+                origin: origin.into(),
+                what: format!("format is '{}', expected '{FORMAT}'", self.format),
+            });
+        }
+        if self.version != VERSION {
+            return Err(unsupported("version", self.version as usize, VERSION as usize));
+        }
+        if self.cell_size != CELL_SIZE {
+            return Err(unsupported("cell_size", self.cell_size, CELL_SIZE));
+        }
+        if self.block_size != BLOCK_SIZE {
+            return Err(unsupported("block_size", self.block_size, BLOCK_SIZE));
+        }
+        if self.block_stride != BLOCK_STRIDE {
+            return Err(unsupported("block_stride", self.block_stride, BLOCK_STRIDE));
+        }
+        let opts = HogOptions {
+            win_width: self.win_width,
+            win_height: self.win_height,
+            nbins: self.nbins,
+            win_sigma: None,
+            l2hys_threshold: self.l2hys_threshold,
+            gamma_correction: self.gamma_correction,
+        };
+        let spec = HogSpec::new(&opts).map_err(|e| ModelError::Parse {
+            origin: origin.into(),
+            what: e.to_string(),
+        })?;
+        if self.weights.len() != spec.descriptor_len() {
+            return Err(ModelError::WrongLength {
+                origin: origin.into(),
+                actual: self.weights.len(),
+                expected: spec.descriptor_len(),
+                win_width: self.win_width,
+                win_height: self.win_height,
+                nbins: self.nbins,
+            });
+        }
+        if !self.bias.is_finite() || self.weights.iter().any(|w| !w.is_finite()) {
+            return Err(ModelError::Parse {
+                origin: origin.into(),
+                what: "weights or bias not finite".into(),
+            });
+        }
+        Ok(spec)
+    }
+
+    /// Parse our JSON format and validate it.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, ModelError> {
+        let m: LinearModel = serde_json::from_str(text).map_err(|e| ModelError::Parse {
+            origin: origin.into(),
+            what: e.to_string(),
+        })?;
+        m.hog_spec(origin)?;
+        Ok(m)
+    }
+
+    /// Serialise to our JSON format.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("model serialises")
+    }
+
+    /// Write to a file.
+    pub fn save(&self, path: &Path) -> Result<(), ModelError> {
+        std::fs::write(path, self.to_json()).map_err(|source| ModelError::Io {
+            path: path.into(),
+            source,
+        })
+    }
+
+    /// Load any supported file: `.json` (ours), `.npy` (OpenCV vector), `.yml`/`.yaml` (OpenCV
+    /// `HOGDescriptor` with `SVMDetector`), anything else as whitespace/comma-separated text.
+    /// OpenCV vectors get `domain` (they do not record one).
+    pub fn load(path: &Path, domain_for_opencv: Domain) -> Result<Self, ModelError> {
+        let origin = path.display().to_string();
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if ext == "npy" {
+            let a = NpyArray::read(path).map_err(|e| ModelError::Parse {
+                origin: origin.clone(),
+                what: e.to_string(),
+            })?;
+            let v: Vec<f32> = a.data.iter().map(|&x| x as f32).collect();
+            return Self::from_opencv_vector(&v, domain_for_opencv, &origin);
+        }
+        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+            path: path.into(),
+            source,
+        })?;
+        match ext.as_str() {
+            "json" => Self::from_json(&text, &origin),
+            "yml" | "yaml" => Self::from_opencv_yaml(&text, domain_for_opencv, &origin),
+            _ => {
+                let v = parse_numbers(&text, &origin)?;
+                Self::from_opencv_vector(&v, domain_for_opencv, &origin)
+            }
+        }
+    }
+
+    /// Parse an OpenCV `HOGDescriptor` YAML (`hog.save("x.yml")`): geometry keys are checked
+    /// against ours, `SVMDetector` holds the weights (+ bias).
+    pub fn from_opencv_yaml(text: &str, domain: Domain, origin: &str) -> Result<Self, ModelError> {
+        let pair = |key: &str| -> Option<(usize, usize)> {
+            let v = yaml_value(text, key)?;
+            let n: Vec<usize> = v
+                .trim()
+                .trim_matches(|c| c == '[' || c == ']')
+                .split(',')
+                .filter_map(|s| s.trim().parse().ok())
+                .collect();
+            (n.len() == 2).then(|| (n[0], n[1]))
+        };
+        let want = [
+            ("winSize", (64usize, 128usize)),
+            ("blockSize", (BLOCK_SIZE, BLOCK_SIZE)),
+            ("blockStride", (BLOCK_STRIDE, BLOCK_STRIDE)),
+            ("cellSize", (CELL_SIZE, CELL_SIZE)),
+        ];
+        for (k, w) in want {
+            if let Some(p) = pair(k) {
+                if p != w {
+                    return Err(ModelError::Unsupported {
+                        origin: origin.into(),
+                        what: "OpenCV geometry",
+                        actual: format!("{k} {p:?}"),
+                        supported: format!("{k} {w:?}"),
+                    });
+                }
+            }
+        }
+        if let Some(nb) = yaml_value(text, "nbins").and_then(|v| v.trim().parse::<usize>().ok()) {
+            if nb != 9 {
+                return Err(ModelError::Unsupported {
+                    origin: origin.into(),
+                    what: "nbins",
+                    actual: nb.to_string(),
+                    supported: "9".into(),
+                });
+            }
+        }
+        let start = text.find("SVMDetector").ok_or_else(|| ModelError::Parse {
+            origin: origin.into(),
+            what: "no SVMDetector key".into(),
+        })?;
+        let rest = &text[start..];
+        let open = rest.find('[').ok_or_else(|| ModelError::Parse {
+            origin: origin.into(),
+            what: "SVMDetector is not a [ ] sequence".into(),
+        })?;
+        let close = rest.find(']').ok_or_else(|| ModelError::Parse {
+            origin: origin.into(),
+            what: "SVMDetector sequence not closed".into(),
+        })?;
+        let v = parse_numbers(&rest[open + 1..close], origin)?;
+        let mut m = Self::from_opencv_vector(&v, domain, origin)?;
+        if let Some(g) = yaml_value(text, "gammaCorrection").and_then(|v| v.trim().parse::<i32>().ok()) {
+            m.gamma_correction = g != 0;
+        }
+        if let Some(t) = yaml_value(text, "L2HysThreshold").and_then(|v| v.trim().parse::<f32>().ok()) {
+            m.l2hys_threshold = t;
+        }
+        Ok(m)
+    }
+}
+
+/// `key: value` on one line of a simple YAML document.
+fn yaml_value<'a>(text: &'a str, key: &str) -> Option<&'a str> {
+    text.lines().find_map(|l| {
+        let t = l.trim_start();
+        t.strip_prefix(key).and_then(|r| r.trim_start().strip_prefix(':'))
+    })
+}
+
+fn parse_numbers(text: &str, origin: &str) -> Result<Vec<f32>, ModelError> {
+    text.split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<f32>().map_err(|_| ModelError::Parse {
+                origin: origin.into(),
+                what: format!("'{s}' is not a number"),
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> LinearModel {
+        let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin()).collect();
+        LinearModel::from_opencv_vector(&v, Domain::Mosaic, "test").unwrap()
+    }
+
+    #[test]
+    fn json_round_trip() {
+        let m = model();
+        let back = LinearModel::from_json(&m.to_json(), "mem").unwrap();
+        assert_eq!(m, back);
+        assert_eq!(back.bias, (3780.0f32 * 0.37).sin());
+    }
+
+    #[test]
+    fn wrong_length_names_both() {
+        let mut m = model();
+        m.weights.pop();
+        let e = LinearModel::from_json(&m.to_json(), "mem").unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains("3779") && s.contains("3780"), "{s}");
+        m.weights.push(0.0);
+        m.cell_size = 6;
+        let e = LinearModel::from_json(&m.to_json(), "mem").unwrap_err();
+        assert!(e.to_string().contains("cell_size is 6"), "{e}");
+    }
+
+    #[test]
+    fn text_and_yaml_import() {
+        let v: Vec<String> = (0..3781).map(|i| format!("{}", i as f32 * 1e-3)).collect();
+        let t = parse_numbers(&v.join("\n"), "t").unwrap();
+        let m = LinearModel::from_opencv_vector(&t, Domain::Grey, "t").unwrap();
+        assert_eq!(m.bias, 3780.0f32 * 1e-3);
+        let yaml = format!(
+            "%YAML:1.0\n---\nhog:\n   winSize: [ 64, 128 ]\n   blockSize: [ 16, 16 ]\n   nbins: 9\n   gammaCorrection: 1\n   SVMDetector: [ {} ]\n",
+            v.join(",\n      ")
+        );
+        let y = LinearModel::from_opencv_yaml(&yaml, Domain::Grey, "y").unwrap();
+        assert_eq!(y.weights, m.weights);
+        let bad = yaml.replace("[ 64, 128 ]", "[ 48, 96 ]");
+        assert!(LinearModel::from_opencv_yaml(&bad, Domain::Grey, "y").is_err());
+    }
+}
