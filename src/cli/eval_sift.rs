@@ -29,13 +29,13 @@ pub struct EvalSiftArgs {
     /// Output directory (rows.json, summary.json, summary.md, fig12a.png, fig12b.png, fig10.png).
     #[arg(long, default_value = "out/eval_sift")]
     pub out: PathBuf,
-    /// Double the mosaic first too (like grey SIFT's octave -1; 4x the cost).
+    /// Double the mosaic's colour planes first too (like grey SIFT's octave -1; 4x the cost).
     #[arg(long)]
     pub mosaic_double: bool,
-    /// Resample each colour plane about its own centre (the paper's literal recipe; misregisters
-    /// the planes by up to a pixel) instead of at its pixels' true mosaic positions.
+    /// Resample each colour plane at its pixels' true mosaic positions instead of about the
+    /// plane's own centre (the paper's recipe, the default).
     #[arg(long)]
-    pub own_centre: bool,
+    pub phase_correct: bool,
     /// Rotation of the Fig. 10 picture, degrees.
     #[arg(long, default_value_t = 20.0)]
     pub fig10_angle: f64,
@@ -61,10 +61,10 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
     let grey_spec = SiftSpec::grey();
     let mosaic_spec = SiftSpec::mosaic().with_double_image(args.mosaic_double);
     let transforms = default_transforms();
-    let warp = if args.own_centre {
-        PlaneWarp::OwnCentre
-    } else {
+    let warp = if args.phase_correct {
         PlaneWarp::PhaseCorrect
+    } else {
+        PlaneWarp::OwnCentre
     };
     eprintln!(
         "eval sift: {} images x {} transform levels",

@@ -141,7 +141,7 @@ fn bilinear(src: &Image<f32>, x: f64, y: f64, replicate: bool) -> Option<f32> {
 fn transform_plane(src: &Image<f32>, t: Transform, ow: usize, oh: usize) -> Image<f32> {
     let (w, h) = src.dimensions();
     match t {
-        Transform::Blur(s) => crate::features::sift::blur_plane(src, s),
+        Transform::Blur(s) => crate::features::sift::blur_plane(src, s).unwrap_or_else(|_| src.clone()),
         Transform::Scale(_) => {
             let (fx, fy) = (w as f64 / ow as f64, h as f64 / oh as f64);
             Image::from_fn(ow, oh, |x, y| {
@@ -179,12 +179,13 @@ pub fn grey_transformed(src: &Image<f32>, t: Transform) -> Image<f32> {
 pub enum PlaneWarp {
     /// Each plane is warped as a small image about its own centre (the paper's wording); the
     /// 2x2 phase offsets are not transformed, so the colour planes end up misregistered by up to
-    /// about a pixel (for a 90° rotation, exactly one pixel).
+    /// about a pixel (for a 90° rotation, exactly one pixel, but the planes are permuted without
+    /// interpolation). The default.
+    #[default]
     OwnCentre,
     /// Each plane is still resampled on its own (no colour mixing), but at the exact positions
     /// of its pixels in mosaic coordinates: output pixel (x, y) of colour phase (px, py) samples
     /// its plane at `((X - px) / 2, (Y - py) / 2)`, (X, Y) the inverse-transformed position.
-    #[default]
     PhaseCorrect,
 }
 

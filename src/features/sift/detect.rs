@@ -4,8 +4,9 @@
 
 use rayon::prelude::*;
 
-use super::scale_space::{blur, downsample2, gaussian_taps, upsample2};
+use super::scale_space::{blur_step, downsample2_step, upsample2_step};
 use super::{Keypoint, SiftSpec};
+use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
 
 /// Width of the border (in octave pixels) in which no extremum is searched (`SIFT_IMG_BORDER`).
@@ -87,11 +88,11 @@ fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
 }
 
 /// Build the Gaussian and DoG pyramids. `src` is already scaled to the 0..255 range.
-pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
+pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, SuperPixelError> {
     let step = spec.step();
     let st = step as f64;
     let init = if spec.double_image {
-        upsample2(src, step)
+        upsample2_step(src, step)?
     } else {
         src.clone()
     };
@@ -106,10 +107,9 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
         .max(0.01)
         .sqrt();
     let mut base = Image::new(0, 0);
-    blur(&init, &gaussian_taps(sig_diff / st), step, &mut base);
+    blur_step(&init, sig_diff / st, step, &mut base)?;
     let n_oct = octave_count(base.width(), base.height(), spec);
     let sig = layer_sigmas(spec);
-    let taps: Vec<Vec<f32>> = sig.iter().map(|s| gaussian_taps(s / st)).collect();
     let nl = spec.n_octave_layers;
     let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
     for o in 0..n_oct {
@@ -117,11 +117,11 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
         layers.push(if o == 0 {
             std::mem::take(&mut base)
         } else {
-            downsample2(&gauss[o - 1][nl], step)
+            downsample2_step(&gauss[o - 1][nl], step)?
         });
-        for t in taps.iter().skip(1) {
+        for s in sig.iter().skip(1) {
             let mut dst = Image::new(0, 0);
-            blur(layers.last().expect("layer 0 exists"), t, step, &mut dst);
+            blur_step(layers.last().expect("layer 0 exists"), s / st, step, &mut dst)?;
             layers.push(dst);
         }
         gauss.push(layers);
@@ -144,7 +144,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
                 .collect()
         })
         .collect();
-    Pyramid { gauss, dog }
+    Ok(Pyramid { gauss, dog })
 }
 
 /// Is `val` at (x, y) of `cur` an extremum over the `(2 reach + 1)^2 x 3` neighbourhood
@@ -578,12 +578,12 @@ mod tests {
 
     #[test]
     fn mosaic_coordinates_map_back_to_the_phase() {
-        let spec = SiftSpec::mosaic().with_double_image(false);
+        let spec = SiftSpec::mosaic();
         // Pixel 9 (plane index 4, phase 1) at octave 1 sits at plane 8 of the base: mosaic 17.
         assert_eq!(to_input(9, 0.0, 1, &spec), 17.0);
         assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
         // Doubled planes: plane index 8 of the doubled plane is plane coordinate 3.75 originally.
-        let spec = SiftSpec::mosaic();
+        let spec = SiftSpec::mosaic().with_double_image(true);
         assert_eq!(to_input(16, 0.0, 0, &spec), 7.5);
         assert_eq!(to_input(17, 0.0, 0, &spec), 8.5);
     }
