@@ -1282,6 +1282,23 @@ mod tests {
     }
 
     #[test]
+    fn synthetic_mosaic_is_seeded_and_in_range() {
+        let a = synthetic_mosaic(64, 48, 12, 1);
+        assert_eq!(a, synthetic_mosaic(64, 48, 12, 1));
+        assert_ne!(a, synthetic_mosaic(64, 48, 12, 2));
+        assert!(a.as_slice().iter().all(|&v| v <= 4095));
+        // Raw colour balance: green photosites brighter than red on average.
+        let mean = |ox: usize, oy: usize| {
+            let v: Vec<f64> = (0..24)
+                .flat_map(|y| (0..32).map(move |x| (2 * x + ox, 2 * y + oy)))
+                .map(|(x, y)| a.get(x, y) as f64)
+                .collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        assert!(mean(1, 0) > mean(0, 0));
+    }
+
+    #[test]
     fn bins_hand_computed() {
         let hog = MagBinSpec::new(MagBinOptions::default()).unwrap(); // 9 over 180
         assert_eq!(hog.bin_of(1.0, 0.0), 0); // 0°
