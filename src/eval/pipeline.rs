@@ -66,7 +66,7 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     blur_mosaic(mosaic.view(), &k, &mut blurred)?;
     let mut small = Image::new(0, 0);
     resize_mosaic(blurred.view(), nw, nh, &mut small)?;
-    let magnitude = gradient_magnitude(small.view());
+    let magnitude = gradient_magnitude(small.view())?;
     let time = t0.elapsed();
     // Peak: input + 4 planes + 4 blurred planes (inside blur_mosaic) + blurred mosaic being written.
     let full = plane_bytes(w, h);
@@ -107,7 +107,7 @@ pub fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Resul
         ]
     });
     let grey = grey_from_rgb(small_rgb.view());
-    let magnitude = gradient_magnitude(grey.view());
+    let magnitude = gradient_magnitude(grey.view())?;
     let time = t0.elapsed();
     let full = plane_bytes(w, h);
     let small_b = plane_bytes(nw, nh);
