@@ -74,7 +74,8 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     // Resize: input, blurred mosaic, 4 planes of it, 4 resized planes, resized mosaic.
     let small_b = plane_bytes(nw, nh);
     let resize_peak = full + full + full + small_b + small_b;
-    let grad_peak = full + small_b + small_b;
+    // Gradient: mosaic, blurred mosaic, resized mosaic, gx, gy, magnitude.
+    let grad_peak = full + full + small_b + 3 * small_b;
     Ok(PipelineRun {
         magnitude,
         time,
@@ -114,7 +115,8 @@ pub fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Resul
     // Demosaic: mosaic + RGB (3 planes). Per channel: + 1 extracted + 1 blurred + resized planes so far.
     let demosaic_peak = full + 3 * full;
     let channel_peak = full + 3 * full + 2 * full + 3 * small_b;
-    let tail_peak = full + 3 * full + 3 * small_b + 3 * small_b + small_b + small_b;
+    // Tail: mosaic, RGB, resized planes, resized RGB, grey, gx, gy, magnitude.
+    let tail_peak = full + 3 * full + 3 * small_b + 3 * small_b + small_b + 3 * small_b;
     Ok(PipelineRun {
         magnitude,
         time,
