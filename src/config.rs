@@ -181,8 +181,13 @@ pub struct RecordConfig {
     pub enabled: bool,
     /// Output file; `{camera}` is replaced by the camera name.
     pub path: PathBuf,
-    /// Also record the raw frames (lossless), not only results.
+    /// Also record the raw frames (lossless, full bit depth), not only results.
     pub frames: bool,
+    /// Also record an 8-bit `foxglove.RawImage` preview, keeping every n-th 2x2 tile (`0` = no
+    /// preview, `1..=16`).
+    pub preview_decimation: u32,
+    /// Flush (close the chunk) every n frames: what a crash can lose (`1..=10000`).
+    pub flush_frames: u32,
 }
 
 impl Default for RecordConfig {
@@ -191,6 +196,8 @@ impl Default for RecordConfig {
             enabled: false,
             path: PathBuf::from("out/{camera}.mcap"),
             frames: false,
+            preview_decimation: 0,
+            flush_frames: 30,
         }
     }
 }
@@ -199,8 +206,20 @@ impl Default for RecordConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ComputeConfig {
-    /// Run pedestrian detection (an empty list is published until the detector is linked in).
+    /// Run pedestrian detection (multi-scale HOG + linear SVM on the mosaic).
     pub detect: bool,
+    /// Detector model: `opencv-default` (OpenCV's people detector from the shared data directory,
+    /// `opencv_hog/default_people_detector_64x128.npy`) or a model file (`.json` ours; `.npy`,
+    /// `.yml`, text: OpenCV vectors).
+    pub model: String,
+    /// SVM score a window needs (OpenCV `hitThreshold`) (`-10..=10`).
+    pub hit_threshold: f32,
+    /// Scale factor between pyramid levels (`1.01..=2.0`, OpenCV 1.05).
+    pub scale_step: f64,
+    /// Maximum pyramid levels (`1..=64`).
+    pub max_levels: usize,
+    /// Start the pyramid magnified (`0.5..=4.0`; 2 finds people ~64 px tall).
+    pub upsample: f64,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -211,6 +230,11 @@ impl Default for ComputeConfig {
     fn default() -> Self {
         Self {
             detect: true,
+            model: "opencv-default".into(),
+            hit_threshold: 0.0,
+            scale_step: 1.05,
+            max_levels: 64,
+            upsample: 1.0,
             orientation_bins: 9,
             strip_rows: 64,
         }
@@ -398,9 +422,21 @@ impl Config {
                 allowed: format!("1..=64 characters from {NAME_CHARS}"),
             });
         }
+        range("record.preview_decimation", self.record.preview_decimation, 0, 16)?;
+        range("record.flush_frames", self.record.flush_frames, 1, 10_000)?;
         let c = &self.compute;
         range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
         range("compute.strip_rows", c.strip_rows, 2, 4096)?;
+        range("compute.hit_threshold", c.hit_threshold, -10.0, 10.0)?;
+        range("compute.scale_step", c.scale_step, 1.01, 2.0)?;
+        range("compute.max_levels", c.max_levels, 1, 64)?;
+        range("compute.upsample", c.upsample, 0.5, 4.0)?;
+        if c.model.is_empty() {
+            return Err(ConfigError::Missing {
+                key: "compute.model".into(),
+                when: "compute.detect = true".into(),
+            });
+        }
         if !c.strip_rows.is_multiple_of(2) {
             return Err(ConfigError::OutOfRange {
                 key: "compute.strip_rows".into(),
@@ -516,6 +552,9 @@ mod tests {
             ("[publish]\nservice_prefix = \"a/b\"\n", "publish.service_prefix"),
             ("[compute]\nstrip_rows = 3\n", "compute.strip_rows"),
             ("[compute]\norientation_bins = 0\n", "compute.orientation_bins"),
+            ("[compute]\nscale_step = 1.0\n", "compute.scale_step"),
+            ("[compute]\nupsample = 9.0\n", "compute.upsample"),
+            ("[record]\nflush_frames = 0\n", "record.flush_frames"),
         ];
         for (extra, key) in cases {
             let err = Config::from_toml_str(&format!("{extra}{MIN}")).unwrap_err();

@@ -10,11 +10,13 @@ use std::path::PathBuf;
 use crate::raw::RawFrame;
 
 pub mod clock;
+pub mod files;
 pub mod mcap_source;
 pub mod v4l2;
 pub mod v4l2_formats;
 
 pub use clock::{Clock, FakeClock, MonotonicClock};
+pub use files::{FileSource, FileSourceOptions};
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 
 /// How frames from a source may be treated when compute falls behind.
@@ -119,6 +121,27 @@ pub enum CaptureError {
         /// Why this attempt failed.
         #[source]
         source: Box<CaptureError>,
+    },
+    /// A sidecar that does not parse.
+    #[error("sidecar {path} does not parse: {source}")]
+    Sidecar {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: Box<toml::de::Error>,
+    },
+    /// A sidecar value out of range.
+    #[error("sidecar {path}: {key} = {value} is invalid: expected {why}")]
+    SidecarValue {
+        /// File.
+        path: PathBuf,
+        /// Key.
+        key: &'static str,
+        /// Value.
+        value: String,
+        /// Allowed values.
+        why: &'static str,
     },
     /// An invalid source option.
     #[error("invalid source option {name} = {value}: {why}")]

@@ -11,7 +11,9 @@ use mosaicd::config::PublishConfig;
 use mosaicd::pipeline::clock::ReplayClock;
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
 use mosaicd::pipeline::pool::BufferPool;
-use mosaicd::pipeline::stage::StageSpec;
+use mosaicd::config::Config;
+use mosaicd::pipeline::daemon::{load_detector, stage_spec};
+use mosaicd::pipeline::stage::Stage;
 use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
 use mosaicd::publish::publisher::IceoryxSink;
 use mosaicd::publish::service::{create_node, detections_service, subscriber};
@@ -37,12 +39,15 @@ pub struct BenchPipelineArgs {
     /// Frames in flight.
     #[arg(long, default_value_t = 4)]
     max_in_flight: usize,
+    /// Gradients only (no pedestrian detection).
+    #[arg(long)]
+    no_detect: bool,
     /// Skip the stalled-subscriber run.
     #[arg(long)]
     no_stalled: bool,
 }
 
-fn one_run(a: &BenchPipelineArgs, camera: &str) -> anyhow::Result<(f64, f64, f64)> {
+fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result<(f64, f64, f64)> {
     let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?);
     let frames = BufferPool::new(16);
     let src = SyntheticSource::with_pool(
@@ -64,7 +69,8 @@ fn one_run(a: &BenchPipelineArgs, camera: &str) -> anyhow::Result<(f64, f64, f64
             camera: camera.into(),
             queue_depth: 4,
             max_in_flight: a.max_in_flight,
-            stage: StageSpec::default(),
+            stage: stage.clone(),
+            keep_frames: false,
         },
         Box::new(src),
         pool,
@@ -88,11 +94,14 @@ fn one_run(a: &BenchPipelineArgs, camera: &str) -> anyhow::Result<(f64, f64, f64
 
 /// Run `mosaicd bench pipeline`.
 pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
+    let mut cfg = Config::default();
+    cfg.compute.detect = !a.no_detect;
+    let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
-    let (fps, p50, p99) = one_run(&a, &cam)?;
+    let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
-        "pipeline {}x{} {}-bit, {} threads, {} in flight, {} frames: {:.1} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, a.threads, a.max_in_flight, a.frames, fps, p50, p99
+        "pipeline {}x{} {}-bit, detection {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
     );
     let mut stalled = None;
     if !a.no_stalled {
@@ -106,7 +115,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
             PublishConfig::default().subscriber_buffer,
         )?;
         let _sub = subscriber(&svc, PublishConfig::default().subscriber_buffer, "stalled")?;
-        let (fps2, p50b, p99b) = one_run(&a, &cam2)?;
+        let (fps2, p50b, p99b) = one_run(&a, &cam2, &stage)?;
         println!(
             "with a subscriber that never reads: {:.1} frames/s ({:+.1} %), latency p50 {:.2} ms p99 {:.2} ms",
             fps2,
@@ -119,7 +128,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
     println!(
         "{}",
-        json!({"width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
+        json!({"detect": !a.no_detect, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit})
     );

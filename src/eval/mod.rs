@@ -8,6 +8,7 @@
 //! | [`demosaic`] | Table IV: each demosaicing method vs true colour |
 //! | [`pipeline`] | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first) |
 //! | [`noise`] | gradient and HOG-input degradation under the three noise levels of eq. 24 |
+//! | [`sift`] | Fig. 12 / Fig. 10: SIFT repeatability, grey vs mosaic, under blur, scale and rotation |
 //! | [`plot`] | PNG line, band, histogram and box plots (used by the HOG and SIFT evaluations too) |
 //!
 //! Each experiment is `run(&EvalOptions) -> Result<Report>`; a [`common::Report`] prints as text and
@@ -21,6 +22,7 @@ pub mod noise;
 pub mod pipeline;
 pub mod plot;
 pub mod scale_space;
+pub mod sift;
 
 use common::{EvalOptions, Report};
 

@@ -22,7 +22,8 @@ use super::engine::{Pipeline, PipelineReport, PipelineSpec, SinkError, SinkFacto
 use super::pool::BufferPool;
 use super::sinks::JsonlSink;
 use super::sources::{open_source, SourceOpenError};
-use super::stage::StageSpec;
+use super::stage::{Stage, StageSpec};
+use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
 use super::stats::StatsSnapshot;
 use crate::capture::SourceKind;
 use crate::config::{CameraConfig, Config};
@@ -53,6 +54,15 @@ pub enum DaemonError {
         /// Cause.
         message: String,
     },
+    /// The detector model could not be loaded.
+    #[error("detector: {message}")]
+    Model {
+        /// What went wrong, naming the config key.
+        message: String,
+    },
+    /// The stage refused its parameters.
+    #[error("compute: {0}")]
+    Stage(#[from] super::stage::StageError),
     /// The drain took longer than the stop timeout.
     #[error("shutdown did not finish within daemon.shutdown_timeout_ms = {timeout_ms} ms")]
     ShutdownTimeout {
@@ -147,6 +157,38 @@ pub fn stage_spec(cfg: &Config) -> StageSpec {
     }
 }
 
+/// Path of the `opencv-default` model inside the shared data directory.
+const OPENCV_DEFAULT_MODEL: &str = "opencv_hog/default_people_detector_64x128.npy";
+
+/// Load the detector a config asks for (once; shared by every camera and task).
+pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError> {
+    let c = &cfg.compute;
+    if !c.detect {
+        return Ok(None);
+    }
+    let path = if c.model == "opencv-default" {
+        crate::data::data_path(OPENCV_DEFAULT_MODEL).map_err(|e| DaemonError::Model {
+            message: format!("compute.model = \"opencv-default\": {e}"),
+        })?
+    } else {
+        PathBuf::from(&c.model)
+    };
+    let model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
+        message: format!("compute.model = {:?}: {e}", c.model),
+    })?;
+    let opts = DetectorOptions {
+        scale_step: c.scale_step,
+        max_levels: c.max_levels,
+        upsample: c.upsample,
+        hit_threshold: c.hit_threshold,
+        ..DetectorOptions::default()
+    };
+    let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
+        message: format!("compute: {e}"),
+    })?;
+    Ok(Some(Arc::new(det)))
+}
+
 /// Run the daemon until every source ends or a signal arrives.
 pub fn run(
     cfg: &Config,
@@ -164,6 +206,7 @@ pub fn run(
                 message: e.to_string(),
             })?,
     );
+    let stage = Stage::new(stage_spec(cfg), load_detector(cfg)?)?;
     let mut pipelines = Vec::new();
     for cam in &cfg.cameras {
         let frame_pool = BufferPool::new(cfg.daemon.queue_depth + cfg.daemon.max_in_flight + 2);
@@ -182,7 +225,8 @@ pub fn run(
             camera: cam.name.clone(),
             queue_depth: cfg.daemon.queue_depth,
             max_in_flight: cfg.daemon.max_in_flight,
-            stage: stage_spec(cfg),
+            stage: stage.clone(),
+            keep_frames: cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0),
         };
         let p = Pipeline::start(spec, source, pool.clone(), clock, sinks, frame_pool).map_err(|e| {
             DaemonError::Sink {

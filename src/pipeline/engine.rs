@@ -32,7 +32,7 @@ use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
 use super::clock::{monotonic_ns, Clock};
 use super::pool::BufferPool;
 use super::queue::{FrameQueue, Push};
-use super::stage::{compute, GradientMaps, StageError, StageOutput, StageSpec};
+use super::stage::{GradientMaps, Stage, StageError, StageOutput};
 use super::stats::{Stats, StatsSnapshot};
 use crate::capture::{Source, SourceKind};
 use crate::publish::messages::StatsMsg;
@@ -122,6 +122,8 @@ pub struct FrameResult {
     pub output: StageOutput,
     /// Gradient maps.
     pub maps: PooledMaps,
+    /// The frame itself, when the pipeline keeps frames for the sinks.
+    pub frame: Option<Arc<RawFrame>>,
     /// Injected-clock publication time, ns.
     pub publish_timestamp_ns: u64,
     /// Wall-clock latency from pipeline entry (live: capture) to emission, ns.
@@ -138,7 +140,10 @@ pub struct PipelineSpec {
     /// Frames computing or awaiting emission at once.
     pub max_in_flight: usize,
     /// The compute stage.
-    pub stage: StageSpec,
+    pub stage: Stage,
+    /// Hand every frame to the sinks too ([`FrameResult::frame`], for recording raw frames); its
+    /// pixel buffer is then not recycled.
+    pub keep_frames: bool,
 }
 
 /// What a finished pipeline reports.
@@ -168,6 +173,7 @@ enum Event {
 }
 
 struct Computed {
+    frame: Option<Arc<RawFrame>>,
     meta: FrameMeta,
     width: usize,
     height: usize,
@@ -201,10 +207,6 @@ impl Pipeline {
         sinks: Vec<SinkFactory>,
         frame_pool: BufferPool<RawPixels>,
     ) -> Result<Self, SinkError> {
-        spec.stage.validate().map_err(|e| SinkError::Start {
-            sink: "stage".into(),
-            message: e.to_string(),
-        })?;
         let camera: Arc<str> = Arc::from(spec.camera.as_str());
         // Sink threads.
         let mut sink_txs = Vec::new();
@@ -269,10 +271,11 @@ impl Pipeline {
 
         // Dispatcher thread.
         let dispatcher = {
+            let keep = spec.keep_frames;
             let (queue, ev_tx, stage, pool, mpool, fpool) = (
                 queue.clone(),
                 ev_tx.clone(),
-                spec.stage,
+                Arc::new(spec.stage.clone()),
                 compute_pool.clone(),
                 maps_pool.clone(),
                 frame_pool.clone(),
@@ -290,11 +293,11 @@ impl Pipeline {
                             break;
                         }
                         let expected = *size.get_or_insert((item.frame.width(), item.frame.height()));
-                        let (ev_tx, mpool, fpool) = (ev_tx.clone(), mpool.clone(), fpool.clone());
+                        let (ev_tx, mpool, fpool, stage) = (ev_tx.clone(), mpool.clone(), fpool.clone(), stage.clone());
                         let i = index;
                         index += 1;
                         pool.spawn(move || {
-                            let computed = compute_one(item, expected, &stage, &mpool, &fpool);
+                            let computed = compute_one(item, expected, &stage, &mpool, &fpool, keep);
                             let _ = ev_tx.send(Event::Done(i, Box::new(computed)));
                         });
                     }
@@ -458,9 +461,10 @@ fn capture_loop(
 fn compute_one(
     item: Item,
     expected: (usize, usize),
-    stage: &StageSpec,
+    stage: &Stage,
     mpool: &BufferPool<GradientMaps>,
     fpool: &BufferPool<RawPixels>,
+    keep_frame: bool,
 ) -> Computed {
     let Item { frame, entered_ns } = item;
     let (width, height) = (frame.width(), frame.height());
@@ -474,7 +478,7 @@ fn compute_one(
         })
     } else {
         let mut maps = mpool.take(GradientMaps::default);
-        match compute(&frame, stage, &mut maps) {
+        match stage.compute(&frame, &mut maps) {
             Ok(out) => Ok((out, maps)),
             Err(e) => {
                 mpool.give(maps);
@@ -483,8 +487,14 @@ fn compute_one(
         }
     };
     let meta = frame.meta.clone();
-    fpool.give(frame.into_pixels());
+    let frame = if keep_frame {
+        Some(Arc::new(frame))
+    } else {
+        fpool.give(frame.into_pixels());
+        None
+    };
     Computed {
+        frame,
         meta,
         width,
         height,
@@ -572,6 +582,7 @@ fn order_loop(
                             maps: Some(maps),
                             pool: Some(mpool.clone()),
                         },
+                        frame: c.frame,
                         publish_timestamp_ns: clock.now_ns(),
                         latency_ns,
                     });

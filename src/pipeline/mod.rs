@@ -17,12 +17,13 @@
 //! ```
 //! use std::sync::Arc;
 //! use mosaicd::pipeline::{clock::ReplayClock, engine::{Pipeline, PipelineSpec}, pool::BufferPool,
-//!     sinks::CollectSink, stage::StageSpec, synthetic::{SyntheticSource, SyntheticSpec}};
+//!     sinks::CollectSink, stage::{Stage, StageSpec}, synthetic::{SyntheticSource, SyntheticSpec}};
 //! let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
 //! let frames = BufferPool::new(8);
 //! let src = SyntheticSource::with_pool(SyntheticSpec { width: 64, height: 48, frames: 5, ..Default::default() }, frames.clone());
 //! let sink = CollectSink::default();
-//! let spec = PipelineSpec { camera: "doc".into(), queue_depth: 2, max_in_flight: 2, stage: StageSpec::default() };
+//! let spec = PipelineSpec { camera: "doc".into(), queue_depth: 2, max_in_flight: 2,
+//!     stage: Stage::new(StageSpec::default(), None).unwrap(), keep_frames: false };
 //! let p = Pipeline::start(spec, Box::new(src), pool, Arc::new(ReplayClock::default()), vec![sink.factory("doc")], frames).unwrap();
 //! let report = p.join();
 //! assert_eq!(report.stats.processed, 5);

@@ -1,14 +1,15 @@
 //! Opening the configured source of a camera.
 //!
-//! `synthetic` is built here; `mcap` and `v4l2` come from `crate::capture` (the capture module's
-//! MCAP replay and V4L2 sources). Errors name the camera and say what is wrong (missing file or
-//! device, unsupported source in this build).
+//! `synthetic` is built here; `mcap` and `v4l2` are `crate::capture`'s [`McapSource`] (as fast as
+//! possible or at the recorded rate, looped) and [`V4l2Source`]. Errors name the camera and say
+//! what is wrong (missing file or device, a recording or device that refuses to open).
 
 use std::path::PathBuf;
 
 use super::pool::BufferPool;
 use super::synthetic::{SyntheticSource, SyntheticSpec};
-use crate::capture::Source;
+use crate::capture::v4l2::{V4l2Options, V4l2Source};
+use crate::capture::{McapSource, McapSourceOptions, Pacing, Source};
 use crate::config::{CameraConfig, ConfigError, SourceType};
 use crate::raw::RawPixels;
 
@@ -82,10 +83,20 @@ pub fn open_source(
                     path,
                 });
             }
-            Err(SourceOpenError::Unsupported {
+            let opts = McapSourceOptions {
+                pacing: if cam.realtime {
+                    Pacing::Recorded { speed: 1.0 }
+                } else {
+                    Pacing::AsFastAsPossible
+                },
+                looped: cam.looped,
+                ..McapSourceOptions::default()
+            };
+            let src = McapSource::open(&path, opts).map_err(|e| SourceOpenError::Open {
                 camera: cam.name.clone(),
-                kind: SourceType::Mcap,
-            })
+                message: format!("recording {}: {e}", path.display()),
+            })?;
+            Ok(Box::new(src))
         }
         SourceType::V4l2 => {
             let path = cam.device.clone().unwrap_or_default();
@@ -95,10 +106,17 @@ pub fn open_source(
                     path,
                 });
             }
-            Err(SourceOpenError::Unsupported {
+            let opts = V4l2Options {
+                width: Some(cam.width as u32),
+                height: Some(cam.height as u32),
+                fps: Some(cam.fps.round() as u32),
+                ..V4l2Options::default()
+            };
+            let src = V4l2Source::open(&path, opts).map_err(|e| SourceOpenError::Open {
                 camera: cam.name.clone(),
-                kind: SourceType::V4l2,
-            })
+                message: format!("device {}: {e}", path.display()),
+            })?;
+            Ok(Box::new(src))
         }
     }
 }

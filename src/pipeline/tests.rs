@@ -6,7 +6,7 @@ use super::clock::ReplayClock;
 use super::engine::{Pipeline, PipelineSpec};
 use super::pool::BufferPool;
 use super::sinks::{strip_wall_clock, CollectSink};
-use super::stage::StageSpec;
+use super::stage::{Stage, StageSpec};
 use super::synthetic::{SyntheticSource, SyntheticSpec};
 
 fn run(
@@ -28,10 +28,8 @@ fn run(
             camera: "t".into(),
             queue_depth: 3,
             max_in_flight: in_flight,
-            stage: StageSpec {
-                strip_rows: 8,
-                ..StageSpec::default()
-            },
+            stage: Stage::new(StageSpec { strip_rows: 8, ..StageSpec::default() }, None).unwrap(),
+                keep_frames: false,
         },
         Box::new(src),
         pool,
@@ -108,7 +106,8 @@ fn no_per_frame_allocation_growth_after_warm_up() {
                 camera: "pool".into(),
                 queue_depth: 2,
                 max_in_flight: 2,
-                stage: StageSpec::default(),
+                stage: Stage::new(StageSpec::default(), None).unwrap(),
+                keep_frames: false,
             },
             Box::new(src),
             pool.clone(),
@@ -155,7 +154,8 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
             camera: "live".into(),
             queue_depth: 1,
             max_in_flight: 1,
-            stage: StageSpec::default(),
+            stage: Stage::new(StageSpec::default(), None).unwrap(),
+                keep_frames: false,
         },
         Box::new(src),
         pool,

@@ -7,7 +7,7 @@
 //! | service | payload | notes |
 //! |---|---|---|
 //! | `<prefix>/<camera>/detections` | [`DetectionsMsg`] | fixed size, up to [`MAX_BOXES`] boxes |
-//! | `<prefix>/<camera>/gradients` | `[u8]` with user header [`GradientsHeader`] | magnitude (f32 LE) then orientation bin (u8) |
+//! | `<prefix>/<camera>/gradients` | `[u8]` with user header [`GradientsHeader`] | magnitude (u16 LE) then orientation bin (u8) |
 //! | `<prefix>/<camera>/stats` | [`StatsMsg`] | one every stats interval and a final one (`is_final = 1`) |
 //!
 //! ```
@@ -89,7 +89,7 @@ pub struct DetectionsMsg {
     pub box_count: u32,
     /// Boxes that did not fit ([`MAX_BOXES`]).
     pub overflow: u32,
-    /// Mean gradient magnitude of the frame (normalised units): a cheap liveness signal.
+    /// Mean gradient magnitude of the frame (normalised units, full scale 1): a liveness signal.
     pub mean_magnitude: f32,
     /// Padding, zero.
     pub reserved: u32,
@@ -135,11 +135,12 @@ impl DetectionsMsg {
 
 /// Header of a gradients sample (`<prefix>/<camera>/gradients`, payload `[u8]`).
 ///
-/// The payload holds `width * height` little-endian `f32` magnitudes followed by `width * height`
-/// orientation bins (`u8`, `0..orientation_bins`), both row-major at the decimated size.
+/// The payload holds `width * height` little-endian `u16` magnitudes (raw units `>> mag_shift`, the
+/// fused kernel's output) followed by `width * height` orientation bins (`u8`,
+/// `0..orientation_bins`), both row-major at the decimated size.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, ZeroCopySend, Serialize)]
-#[type_name("mosaicd.GradientsHeader.v1")]
+#[type_name("mosaicd.GradientsHeader.v2")]
 pub struct GradientsHeader {
     /// The pipeline's frame index.
     pub index: u64,
@@ -153,6 +154,10 @@ pub struct GradientsHeader {
     pub decimation: u32,
     /// Number of orientation bins over 0..180 degrees.
     pub orientation_bins: u32,
+    /// Right shift applied to the magnitudes.
+    pub mag_shift: u32,
+    /// Padding, zero.
+    pub reserved: u32,
 }
 
 /// Counters of one camera's pipeline (`<prefix>/<camera>/stats`).

@@ -127,6 +127,8 @@ impl Sink for IceoryxSink {
                 width: dw as u32,
                 height: dh as u32,
                 decimation: *dec as u32,
+                mag_shift: maps.mag_shift,
+                reserved: 0,
                 orientation_bins: maps.orientation_bins as u32,
             };
             let mut sample = pubr.loan_slice_uninit(buf.len()).map_err(|e| SinkError::Write {

@@ -33,6 +33,7 @@
 
 pub mod preview;
 pub mod read;
+pub mod recipe;
 pub mod recorder;
 pub mod schema;
 
