@@ -192,7 +192,7 @@ pub fn run(opts: &EvalOptions) -> Result<Report> {
         tables: vec![t],
         plots: vec![],
         notes: vec![
-            "Time: wall clock summed over the images, one run, in this process, debug or release as built (use a release build for numbers worth quoting). Pipeline 2 blurs with the same σ in image pixels (1.6) as pipeline 1's 3x3 super-pixel kernel.".into(),
+            "Time: wall clock summed over the images, one run, in this process, debug or release as built (use a release build for numbers worth quoting; on a machine shared with other jobs the ratios move by tens of percent between runs). Pipeline 2 blurs with the same σ in image pixels (1.6) as pipeline 1's 3x3 super-pixel kernel.".into(),
             "Memory: peak bytes of the image buffers each pipeline holds (input, stage outputs, and the super-pixel planes), counted from their sizes — not an allocator measurement; allocator overhead and stack are ignored.".into(),
             "Paper numbers for Table VI were not available to this run ('see paper'); the paper measured its own implementation, so only the ratios are comparable.".into(),
         ],
