@@ -17,13 +17,13 @@ pub const REFERENCES: [&str; 5] = ["grey", "R", "G", "B", "colour-max"];
 
 /// GMSD of the mosaic gradient against each reference of [`REFERENCES`] for one RGB image.
 pub fn channel_gmsd(rgb: &crate::image::Image<[f32; 3]>) -> Result<[f64; 5]> {
-    let mosaic = gradient_magnitude(mosaic_from_rgb(rgb.view(), Cfa::Rggb).view());
+    let mosaic = gradient_magnitude(mosaic_from_rgb(rgb.view(), Cfa::Rggb).view())?;
     let refs = [
-        gradient_magnitude(grey_from_rgb(rgb.view()).view()),
-        gradient_magnitude(channel(rgb.view(), 0).view()),
-        gradient_magnitude(channel(rgb.view(), 1).view()),
-        gradient_magnitude(channel(rgb.view(), 2).view()),
-        colour_max_gradient_magnitude(rgb.view()),
+        gradient_magnitude(grey_from_rgb(rgb.view()).view())?,
+        gradient_magnitude(channel(rgb.view(), 0).view())?,
+        gradient_magnitude(channel(rgb.view(), 1).view())?,
+        gradient_magnitude(channel(rgb.view(), 2).view())?,
+        colour_max_gradient_magnitude(rgb.view())?,
     ];
     let mut out = [0.0; 5];
     for (o, r) in out.iter_mut().zip(&refs) {

@@ -1,10 +1,8 @@
 //! Shared pieces of the experiments: errors, inputs (Kodak, raw frames), the small image helpers
 //! every table needs, result tables and progress.
 //!
-//! Helpers marked *adapter* stand in for colleagues' modules that were not on `main` when the
-//! experiments were written; each says which module replaces it. They are deliberately the plain
-//! textbook operation (BT.601 grey, `[-1, 0, 1]` central difference with reflect-101 borders,
-//! sampling RGB through a CFA) so that swapping them changes no number.
+//! The image helpers are thin wrappers over the project's modules (`raw::sample`, `isp::grey`,
+//! `features::gradient`, `raw::load`) so that every experiment uses the same conventions.
 
 use crate::features::superpixel::SuperPixelError;
 use crate::image::{Image, ImageView};
@@ -41,6 +39,9 @@ pub enum EvalError {
     /// A raw file could not be loaded.
     #[error(transparent)]
     Raw(#[from] crate::raw::RawError),
+    /// A gradient computation failed.
+    #[error(transparent)]
+    Gradient(#[from] crate::features::gradient::GradientError),
     /// An ISP step (demosaicing, noise, forward ISP) failed.
     #[error(transparent)]
     Isp(#[from] crate::isp::IspError),
@@ -225,13 +226,10 @@ pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {
     crate::raw::sample::mosaic_from_rgb(&rgb, cfa)
 }
 
-/// BT.601 luma `0.299 R + 0.587 G + 0.114 B` (what OpenCV's `COLOR_RGB2GRAY` and MATLAB's
-/// `rgb2gray` use). *Adapter*: equals `isp::grey::grey_from_rgb_f32`.
+/// BT.601 luma `0.299 R + 0.587 G + 0.114 B` (OpenCV's `COLOR_RGB2GRAY`, MATLAB's `rgb2gray`):
+/// `isp::grey::grey_from_rgb_f32`.
 pub fn grey_from_rgb(rgb: ImageView<'_, [f32; 3]>) -> Image<f32> {
-    Image::from_fn(rgb.width(), rgb.height(), |x, y| {
-        let p = rgb.get(x, y);
-        0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]
-    })
+    crate::isp::grey::grey_from_rgb_f32(&rgb)
 }
 
 /// One channel of an RGB image.
@@ -244,38 +242,23 @@ pub fn channel(rgb: ImageView<'_, [f32; 3]>, c: usize) -> Image<f32> {
 /// paper's `c = 0.0026` (for magnitudes on [0, 1]) applies.
 pub const MAGNITUDE_SCALE: f32 = 0.5;
 
-/// Central-difference gradient magnitude (`[-1, 0, 1]`, reflect-101 borders as OpenCV), times
-/// [`MAGNITUDE_SCALE`]. On a mosaic the taps are two pixels apart and always of one colour.
-/// *Adapter*: equals `features::gradient::gradients_from_image(..).magnitude() * 0.5`.
-pub fn gradient_magnitude(img: ImageView<'_, f32>) -> Image<f32> {
-    let (w, h) = (img.width(), img.height());
-    let refl = |i: isize, n: usize| -> usize {
-        if n == 1 {
-            0
-        } else if i < 0 {
-            (-i) as usize
-        } else if i as usize >= n {
-            2 * n - 2 - i as usize
-        } else {
-            i as usize
-        }
-    };
-    Image::from_fn(w, h, |x, y| {
-        let (xi, yi) = (x as isize, y as isize);
-        let gx = img.get(refl(xi + 1, w), y) - img.get(refl(xi - 1, w), y);
-        let gy = img.get(x, refl(yi + 1, h)) - img.get(x, refl(yi - 1, h));
-        (gx * gx + gy * gy).sqrt() * MAGNITUDE_SCALE
-    })
+/// Central-difference gradient magnitude (`[-1, 0, 1]`, reflect-101 borders as OpenCV, from
+/// `features::gradient::gradients_from_image`), times [`MAGNITUDE_SCALE`]. On a mosaic the taps are
+/// two pixels apart and always of one colour.
+pub fn gradient_magnitude(img: ImageView<'_, f32>) -> Result<Image<f32>> {
+    use crate::features::gradient::{gradients_from_image, GradientSpec};
+    let g = gradients_from_image(&img, &GradientSpec::default())?;
+    Ok(g.magnitude().map(|v| v * MAGNITUDE_SCALE))
 }
 
 /// Per-pixel maximum over the three channels' gradient magnitudes (Dalal & Triggs' colour rule).
-pub fn colour_max_gradient_magnitude(rgb: ImageView<'_, [f32; 3]>) -> Image<f32> {
+pub fn colour_max_gradient_magnitude(rgb: ImageView<'_, [f32; 3]>) -> Result<Image<f32>> {
     let m: Vec<Image<f32>> = (0..3)
         .map(|c| gradient_magnitude(channel(rgb, c).view()))
-        .collect();
-    Image::from_fn(rgb.width(), rgb.height(), |x, y| {
+        .collect::<Result<_>>()?;
+    Ok(Image::from_fn(rgb.width(), rgb.height(), |x, y| {
         m[0].get(x, y).max(m[1].get(x, y)).max(m[2].get(x, y))
-    })
+    }))
 }
 
 /// Crops an image to even width and height (mosaic operations need whole 2x2 tiles).
@@ -472,7 +455,7 @@ mod tests {
     fn gradient_magnitude_hand_computed() {
         // Horizontal ramp of step 0.1: gx = 0.2 inside, ½ · 0.2 = 0.1; reflect-101 gives 0 at the border.
         let r = Image::from_fn(5, 3, |x, _| x as f32 * 0.1);
-        let m = gradient_magnitude(r.view());
+        let m = gradient_magnitude(r.view()).unwrap();
         assert!((m.get(2, 1) - 0.1).abs() < 1e-6);
         assert_eq!(m.get(0, 1), 0.0);
         assert_eq!(m.get(4, 1), 0.0);
@@ -485,7 +468,11 @@ mod tests {
         assert_eq!(m.get(0, 0), 0.2);
         assert_eq!(m.get(1, 0), 0.5);
         assert_eq!(m.get(1, 1), 0.7);
-        assert!(gradient_magnitude(m.view()).as_slice().iter().all(|&v| v == 0.0));
+        assert!(gradient_magnitude(m.view())
+            .unwrap()
+            .as_slice()
+            .iter()
+            .all(|&v| v == 0.0));
     }
 
     #[test]

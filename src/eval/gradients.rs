@@ -53,7 +53,10 @@ pub fn score_maps(reference: &Image<f32>, test: &Image<f32>) -> Result<MapScores
 pub fn kodak_scores(rgb: &Image<[f32; 3]>) -> Result<(MapScores, MapScores)> {
     let mosaic = mosaic_from_rgb(rgb.view(), Cfa::Rggb);
     let grey = grey_from_rgb(rgb.view());
-    let (g, m) = (gradient_magnitude(grey.view()), gradient_magnitude(mosaic.view()));
+    let (g, m) = (
+        gradient_magnitude(grey.view())?,
+        gradient_magnitude(mosaic.view())?,
+    );
     let unscale = |i: &Image<f32>| i.map(|v| v / MAGNITUDE_SCALE);
     Ok((score_maps(&g, &m)?, score_maps(&unscale(&g), &unscale(&m))?))
 }
@@ -72,8 +75,8 @@ pub fn raw_scores(input: &RawInput) -> Result<MapScores> {
     let rgb = linear_rgb_from_raw(&frame, &raw_profile(input), &opts)?.map(|p| p.map(|c| c.clamp(0.0, 1.0)));
     let grey = grey_from_rgb(rgb.view());
     score_maps(
-        &gradient_magnitude(grey.view()),
-        &gradient_magnitude(mosaic.view()),
+        &gradient_magnitude(grey.view())?,
+        &gradient_magnitude(mosaic.view())?,
     )
 }
 

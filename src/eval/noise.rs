@@ -107,9 +107,12 @@ pub fn image_scores(rgb: &Image<[f32; 3]>, seed: u64) -> Result<Vec<NoiseScores>
     let lin = rgb.map(|p| p.map(linear_from_srgb));
     let mosaic = mosaic_from_rgb(lin.view(), cfa);
     let grey = grey_from_rgb(lin.view());
-    let (mm, mg) = (gradient_magnitude(mosaic.view()), gradient_magnitude(grey.view()));
+    let (mm, mg) = (
+        gradient_magnitude(mosaic.view())?,
+        gradient_magnitude(grey.view())?,
+    );
     let clean_isp = grey_from_rgb(rgb_from_mosaic(mosaic.view(), cfa, DemosaicMethod::Bilinear)?.view());
-    let mi = gradient_magnitude(clean_isp.view());
+    let mi = gradient_magnitude(clean_isp.view())?;
     let (bm, bi) = (
         orientation_bins(mosaic.view()),
         orientation_bins(clean_isp.view()),
@@ -119,10 +122,10 @@ pub fn image_scores(rgb: &Image<[f32; 3]>, seed: u64) -> Result<Vec<NoiseScores>
         .map(|level| {
             let mut noisy = mosaic.clone();
             add_noise(&mut noisy, level.params(), seed)?;
-            let nm = gradient_magnitude(noisy.view());
+            let nm = gradient_magnitude(noisy.view())?;
             let isp_grey =
                 grey_from_rgb(rgb_from_mosaic(noisy.view(), cfa, DemosaicMethod::Bilinear)?.view());
-            let ni = gradient_magnitude(isp_grey.view());
+            let ni = gradient_magnitude(isp_grey.view())?;
             Ok(NoiseScores {
                 mosaic_vs_clean_mosaic: gmsd(mm.view(), nm.view(), PAPER_C)?,
                 mosaic_vs_clean_grey: gmsd(mg.view(), nm.view(), PAPER_C)?,

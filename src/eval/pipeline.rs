@@ -66,7 +66,7 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     blur_mosaic(mosaic.view(), &k, &mut blurred)?;
     let mut small = Image::new(0, 0);
     resize_mosaic(blurred.view(), nw, nh, &mut small)?;
-    let magnitude = gradient_magnitude(small.view());
+    let magnitude = gradient_magnitude(small.view())?;
     let time = t0.elapsed();
     // Peak: input + 4 planes + 4 blurred planes (inside blur_mosaic) + blurred mosaic being written.
     let full = plane_bytes(w, h);
@@ -74,7 +74,8 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     // Resize: input, blurred mosaic, 4 planes of it, 4 resized planes, resized mosaic.
     let small_b = plane_bytes(nw, nh);
     let resize_peak = full + full + full + small_b + small_b;
-    let grad_peak = full + small_b + small_b;
+    // Gradient: mosaic, blurred mosaic, resized mosaic, gx, gy, magnitude.
+    let grad_peak = full + full + small_b + 3 * small_b;
     Ok(PipelineRun {
         magnitude,
         time,
@@ -107,14 +108,15 @@ pub fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Resul
         ]
     });
     let grey = grey_from_rgb(small_rgb.view());
-    let magnitude = gradient_magnitude(grey.view());
+    let magnitude = gradient_magnitude(grey.view())?;
     let time = t0.elapsed();
     let full = plane_bytes(w, h);
     let small_b = plane_bytes(nw, nh);
     // Demosaic: mosaic + RGB (3 planes). Per channel: + 1 extracted + 1 blurred + resized planes so far.
     let demosaic_peak = full + 3 * full;
     let channel_peak = full + 3 * full + 2 * full + 3 * small_b;
-    let tail_peak = full + 3 * full + 3 * small_b + 3 * small_b + small_b + small_b;
+    // Tail: mosaic, RGB, resized planes, resized RGB, grey, gx, gy, magnitude.
+    let tail_peak = full + 3 * full + 3 * small_b + 3 * small_b + small_b + 3 * small_b;
     Ok(PipelineRun {
         magnitude,
         time,
@@ -190,7 +192,7 @@ pub fn run(opts: &EvalOptions) -> Result<Report> {
         tables: vec![t],
         plots: vec![],
         notes: vec![
-            "Time: wall clock summed over the images, one run, in this process, debug or release as built (use a release build for numbers worth quoting). Pipeline 2 blurs with the same σ in image pixels (1.6) as pipeline 1's 3x3 super-pixel kernel.".into(),
+            "Time: wall clock summed over the images, one run, in this process, debug or release as built (use a release build for numbers worth quoting; on a machine shared with other jobs the ratios move by tens of percent between runs). Pipeline 2 blurs with the same σ in image pixels (1.6) as pipeline 1's 3x3 super-pixel kernel.".into(),
             "Memory: peak bytes of the image buffers each pipeline holds (input, stage outputs, and the super-pixel planes), counted from their sizes — not an allocator measurement; allocator overhead and stack are ignored.".into(),
             "Paper numbers for Table VI were not available to this run ('see paper'); the paper measured its own implementation, so only the ratios are comparable.".into(),
         ],

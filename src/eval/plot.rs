@@ -156,6 +156,31 @@ impl Scale {
     }
 }
 
+/// Where the legend box goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Legend {
+    /// Top right (default).
+    #[default]
+    UpperRight,
+    /// Top left.
+    UpperLeft,
+    /// Bottom right.
+    LowerRight,
+    /// Bottom left.
+    LowerLeft,
+}
+
+impl Legend {
+    fn position(self) -> SeriesLabelPosition {
+        match self {
+            Legend::UpperRight => SeriesLabelPosition::UpperRight,
+            Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+            Legend::LowerRight => SeriesLabelPosition::LowerRight,
+            Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+        }
+    }
+}
+
 /// One named curve of a line plot.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Series {
@@ -204,6 +229,8 @@ pub struct LinePlot {
     pub markers: bool,
     /// Image size in pixels.
     pub size: (u32, u32),
+    /// Legend position.
+    pub legend: Legend,
     /// The curves.
     pub series: Vec<Series>,
 }
@@ -220,6 +247,7 @@ impl Default for LinePlot {
             y_range: None,
             markers: false,
             size: DEFAULT_SIZE,
+            legend: Legend::UpperRight,
             series: Vec::new(),
         }
     }
@@ -341,7 +369,7 @@ pub fn line_plot(plot: &LinePlot, path: &Path) -> Result<()> {
             .label_font((FAMILY, 14))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
+            .position(plot.legend.position())
             .draw()
             .map_err(|e| draw_err(path, e))?;
     }
@@ -374,6 +402,7 @@ impl Distribution {
 
 /// Overlaid, normalised histograms (fraction of each sample per bin) drawn as step lines on a
 /// common set of `bins` bins spanning all samples. Good for comparing several distributions.
+/// The legend goes top left (distributions of scores near 1 crowd the right).
 pub fn histogram_plot(
     title: &str,
     x_label: &str,
@@ -397,6 +426,7 @@ pub fn histogram_plot(
         title: title.to_string(),
         x_label: x_label.to_string(),
         y_label: "fraction".to_string(),
+        legend: Legend::UpperLeft,
         ..LinePlot::default()
     };
     for d in dists {
