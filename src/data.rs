@@ -1,7 +1,7 @@
 //! Locating the shared real data (`MOSAICD_DATA`, default `../shared/data`).
 //!
 //! Tests, benches and evaluation read the real data sets by path and never copy them into the
-//! repository. When the data is missing, [`data_dir`] returns an error that says where to put it,
+//! repository. When the data is missing, [`data_path`] returns an error that says where to put it,
 //! so a test that needs it fails loudly instead of passing silently.
 
 use std::path::{Path, PathBuf};

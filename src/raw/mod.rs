@@ -15,6 +15,11 @@ use std::path::PathBuf;
 
 pub use cfa::{Cfa, CfaChannel, Colour, ParseCfaError};
 pub use frame::{FrameMeta, Levels, RawFrame, RawPixels, RawView};
+pub use levels::{
+    f32_from_raw, normalise_into, u16_from_raw, Compression, Gains, NormaliseOptions, NormaliseSpec,
+};
+pub use load::{load_input, Container, Endian, InputOptions, LoadedInput, RawFormat};
+pub use sample::{frame_from_rgb8, mosaic_from_rgb};
 
 /// Errors from building, cropping, normalising and loading raw frames.
 #[derive(Debug, thiserror::Error)]
@@ -131,6 +136,12 @@ pub enum RawError {
         path: PathBuf,
         /// What is wrong (a fixed description plus the offending values).
         what: String,
+    },
+    /// Gains from the file were asked for but the frame has none.
+    #[error("white-balance gains from the file were requested but {origin:?} has none (use fixed, grey-world or auto gains)")]
+    NoFileGains {
+        /// The frame's source.
+        origin: String,
     },
     /// Invalid normalisation parameters.
     #[error("invalid normalisation parameter {name} = {value}: {why}")]

@@ -1,0 +1,128 @@
+//! The 4x4x8 SIFT descriptor (OpenCV `calcSIFTDescriptor`): gradients in a rotated grid of
+//! 4x4 cells around the keypoint, trilinear interpolation into 8 orientation bins, normalise,
+//! clip at 0.2, renormalise, scale by 512 and saturate to `u8` (OpenCV's stored values).
+
+use super::detect::{fast_atan2_deg, Candidate};
+use crate::image::Image;
+
+/// Cells per side of the descriptor grid (`SIFT_DESCR_WIDTH`).
+pub(crate) const SIFT_DESCR_WIDTH: usize = 4;
+/// Orientation bins per cell (`SIFT_DESCR_HIST_BINS`).
+pub(crate) const SIFT_DESCR_HIST_BINS: usize = 8;
+/// Cell width in keypoint scales (`SIFT_DESCR_SCL_FCTR`).
+const SIFT_DESCR_SCL_FCTR: f32 = 3.0;
+/// Clip threshold on the normalised histogram (`SIFT_DESCR_MAG_THR`).
+const SIFT_DESCR_MAG_THR: f32 = 0.2;
+/// Scale from the unit vector to the stored integer range (`SIFT_INT_DESCR_FCTR`).
+const SIFT_INT_DESCR_FCTR: f32 = 512.0;
+/// Descriptor length: 4 x 4 cells x 8 bins.
+pub const DESCRIPTOR_LEN: usize = SIFT_DESCR_WIDTH * SIFT_DESCR_WIDTH * SIFT_DESCR_HIST_BINS;
+
+/// Compute the descriptor of one candidate from its Gaussian layer `img`; same-colour gradient
+/// taps are `s` pixels apart.
+pub(crate) fn descriptor(img: &Image<f32>, cand: &Candidate, s: usize) -> [u8; DESCRIPTOR_LEN] {
+    let d = SIFT_DESCR_WIDTH;
+    let n = SIFT_DESCR_HIST_BINS;
+    let ptx = cand.ox.round() as i64;
+    let pty = cand.oy.round() as i64;
+    let mut ori = 360.0 - cand.kp.angle;
+    if (ori - 360.0).abs() < f32::EPSILON {
+        ori = 0.0;
+    }
+    let rad = ori * (std::f32::consts::PI / 180.0);
+    let (mut sin_t, mut cos_t) = rad.sin_cos();
+    let bins_per_rad = n as f32 / 360.0;
+    let exp_scale = -1.0 / (d as f32 * d as f32 * 0.5);
+    let hist_width = SIFT_DESCR_SCL_FCTR * cand.scl;
+    let (cols, rows) = (img.width() as i64, img.height() as i64);
+    let diag = ((cols * cols + rows * rows) as f64).sqrt() as i64;
+    let radius = ((hist_width * std::f32::consts::SQRT_2 * (d as f32 + 1.0) * 0.5).round() as i64).min(diag);
+    cos_t /= hist_width;
+    sin_t /= hist_width;
+    let si = s as i64;
+    let mut hist = vec![0.0f32; (d + 2) * (d + 2) * (n + 2)];
+    for i in -radius..=radius {
+        for j in -radius..=radius {
+            let c_rot = j as f32 * cos_t - i as f32 * sin_t;
+            let r_rot = j as f32 * sin_t + i as f32 * cos_t;
+            let rbin = r_rot + (d / 2) as f32 - 0.5;
+            let cbin = c_rot + (d / 2) as f32 - 0.5;
+            let r = pty + i;
+            let c = ptx + j;
+            if rbin > -1.0
+                && rbin < d as f32
+                && cbin > -1.0
+                && cbin < d as f32
+                && r >= si
+                && r < rows - si
+                && c >= si
+                && c < cols - si
+            {
+                let (cu, ru) = (c as usize, r as usize);
+                let dx = img.get(cu + s, ru) - img.get(cu - s, ru);
+                let dy = img.get(cu, ru - s) - img.get(cu, ru + s);
+                let w = ((c_rot * c_rot + r_rot * r_rot) * exp_scale).exp();
+                let o = fast_atan2_deg(dy, dx);
+                let mag = (dx * dx + dy * dy).sqrt() * w;
+                let mut obin = (o - ori) * bins_per_rad;
+                let r0 = rbin.floor();
+                let c0 = cbin.floor();
+                let o0f = obin.floor();
+                let (rb, cb) = (rbin - r0, cbin - c0);
+                obin -= o0f;
+                let mut o0 = o0f as i64;
+                if o0 < 0 {
+                    o0 += n as i64;
+                }
+                if o0 >= n as i64 {
+                    o0 -= n as i64;
+                }
+                let v_r1 = mag * rb;
+                let v_r0 = mag - v_r1;
+                let v_rc11 = v_r1 * cb;
+                let v_rc10 = v_r1 - v_rc11;
+                let v_rc01 = v_r0 * cb;
+                let v_rc00 = v_r0 - v_rc01;
+                let v_rco111 = v_rc11 * obin;
+                let v_rco110 = v_rc11 - v_rco111;
+                let v_rco101 = v_rc10 * obin;
+                let v_rco100 = v_rc10 - v_rco101;
+                let v_rco011 = v_rc01 * obin;
+                let v_rco010 = v_rc01 - v_rco011;
+                let v_rco001 = v_rc00 * obin;
+                let v_rco000 = v_rc00 - v_rco001;
+                let idx = (((r0 as i64 + 1) * (d as i64 + 2) + c0 as i64 + 1) * (n as i64 + 2) + o0) as usize;
+                hist[idx] += v_rco000;
+                hist[idx + 1] += v_rco001;
+                hist[idx + (n + 2)] += v_rco010;
+                hist[idx + (n + 3)] += v_rco011;
+                hist[idx + (d + 2) * (n + 2)] += v_rco100;
+                hist[idx + (d + 2) * (n + 2) + 1] += v_rco101;
+                hist[idx + (d + 3) * (n + 2)] += v_rco110;
+                hist[idx + (d + 3) * (n + 2) + 1] += v_rco111;
+            }
+        }
+    }
+    let mut raw = [0.0f32; DESCRIPTOR_LEN];
+    for i in 0..d {
+        for j in 0..d {
+            let idx = ((i + 1) * (d + 2) + (j + 1)) * (n + 2);
+            hist[idx] += hist[idx + n];
+            hist[idx + 1] += hist[idx + n + 1];
+            raw[(i * d + j) * n..(i * d + j + 1) * n].copy_from_slice(&hist[idx..idx + n]);
+        }
+    }
+    let nrm2: f32 = raw.iter().map(|v| v * v).sum();
+    let thr = nrm2.sqrt() * SIFT_DESCR_MAG_THR;
+    let mut nrm2 = 0.0f32;
+    for v in raw.iter_mut() {
+        *v = v.min(thr);
+        nrm2 += *v * *v;
+    }
+    let scale = SIFT_INT_DESCR_FCTR / nrm2.sqrt().max(f32::EPSILON);
+    let mut out = [0u8; DESCRIPTOR_LEN];
+    for (o, v) in out.iter_mut().zip(raw) {
+        *o = (v * scale).round().clamp(0.0, 255.0) as u8;
+    }
+    out
+}

@@ -1,0 +1,590 @@
+//! Gaussian and DoG pyramids, scale-space extrema, sub-pixel refinement and orientation
+//! assignment (OpenCV `sift.dispatch.cpp` / `sift.simd.hpp` semantics, generalised to a
+//! same-colour step of 1 (grey) or 2 (mosaic)).
+
+use rayon::prelude::*;
+
+use super::scale_space::{blur_step, downsample2_step, upsample2_step};
+use super::{Keypoint, SiftSpec};
+use crate::features::superpixel::SuperPixelError;
+use crate::image::Image;
+
+/// Width of the border (in octave pixels) in which no extremum is searched (`SIFT_IMG_BORDER`).
+pub(crate) const SIFT_IMG_BORDER: usize = 5;
+/// Maximum refinement steps before an extremum is dropped (`SIFT_MAX_INTERP_STEPS`).
+const SIFT_MAX_INTERP_STEPS: usize = 5;
+/// Orientation histogram bins (`SIFT_ORI_HIST_BINS`).
+pub(crate) const SIFT_ORI_HIST_BINS: usize = 36;
+/// Gaussian sigma of the orientation window, in keypoint scales (`SIFT_ORI_SIG_FCTR`).
+const SIFT_ORI_SIG_FCTR: f32 = 1.5;
+/// Radius of the orientation window, in keypoint scales (`SIFT_ORI_RADIUS = 3 * 1.5`).
+const SIFT_ORI_RADIUS: f32 = 3.0 * SIFT_ORI_SIG_FCTR;
+/// Secondary orientation peaks at least this fraction of the highest make new keypoints.
+const SIFT_ORI_PEAK_RATIO: f32 = 0.8;
+/// Blur assumed already present in the input image, in input pixels (`SIFT_INIT_SIGMA`).
+pub(crate) const SIFT_INIT_SIGMA: f64 = 0.5;
+/// Intensity range the thresholds are expressed in (OpenCV works on 8-bit data).
+pub(crate) const INTENSITY_RANGE: f32 = 255.0;
+
+/// The Gaussian and difference-of-Gaussian pyramids of one image.
+pub(crate) struct Pyramid {
+    /// `gauss[o][i]`, `i` in `0..n_octave_layers + 3`.
+    pub gauss: Vec<Vec<Image<f32>>>,
+    /// `dog[o][i] = gauss[o][i + 1] - gauss[o][i]`, `i` in `0..n_octave_layers + 2`.
+    pub dog: Vec<Vec<Image<f32>>>,
+}
+
+/// A keypoint together with where it lives in the pyramid (needed by the descriptor).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Candidate {
+    /// The public keypoint (input-pixel coordinates).
+    pub kp: Keypoint,
+    /// Pyramid octave index (0 = the base, which is the doubled image when `double_image`).
+    pub o: usize,
+    /// Layer inside the octave (1..=n_octave_layers).
+    pub layer: usize,
+    /// Position in octave pixels.
+    pub ox: f32,
+    /// Position in octave pixels.
+    pub oy: f32,
+    /// Scale in octave pixels (sigma of the keypoint; OpenCV's `size * 0.5` at that octave).
+    pub scl: f32,
+}
+
+/// Per-layer blur increments in input pixels: `sig[0] = sigma`, `sig[i]` takes layer `i - 1`
+/// to total sigma `sigma * k^i`, `k = 2^(1/n_octave_layers)`.
+fn layer_sigmas(spec: &SiftSpec) -> Vec<f64> {
+    let n = spec.n_octave_layers;
+    let k = 2f64.powf(1.0 / n as f64);
+    let mut sig = vec![spec.sigma_px(); n + 3];
+    for (i, s) in sig.iter_mut().enumerate().skip(1) {
+        let prev = k.powi(i as i32 - 1) * spec.sigma_px();
+        let total = prev * k;
+        *s = (total * total - prev * prev).sqrt();
+    }
+    sig
+}
+
+/// Number of octaves as OpenCV: `round(log2(min(base w, h)) - 2)` (base already doubled when
+/// `double_image`, which adds the `-firstOctave = 1`), capped so every octave keeps at least
+/// one same-colour sample per axis.
+fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
+    let m = base_w.min(base_h).max(1) as f64;
+    let first = if spec.double_image { 1.0 } else { 0.0 };
+    let want = ((m.log2() - 2.0).round() + first).max(1.0) as usize;
+    let step = spec.step();
+    let mut n = 1;
+    let (mut w, mut h) = (base_w, base_h);
+    while n < want {
+        let (nw, nh) = (step * ((w / step) / 2), step * ((h / step) / 2));
+        if nw < step || nh < step {
+            break;
+        }
+        w = nw;
+        h = nh;
+        n += 1;
+    }
+    n
+}
+
+/// Build the Gaussian and DoG pyramids. `src` is already scaled to the 0..255 range.
+pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, SuperPixelError> {
+    let step = spec.step();
+    let st = step as f64;
+    let init = if spec.double_image {
+        upsample2_step(src, step)?
+    } else {
+        src.clone()
+    };
+    // The doubled image carries twice the input blur (SIFT_INIT_SIGMA * 2 in its pixels).
+    let init_sigma = if spec.double_image {
+        2.0 * SIFT_INIT_SIGMA
+    } else {
+        SIFT_INIT_SIGMA
+    };
+    let init_sigma = init_sigma * spec.unit();
+    let sig_diff = (spec.sigma_px() * spec.sigma_px() - init_sigma * init_sigma)
+        .max(0.01)
+        .sqrt();
+    let mut base = Image::new(0, 0);
+    blur_step(&init, sig_diff / st, step, &mut base)?;
+    let n_oct = octave_count(base.width(), base.height(), spec);
+    let sig = layer_sigmas(spec);
+    let nl = spec.n_octave_layers;
+    let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
+    for o in 0..n_oct {
+        let mut layers = Vec::with_capacity(nl + 3);
+        layers.push(if o == 0 {
+            std::mem::take(&mut base)
+        } else {
+            downsample2_step(&gauss[o - 1][nl], step)?
+        });
+        for s in sig.iter().skip(1) {
+            let mut dst = Image::new(0, 0);
+            blur_step(layers.last().expect("layer 0 exists"), s / st, step, &mut dst)?;
+            layers.push(dst);
+        }
+        gauss.push(layers);
+    }
+    let dog = gauss
+        .iter()
+        .map(|layers| {
+            (0..nl + 2)
+                .into_par_iter()
+                .map(|i| {
+                    let (a, b) = (&layers[i], &layers[i + 1]);
+                    let data = a
+                        .as_slice()
+                        .iter()
+                        .zip(b.as_slice())
+                        .map(|(x, y)| y - x)
+                        .collect();
+                    Image::from_vec(a.width(), a.height(), data).expect("same size")
+                })
+                .collect()
+        })
+        .collect();
+    Ok(Pyramid { gauss, dog })
+}
+
+/// Is `val` at (x, y) of `cur` an extremum over the `(2 reach + 1)^2 x 3` neighbourhood
+/// (non-strict, as OpenCV)?
+#[inline]
+fn is_extremum(
+    prev: &Image<f32>,
+    cur: &Image<f32>,
+    next: &Image<f32>,
+    x: usize,
+    y: usize,
+    reach: usize,
+) -> bool {
+    let val = cur.get(x, y);
+    let w = cur.width();
+    let (x0, x1) = (x - reach, x + reach);
+    if val > 0.0 {
+        for yy in y - reach..=y + reach {
+            let off = yy * w;
+            for img in [prev, cur, next] {
+                let row = &img.as_slice()[off + x0..=off + x1];
+                if row.iter().any(|&v| val < v) {
+                    return false;
+                }
+            }
+        }
+        true
+    } else if val < 0.0 {
+        for yy in y - reach..=y + reach {
+            let off = yy * w;
+            for img in [prev, cur, next] {
+                let row = &img.as_slice()[off + x0..=off + x1];
+                if row.iter().any(|&v| val > v) {
+                    return false;
+                }
+            }
+        }
+        true
+    } else {
+        false
+    }
+}
+
+/// Solve the 3x3 system `h x = b` by LU without pivoting, as OpenCV's `solve_LU`.
+fn solve_lu(h: [[f32; 3]; 3], b: [f32; 3]) -> [f32; 3] {
+    let (u00, u01, u02) = (h[0][0], h[0][1], h[0][2]);
+    let l10 = h[1][0] / u00;
+    let l20 = h[2][0] / u00;
+    let u11 = h[1][1] - l10 * u01;
+    let u12 = h[1][2] - l10 * u02;
+    let l21 = (h[2][1] - l20 * u01) / u11;
+    let u22 = (h[2][2] - l20 * u02) - l21 * u12;
+    let v0 = b[0];
+    let v1 = b[1] - l10 * v0;
+    let v2 = b[2] - l20 * v0 - l21 * v1;
+    let x2 = v2 / u22;
+    let x1 = (v1 - x2 * u12) / u11;
+    let x0 = (v0 - x2 * u02 - x1 * u01) / u00;
+    [x0, x1, x2]
+}
+
+/// Result of refining one extremum: position (octave pixels, integer), layer and offsets.
+struct Refined {
+    r: usize,
+    c: usize,
+    layer: usize,
+    xr: f32,
+    xc: f32,
+    xi: f32,
+    contr: f32,
+}
+
+/// Lowe's quadratic refinement (OpenCV `adjustLocalExtrema`) with same-colour finite differences
+/// `s` pixels apart; offsets are in plane units (one plane unit = `s` octave pixels).
+fn adjust_local_extrema(
+    dog: &[Image<f32>],
+    spec: &SiftSpec,
+    mut layer: usize,
+    mut r: usize,
+    mut c: usize,
+) -> Option<Refined> {
+    let s = spec.step();
+    let img_scale = 1.0 / INTENSITY_RANGE;
+    let deriv_scale = img_scale * 0.5;
+    let second_deriv_scale = img_scale;
+    let cross_deriv_scale = img_scale * 0.25;
+    let nl = spec.n_octave_layers;
+    let (cols, rows) = dog[0].dimensions();
+    let (mut xi, mut xr, mut xc) = (0.0f32, 0.0f32, 0.0f32);
+    let mut converged = false;
+    for _ in 0..SIFT_MAX_INTERP_STEPS {
+        let (img, prev, next) = (&dog[layer], &dog[layer - 1], &dog[layer + 1]);
+        let at = |m: &Image<f32>, y: usize, x: usize| m.get(x, y);
+        let d_d = [
+            (at(img, r, c + s) - at(img, r, c - s)) * deriv_scale,
+            (at(img, r + s, c) - at(img, r - s, c)) * deriv_scale,
+            (at(next, r, c) - at(prev, r, c)) * deriv_scale,
+        ];
+        let v2 = at(img, r, c) * 2.0;
+        let dxx = (at(img, r, c + s) + at(img, r, c - s) - v2) * second_deriv_scale;
+        let dyy = (at(img, r + s, c) + at(img, r - s, c) - v2) * second_deriv_scale;
+        let dss = (at(next, r, c) + at(prev, r, c) - v2) * second_deriv_scale;
+        let dxy = (at(img, r + s, c + s) - at(img, r + s, c - s) - at(img, r - s, c + s)
+            + at(img, r - s, c - s))
+            * cross_deriv_scale;
+        let dxs = (at(next, r, c + s) - at(next, r, c - s) - at(prev, r, c + s) + at(prev, r, c - s))
+            * cross_deriv_scale;
+        let dys = (at(next, r + s, c) - at(next, r - s, c) - at(prev, r + s, c) + at(prev, r - s, c))
+            * cross_deriv_scale;
+        let x = solve_lu([[dxx, dxy, dxs], [dxy, dyy, dys], [dxs, dys, dss]], d_d);
+        xi = -x[2];
+        xr = -x[1];
+        xc = -x[0];
+        if !(xi.is_finite() && xr.is_finite() && xc.is_finite()) {
+            return None;
+        }
+        if xi.abs() < 0.5 && xr.abs() < 0.5 && xc.abs() < 0.5 {
+            converged = true;
+            break;
+        }
+        if xi.abs() > (i32::MAX / 3) as f32
+            || xr.abs() > (i32::MAX / 3) as f32
+            || xc.abs() > (i32::MAX / 3) as f32
+        {
+            return None;
+        }
+        let nc = c as i64 + s as i64 * xc.round() as i64;
+        let nr = r as i64 + s as i64 * xr.round() as i64;
+        let nlayer = layer as i64 + xi.round() as i64;
+        let b = SIFT_IMG_BORDER as i64;
+        if nlayer < 1
+            || nlayer > nl as i64
+            || nc < b
+            || nc >= cols as i64 - b
+            || nr < b
+            || nr >= rows as i64 - b
+        {
+            return None;
+        }
+        c = nc as usize;
+        r = nr as usize;
+        layer = nlayer as usize;
+    }
+    if !converged {
+        return None;
+    }
+    let (img, prev, next) = (&dog[layer], &dog[layer - 1], &dog[layer + 1]);
+    let at = |m: &Image<f32>, y: usize, x: usize| m.get(x, y);
+    let d_d = [
+        (at(img, r, c + s) - at(img, r, c - s)) * deriv_scale,
+        (at(img, r + s, c) - at(img, r - s, c)) * deriv_scale,
+        (at(next, r, c) - at(prev, r, c)) * deriv_scale,
+    ];
+    let t = d_d[0] * xc + d_d[1] * xr + d_d[2] * xi;
+    let contr = at(img, r, c) * img_scale + t * 0.5;
+    if contr.abs() * (nl as f32) < spec.contrast_threshold as f32 {
+        return None;
+    }
+    let v2 = at(img, r, c) * 2.0;
+    let dxx = (at(img, r, c + s) + at(img, r, c - s) - v2) * second_deriv_scale;
+    let dyy = (at(img, r + s, c) + at(img, r - s, c) - v2) * second_deriv_scale;
+    let dxy = (at(img, r + s, c + s) - at(img, r + s, c - s) - at(img, r - s, c + s) + at(img, r - s, c - s))
+        * cross_deriv_scale;
+    let tr = dxx + dyy;
+    let det = dxx * dyy - dxy * dxy;
+    let e = spec.edge_threshold as f32;
+    if det <= 0.0 || tr * tr * e >= (e + 1.0) * (e + 1.0) * det {
+        return None;
+    }
+    Some(Refined {
+        r,
+        c,
+        layer,
+        xr,
+        xc,
+        xi,
+        contr,
+    })
+}
+
+/// Smoothed 36-bin gradient-orientation histogram around (x, y) of `img` (OpenCV
+/// `calcOrientationHist`); gradients use same-colour taps `s` pixels apart. Returns the maximum.
+fn orientation_hist(
+    img: &Image<f32>,
+    x: usize,
+    y: usize,
+    radius: i64,
+    sigma: f32,
+    s: usize,
+    hist: &mut [f32; SIFT_ORI_HIST_BINS],
+) -> f32 {
+    let n = SIFT_ORI_HIST_BINS;
+    let expf_scale = -1.0 / (2.0 * sigma * sigma);
+    let mut temp = [0.0f32; SIFT_ORI_HIST_BINS + 4];
+    let (cols, rows) = (img.width() as i64, img.height() as i64);
+    let si = s as i64;
+    for i in -radius..=radius {
+        let yy = y as i64 + i;
+        if yy < si || yy >= rows - si {
+            continue;
+        }
+        for j in -radius..=radius {
+            let xx = x as i64 + j;
+            if xx < si || xx >= cols - si {
+                continue;
+            }
+            let (xu, yu) = (xx as usize, yy as usize);
+            let dx = img.get(xu + s, yu) - img.get(xu - s, yu);
+            let dy = img.get(xu, yu - s) - img.get(xu, yu + s);
+            let w = ((i * i + j * j) as f32 * expf_scale).exp();
+            let ori = fast_atan2_deg(dy, dx);
+            let mag = (dx * dx + dy * dy).sqrt();
+            let mut bin = ((n as f32 / 360.0) * ori).round() as i64;
+            if bin >= n as i64 {
+                bin -= n as i64;
+            }
+            if bin < 0 {
+                bin += n as i64;
+            }
+            temp[2 + bin as usize] += w * mag;
+        }
+    }
+    temp[1] = temp[n + 1];
+    temp[0] = temp[n];
+    temp[n + 2] = temp[2];
+    temp[n + 3] = temp[3];
+    let mut maxval = 0.0f32;
+    for i in 0..n {
+        hist[i] = (temp[i] + temp[i + 4]) * (1.0 / 16.0)
+            + (temp[i + 1] + temp[i + 3]) * (4.0 / 16.0)
+            + temp[i + 2] * (6.0 / 16.0);
+        if i == 0 || hist[i] > maxval {
+            maxval = hist[i];
+        }
+    }
+    maxval
+}
+
+/// `atan2(y, x)` in degrees in `[0, 360)`, as OpenCV's `fastAtan2` range.
+#[inline]
+pub(crate) fn fast_atan2_deg(y: f32, x: f32) -> f32 {
+    let a = y.atan2(x).to_degrees();
+    if a < 0.0 {
+        a + 360.0
+    } else if a >= 360.0 {
+        a - 360.0
+    } else {
+        a
+    }
+}
+
+/// Map a refined octave position to input-image coordinates.
+///
+/// For `step = 1` this is OpenCV's `(c + xc) * 2^o`, halved when the image was doubled. For the
+/// mosaic the keypoint lives on the colour plane of the pixel it was found at (phase `p`): plane
+/// coordinate `u = (c - p) / 2 + xc` at octave `o` is `u * 2^o` at the pyramid base, undone from
+/// the x2 plane upsampling when doubled (`(u + 0.5) / 2 - 0.5`), then `2 u + p` in the mosaic.
+fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
+    let scale = (1u64 << o) as f32;
+    if spec.step() == 1 {
+        let v = (c as f32 + xc) * scale;
+        if spec.double_image {
+            v * 0.5
+        } else {
+            v
+        }
+    } else {
+        let p = c % 2;
+        let mut u = ((c - p) / 2) as f32 + xc;
+        u *= scale;
+        if spec.double_image {
+            u = (u + 0.5) * 0.5 - 0.5;
+        }
+        2.0 * u + p as f32
+    }
+}
+
+/// Rows of DoG handed to one rayon task while searching extrema.
+const EXTREMA_ROW_STRIP: usize = 8;
+
+/// Find, refine and orient the scale-space extrema of every octave and layer. Output order is the
+/// pyramid's scan order (octave, layer, row, column, orientation peak) for any thread count.
+pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Candidate> {
+    let nl = spec.n_octave_layers;
+    let s = spec.step();
+    let reach = s;
+    let threshold = (0.5 * spec.contrast_threshold / nl as f64 * INTENSITY_RANGE as f64) as f32;
+    let mut out = Vec::new();
+    for (o, dog) in pyr.dog.iter().enumerate() {
+        let (cols, rows) = dog[0].dimensions();
+        if cols <= 2 * SIFT_IMG_BORDER || rows <= 2 * SIFT_IMG_BORDER {
+            continue;
+        }
+        for i in 1..=nl {
+            let rows_range: Vec<usize> = (SIFT_IMG_BORDER..rows - SIFT_IMG_BORDER).collect();
+            let found: Vec<Vec<Candidate>> = rows_range
+                .par_chunks(EXTREMA_ROW_STRIP)
+                .map(|strip| {
+                    let mut v = Vec::new();
+                    let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
+                    for &r in strip {
+                        let cur = &dog[i];
+                        let row = cur.row(r);
+                        for (c, &val) in row
+                            .iter()
+                            .enumerate()
+                            .take(cols - SIFT_IMG_BORDER)
+                            .skip(SIFT_IMG_BORDER)
+                        {
+                            if val.abs() <= threshold
+                                || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach)
+                            {
+                                continue;
+                            }
+                            let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {
+                                continue;
+                            };
+                            orient(pyr, spec, o, &rf, &mut hist, &mut v);
+                        }
+                    }
+                    v
+                })
+                .collect();
+            out.extend(found.into_iter().flatten());
+        }
+    }
+    out
+}
+
+/// Orientation assignment for one refined extremum: one candidate per histogram peak.
+fn orient(
+    pyr: &Pyramid,
+    spec: &SiftSpec,
+    o: usize,
+    rf: &Refined,
+    hist: &mut [f32; SIFT_ORI_HIST_BINS],
+    out: &mut Vec<Candidate>,
+) {
+    let nl = spec.n_octave_layers as f32;
+    let s = spec.step();
+    let n = SIFT_ORI_HIST_BINS;
+    // Keypoint sigma in octave pixels.
+    let scl_octv = spec.sigma_px() as f32 * 2f32.powf((rf.layer as f32 + rf.xi) / nl);
+    let omax = orientation_hist(
+        &pyr.gauss[o][rf.layer],
+        rf.c,
+        rf.r,
+        (SIFT_ORI_RADIUS * scl_octv).round() as i64,
+        SIFT_ORI_SIG_FCTR * scl_octv,
+        s,
+        hist,
+    );
+    let mag_thr = omax * SIFT_ORI_PEAK_RATIO;
+    let octave_scale = (1u64 << o) as f32;
+    let doubled = if spec.double_image { 0.5 } else { 1.0 };
+    let x = to_input(rf.c, rf.xc, o, spec);
+    let y = to_input(rf.r, rf.xr, o, spec);
+    let size = scl_octv * 2.0 * octave_scale * doubled;
+    let octave = o as i32 - i32::from(spec.double_image);
+    for j in 0..n {
+        let l = if j > 0 { j - 1 } else { n - 1 };
+        let r2 = if j < n - 1 { j + 1 } else { 0 };
+        if hist[j] > hist[l] && hist[j] > hist[r2] && hist[j] >= mag_thr {
+            let mut bin = j as f32 + 0.5 * (hist[l] - hist[r2]) / (hist[l] - 2.0 * hist[j] + hist[r2]);
+            if bin < 0.0 {
+                bin += n as f32;
+            } else if bin >= n as f32 {
+                bin -= n as f32;
+            }
+            let mut angle = 360.0 - (360.0 / n as f32) * bin;
+            if (angle - 360.0).abs() < f32::EPSILON {
+                angle = 0.0;
+            }
+            // Octave-pixel position of the refined extremum (mosaic offsets are in plane units).
+            let ox = rf.c as f32 + s as f32 * rf.xc;
+            let oy = rf.r as f32 + s as f32 * rf.xr;
+            out.push(Candidate {
+                kp: Keypoint {
+                    x,
+                    y,
+                    size,
+                    angle,
+                    response: rf.contr.abs(),
+                    octave,
+                    layer: rf.layer as u32,
+                },
+                o,
+                layer: rf.layer,
+                ox,
+                oy,
+                scl: scl_octv,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solve_lu_by_hand() {
+        let x = solve_lu(
+            [[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 4.0]],
+            [3.0, 5.0, 5.0],
+        );
+        for v in x {
+            assert!((v - 1.0).abs() < 1e-5, "{x:?}");
+        }
+    }
+
+    #[test]
+    fn atan_range() {
+        assert!((fast_atan2_deg(1.0, 0.0) - 90.0).abs() < 1e-4);
+        assert!((fast_atan2_deg(-1.0, 0.0) - 270.0).abs() < 1e-4);
+        assert!((fast_atan2_deg(0.0, -1.0) - 180.0).abs() < 1e-4);
+        assert_eq!(fast_atan2_deg(0.0, 1.0), 0.0);
+    }
+
+    #[test]
+    fn layer_sigmas_compose_to_the_next_layer() {
+        let spec = SiftSpec::grey();
+        let sig = layer_sigmas(&spec);
+        let k = 2f64.powf(1.0 / 3.0);
+        let mut total = sig[0];
+        for (i, s) in sig.iter().enumerate().skip(1) {
+            total = (total * total + s * s).sqrt();
+            assert!((total - 1.6 * k.powi(i as i32)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn mosaic_coordinates_map_back_to_the_phase() {
+        let spec = SiftSpec::mosaic();
+        // Pixel 9 (plane index 4, phase 1) at octave 1 sits at plane 8 of the base: mosaic 17.
+        assert_eq!(to_input(9, 0.0, 1, &spec), 17.0);
+        assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
+        // Doubled planes: plane index 8 of the doubled plane is plane coordinate 3.75 originally.
+        let spec = SiftSpec::mosaic().with_double_image(true);
+        assert_eq!(to_input(16, 0.0, 0, &spec), 7.5);
+        assert_eq!(to_input(17, 0.0, 0, &spec), 8.5);
+    }
+}

@@ -1,0 +1,529 @@
+//! SIFT keypoints and descriptors on a grey image or **directly on a Bayer mosaic**.
+//!
+//! # Overview
+//! Two variants share one implementation, parameterised by the distance between same-colour
+//! samples (`step`):
+//! - **Grey SIFT** ([`Domain::Grey`], `step = 1`) follows OpenCV's `SIFT_create()` defaults:
+//!   the image is doubled (`firstOctave = -1`, assumed input blur `SIFT_INIT_SIGMA = 0.5`),
+//!   3 layers per octave, `sigma = 1.6`, DoG extrema in 3x3x3, Lowe's quadratic refinement
+//!   (5 iterations), contrast threshold `0.04 / 3` and edge threshold 10, a smoothed 36-bin
+//!   orientation histogram with every peak >= 80 % of the maximum (parabolic interpolation) and the
+//!   4x4x8 descriptor with trilinear interpolation, normalised, clipped at 0.2, renormalised,
+//!   scaled by 512 and saturated to `u8` (OpenCV's stored values, also what its float descriptor
+//!   holds).
+//! - **Mosaic SIFT** ([`Domain::Mosaic`], `step = 2`, the paper's §III-B): the Gaussian pyramid
+//!   is built on the 2x2 super-pixel structure: each colour plane (R, G1, G2, B) is blurred with
+//!   the mosaic sigma halved (one plane pixel = two mosaic pixels) and the octave step keeps every
+//!   other super-pixel, so every level is still a mosaic of the same pattern. The DoG is taken on
+//!   the mosaic, extrema are searched in a **5x5** (space) x 3 (scale) neighbourhood, refinement
+//!   and the edge test use same-colour differences two pixels apart, and orientation and descriptor
+//!   use the mosaic gradient `I(x+2) - I(x-2)` (the `[-1, 0, 1]` operator on same-colour taps).
+//!   Keypoints come back in full-resolution mosaic pixel coordinates. Sigmas are in super-pixel
+//!   units by default ([`SiftOptions::sigma_in_super_pixels`]): each colour plane is blurred
+//!   exactly as grey SIFT blurs an image of the plane's size (sigma 1.6 plane pixels = 3.2 mosaic
+//!   pixels at the first layer, or 1.6 mosaic pixels once the planes are doubled). With sigmas in
+//!   mosaic pixels the finest layers are under-sampled on the half-resolution planes and the
+//!   four planes' aliasing produces many unstable extrema (measured in `docs/sift.md`).
+//!
+//! Thresholds are defined on OpenCV's 8-bit range: input of any range is scaled by
+//! `255 / max_value` first, so `contrastThreshold` means the same on u8, u16 (any bit depth) and
+//! f32 data. The output is sorted by a total order (x, y, size, angle, response) with exact
+//! duplicates removed, so it is identical for any thread count.
+//!
+//! ```
+//! use mosaicd::features::sift::{detect_and_compute, SiftOptions};
+//! use mosaicd::image::Image;
+//! // A bright disc on a dark background gives a blob keypoint near its centre.
+//! let img = Image::from_fn(64, 64, |x, y| {
+//!     let d2 = (x as f32 - 32.0).powi(2) + (y as f32 - 30.0).powi(2);
+//!     if d2 < 36.0 { 200u8 } else { 20u8 }
+//! });
+//! let spec = SiftOptions::grey().build().unwrap();
+//! let f = detect_and_compute(img.view(), &spec).unwrap();
+//! assert_eq!(f.keypoints.len(), f.descriptors.len());
+//! assert!(f.keypoints.iter().any(|k| (k.x - 32.0).abs() < 1.5 && (k.y - 30.0).abs() < 1.5));
+//! ```
+//!
+//! # The math
+//! `L(x, y, sigma) = G(sigma) * I`, `D = L(k sigma) - L(sigma)` with `k = 2^(1/3)`; an extremum
+//! `x0` of `D` is refined by `x^ = -H^-1 grad D` (3x3 Hessian in x, y, scale), kept if
+//! `|D(x^)| * 3 >= 0.04` (values in [0, 1]) and `tr(H)^2 / det(H) < (r + 1)^2 / r`, `r = 10`.
+//! For the mosaic, derivatives use taps `s = 2` apart and offsets are in plane units.
+//!
+//! # Deviations
+//! - Float pyramid; OpenCV >= 4.8 stores it as 16-bit fixed point (`value * 256`) and uses a
+//!   polynomial `atan2`, so a few near-threshold keypoints differ (see `docs/sift.md` for the
+//!   measured agreement).
+//! - Keypoints are sorted by (x, y, size, angle, response) and deduplicated on (x, y, size,
+//!   angle), like OpenCV's `removeDuplicatedSorted`; `nfeatures` (retain best) is not offered.
+//! - Mosaic SIFT: the neighbourhood compares all 74 neighbours of the 5x5x3 block (the paper's
+//!   5x5), including other colours, which is sound because the DoG is band-pass and colour
+//!   differences vary slowly.
+//!
+//! # References
+//! D. G. Lowe, "Distinctive image features from scale-invariant keypoints", IJCV 2004.
+//! OpenCV `modules/features2d/src/sift.dispatch.cpp` and `sift.simd.hpp` (constants and
+//! semantics). Zhou, Zhang, Gao, Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
+//! Images", §III-B and §IV-B.5.
+
+mod descriptor;
+mod detect;
+pub mod matching;
+mod scale_space;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+pub use descriptor::DESCRIPTOR_LEN;
+
+use crate::image::{Image, ImageView};
+use crate::raw::{RawFrame, RawView};
+
+/// Smallest accepted width or height, in input pixels.
+pub const MIN_SIZE: usize = 16;
+
+/// Errors from building a SIFT spec or running SIFT.
+#[derive(Debug, Error)]
+pub enum SiftError {
+    /// The image is smaller than [`MIN_SIZE`] in some dimension.
+    #[error("image {width}x{height} is too small for SIFT (needs at least {min}x{min})")]
+    TooSmall {
+        /// Image width.
+        width: usize,
+        /// Image height.
+        height: usize,
+        /// Minimum side.
+        min: usize,
+    },
+    /// Mosaic SIFT needs whole 2x2 super-pixels.
+    #[error("mosaic {width}x{height} has an odd size; mosaic SIFT needs even width and height")]
+    OddSize {
+        /// Image width.
+        width: usize,
+        /// Image height.
+        height: usize,
+    },
+    /// A scale-space operation failed (sizes are checked first, so this signals a bug).
+    #[error(transparent)]
+    ScaleSpace(#[from] crate::features::superpixel::SuperPixelError),
+    /// An option is out of its range.
+    #[error("SIFT option {name} = {value} is invalid (allowed: {allowed})")]
+    InvalidOption {
+        /// Option name.
+        name: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Allowed range.
+        allowed: &'static str,
+    },
+}
+
+/// Which image SIFT runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Domain {
+    /// A grey image (same-colour step 1; OpenCV SIFT).
+    Grey,
+    /// A Bayer mosaic (same-colour step 2; the paper's mosaic SIFT).
+    Mosaic,
+}
+
+/// User-facing SIFT options (paper / OpenCV names and defaults); [`SiftOptions::build`] validates.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SiftOptions {
+    /// Grey image or Bayer mosaic.
+    pub domain: Domain,
+    /// Layers per octave (`nOctaveLayers`, 3).
+    pub n_octave_layers: usize,
+    /// Base blur of each octave, input pixels (`sigma`, 1.6).
+    pub sigma: f64,
+    /// Contrast threshold on [0, 1] data (`contrastThreshold`, 0.04; divided by the layers).
+    pub contrast_threshold: f64,
+    /// Ratio of principal curvatures above which edges are rejected (`edgeThreshold`, 10).
+    pub edge_threshold: f64,
+    /// Double the image (every colour plane for a mosaic) first (`firstOctave = -1`); default
+    /// true for grey (OpenCV), false for the mosaic. False is 4x cheaper.
+    pub double_image: bool,
+    /// Value of full scale in the input (255 for u8 data, `2^bits - 1` for u16 data).
+    pub max_value: f64,
+    /// Mosaic only: `sigma` (and the assumed input blur) are in super-pixel (colour-plane)
+    /// pixels, i.e. twice as large in mosaic pixels, so every colour plane is blurred exactly as
+    /// grey SIFT blurs an image of the plane's size. Default true; false means mosaic pixels.
+    pub sigma_in_super_pixels: bool,
+}
+
+impl SiftOptions {
+    /// OpenCV `SIFT_create()` defaults on 8-bit grey data.
+    pub fn grey() -> Self {
+        Self {
+            domain: Domain::Grey,
+            n_octave_layers: 3,
+            sigma: 1.6,
+            contrast_threshold: 0.04,
+            edge_threshold: 10.0,
+            double_image: true,
+            max_value: 255.0,
+            sigma_in_super_pixels: true,
+        }
+    }
+
+    /// The paper's mosaic SIFT with the same parameters on 8-bit data: sigma in super-pixels,
+    /// no doubling (the pyramid base is the mosaic itself: 4x cheaper than grey SIFT's doubled
+    /// base; doubling the planes is available and measured in `docs/sift.md`).
+    pub fn mosaic() -> Self {
+        Self {
+            domain: Domain::Mosaic,
+            double_image: false,
+            ..Self::grey()
+        }
+    }
+
+    /// Validate into a [`SiftSpec`].
+    pub fn build(&self) -> Result<SiftSpec, SiftError> {
+        let bad = |name, value: f64, allowed| Err(SiftError::InvalidOption { name, value, allowed });
+        if !(1..=8).contains(&self.n_octave_layers) {
+            return bad("n_octave_layers", self.n_octave_layers as f64, "1..=8");
+        }
+        if !(self.sigma.is_finite() && self.sigma > 0.5 && self.sigma <= 10.0) {
+            return bad("sigma", self.sigma, "(0.5, 10]");
+        }
+        if !(self.contrast_threshold.is_finite()
+            && self.contrast_threshold >= 0.0
+            && self.contrast_threshold < 1.0)
+        {
+            return bad("contrast_threshold", self.contrast_threshold, "[0, 1)");
+        }
+        if !(self.edge_threshold.is_finite() && self.edge_threshold > 0.0) {
+            return bad("edge_threshold", self.edge_threshold, "> 0");
+        }
+        if !(self.max_value.is_finite() && self.max_value > 0.0) {
+            return bad("max_value", self.max_value, "> 0");
+        }
+        Ok(SiftSpec {
+            domain: self.domain,
+            n_octave_layers: self.n_octave_layers,
+            sigma: self.sigma,
+            contrast_threshold: self.contrast_threshold,
+            edge_threshold: self.edge_threshold,
+            double_image: self.double_image,
+            max_value: self.max_value,
+            sigma_in_super_pixels: self.sigma_in_super_pixels,
+        })
+    }
+}
+
+/// Validated SIFT parameters (build with [`SiftOptions::build`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SiftSpec {
+    domain: Domain,
+    n_octave_layers: usize,
+    sigma: f64,
+    contrast_threshold: f64,
+    edge_threshold: f64,
+    double_image: bool,
+    max_value: f64,
+    sigma_in_super_pixels: bool,
+}
+
+impl SiftSpec {
+    /// Length unit of `sigma` in pyramid-base pixels: 2 for a mosaic with super-pixel sigmas.
+    pub(crate) fn unit(&self) -> f64 {
+        if self.domain == Domain::Mosaic && self.sigma_in_super_pixels {
+            2.0
+        } else {
+            1.0
+        }
+    }
+
+    /// `sigma` in pyramid-base pixels.
+    pub(crate) fn sigma_px(&self) -> f64 {
+        self.sigma * self.unit()
+    }
+
+    /// The same spec with sigma measured in super-pixels (`true`) or mosaic pixels.
+    pub fn with_sigma_in_super_pixels(mut self, on: bool) -> Self {
+        self.sigma_in_super_pixels = on;
+        self
+    }
+
+    /// Defaults for grey 8-bit data ([`SiftOptions::grey`]).
+    pub fn grey() -> Self {
+        SiftOptions::grey().build().expect("defaults are valid")
+    }
+
+    /// Defaults for an 8-bit mosaic ([`SiftOptions::mosaic`]).
+    pub fn mosaic() -> Self {
+        SiftOptions::mosaic().build().expect("defaults are valid")
+    }
+
+    /// The same spec for data whose full scale is `max_value`.
+    pub fn with_max_value(mut self, max_value: f64) -> Result<Self, SiftError> {
+        if !(max_value.is_finite() && max_value > 0.0) {
+            return Err(SiftError::InvalidOption {
+                name: "max_value",
+                value: max_value,
+                allowed: "> 0",
+            });
+        }
+        self.max_value = max_value;
+        Ok(self)
+    }
+
+    /// The same spec with image doubling switched on or off.
+    pub fn with_double_image(mut self, double_image: bool) -> Self {
+        self.double_image = double_image;
+        self
+    }
+
+    /// Grey or mosaic.
+    pub fn domain(&self) -> Domain {
+        self.domain
+    }
+
+    /// Whether the image is doubled first.
+    pub fn double_image(&self) -> bool {
+        self.double_image
+    }
+
+    /// Full-scale value of the input.
+    pub fn max_value(&self) -> f64 {
+        self.max_value
+    }
+
+    /// Same-colour sample distance: 1 for grey, 2 for a mosaic.
+    pub(crate) fn step(&self) -> usize {
+        match self.domain {
+            Domain::Grey => 1,
+            Domain::Mosaic => 2,
+        }
+    }
+}
+
+/// A keypoint, in input-image pixel coordinates (pixel centres at integers, as OpenCV).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Keypoint {
+    /// Column.
+    pub x: f32,
+    /// Row.
+    pub y: f32,
+    /// Diameter of the meaningful neighbourhood (OpenCV `size` = 2 x sigma of the keypoint).
+    pub size: f32,
+    /// Orientation in degrees, [0, 360), OpenCV convention (counter-clockwise with y up).
+    pub angle: f32,
+    /// |DoG| at the refined extremum, on [0, 1] data.
+    pub response: f32,
+    /// Octave relative to the input (-1 for the doubled image).
+    pub octave: i32,
+    /// Layer inside the octave (1..=n_octave_layers).
+    pub layer: u32,
+}
+
+/// Keypoints with their descriptors (same order).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SiftFeatures {
+    /// Keypoints, sorted by (x, y, size, angle, response).
+    pub keypoints: Vec<Keypoint>,
+    /// 128-byte descriptors, one per keypoint.
+    pub descriptors: Vec<[u8; DESCRIPTOR_LEN]>,
+}
+
+/// Check the size and copy the input into f32 on OpenCV's 0..255 scale.
+fn prepare<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Image<f32>, SiftError> {
+    let (w, h) = (src.width(), src.height());
+    if w < MIN_SIZE || h < MIN_SIZE {
+        return Err(SiftError::TooSmall {
+            width: w,
+            height: h,
+            min: MIN_SIZE,
+        });
+    }
+    if spec.domain == Domain::Mosaic && (w % 2 != 0 || h % 2 != 0) {
+        return Err(SiftError::OddSize { width: w, height: h });
+    }
+    let scale = (detect::INTENSITY_RANGE as f64 / spec.max_value) as f32;
+    Ok(Image::from_fn(w, h, |x, y| src.get(x, y).into() * scale))
+}
+
+fn sorted_candidates(pyr: &detect::Pyramid, spec: &SiftSpec) -> Vec<detect::Candidate> {
+    let mut c = detect::find_scale_space_extrema(pyr, spec);
+    let key = |a: &detect::Candidate| [a.kp.x, a.kp.y, a.kp.size, a.kp.angle, a.kp.response];
+    c.sort_by(|a, b| {
+        key(a)
+            .iter()
+            .zip(key(b).iter())
+            .map(|(p, q)| p.total_cmp(q))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    c.dedup_by(|b, a| {
+        a.kp.x == b.kp.x && a.kp.y == b.kp.y && a.kp.size == b.kp.size && a.kp.angle == b.kp.angle
+    });
+    c
+}
+
+/// Detect keypoints and compute their descriptors. `src` holds grey values or a mosaic (per
+/// `spec.domain()`) with full scale `spec.max_value()`.
+pub fn detect_and_compute<T: Copy + Into<f32>>(
+    src: ImageView<T>,
+    spec: &SiftSpec,
+) -> Result<SiftFeatures, SiftError> {
+    let img = prepare(src, spec)?;
+    let pyr = detect::build_pyramid(&img, spec)?;
+    let cands = sorted_candidates(&pyr, spec);
+    let s = spec.step();
+    let descriptors = cands
+        .par_iter()
+        .map(|c| descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s))
+        .collect();
+    Ok(SiftFeatures {
+        keypoints: cands.into_iter().map(|c| c.kp).collect(),
+        descriptors,
+    })
+}
+
+/// Detect keypoints only (no descriptors).
+pub fn detect<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
+    let img = prepare(src, spec)?;
+    let pyr = detect::build_pyramid(&img, spec)?;
+    Ok(sorted_candidates(&pyr, spec).into_iter().map(|c| c.kp).collect())
+}
+
+/// Gaussian blur of one plane with OpenCV's float kernel for `sigma` (`BORDER_REFLECT_101`);
+/// used by the evaluation to blur test images.
+pub fn blur_plane(src: &Image<f32>, sigma: f64) -> Result<Image<f32>, SiftError> {
+    let mut out = Image::new(0, 0);
+    scale_space::blur_step(src, sigma, 1, &mut out)?;
+    Ok(out)
+}
+
+/// Mosaic keypoints of a raw frame, for the daemon: black level subtracted per tile position,
+/// scaled by the white level, then mosaic SIFT with `spec`'s parameters (its domain and
+/// `max_value` are overridden: the frame is always a mosaic normalised to full scale).
+pub fn keypoints_from_frame(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
+    let mut spec = *spec;
+    spec.domain = Domain::Mosaic;
+    spec.max_value = 1.0;
+    let img = normalised_mosaic_from_frame(frame);
+    detect(img.view(), &spec)
+}
+
+/// The frame's mosaic as f32 on [0, 1]: `(v - black(x, y)) / (white - black(x, y))`, clamped.
+pub fn normalised_mosaic_from_frame(frame: &RawFrame) -> Image<f32> {
+    let lv = frame.levels();
+    let white = lv.white as f32;
+    let tile: [(f32, f32); 4] = std::array::from_fn(|i| {
+        let b = frame.black_at(i % 2, i / 2) as f32;
+        (b, 1.0 / (white - b).max(1.0))
+    });
+    let (w, h) = (frame.width(), frame.height());
+    let norm = |v: f32, x: usize, y: usize| {
+        let (b, inv) = tile[(y % 2) * 2 + (x % 2)];
+        ((v - b) * inv).clamp(0.0, 1.0)
+    };
+    match frame.view() {
+        RawView::U8(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
+        RawView::U16(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blobs(w: usize, h: usize) -> Image<u8> {
+        Image::from_fn(w, h, |x, y| {
+            let (fx, fy) = (x as f32, y as f32);
+            let v = 90.0 + 60.0 * (fx * 0.21).sin() * (fy * 0.17).cos() + 40.0 * ((fx + fy) * 0.05).sin();
+            v.clamp(0.0, 255.0) as u8
+        })
+    }
+
+    #[test]
+    fn options_are_validated() {
+        let mut o = SiftOptions::grey();
+        o.sigma = -1.0;
+        assert!(matches!(
+            o.build(),
+            Err(SiftError::InvalidOption { name: "sigma", .. })
+        ));
+        let mut o = SiftOptions::mosaic();
+        o.n_octave_layers = 0;
+        assert!(matches!(
+            o.build(),
+            Err(SiftError::InvalidOption {
+                name: "n_octave_layers",
+                ..
+            })
+        ));
+        assert!(SiftSpec::grey().with_max_value(0.0).is_err());
+    }
+
+    #[test]
+    fn tiny_and_odd_inputs_are_refused() {
+        let img = Image::<u8>::new(10, 40);
+        assert!(matches!(
+            detect(img.view(), &SiftSpec::grey()),
+            Err(SiftError::TooSmall { .. })
+        ));
+        let img = Image::<u8>::new(33, 40);
+        assert!(matches!(
+            detect(img.view(), &SiftSpec::mosaic()),
+            Err(SiftError::OddSize { .. })
+        ));
+    }
+
+    #[test]
+    fn flat_images_give_nothing() {
+        for v in [0u16, 4095, 65535] {
+            let img = Image::filled(64, 48, v);
+            let spec = SiftSpec::grey().with_max_value(65535.0).unwrap();
+            assert!(detect_and_compute(img.view(), &spec)
+                .unwrap()
+                .keypoints
+                .is_empty());
+            let spec = SiftSpec::mosaic().with_max_value(65535.0).unwrap();
+            assert!(detect_and_compute(img.view(), &spec)
+                .unwrap()
+                .keypoints
+                .is_empty());
+        }
+    }
+
+    #[test]
+    fn u16_scaled_input_equals_u8_input() {
+        let a = blobs(96, 80);
+        let b = a.map(|v| v as u16 * 257);
+        let fa = detect_and_compute(a.view(), &SiftSpec::grey()).unwrap();
+        let spec = SiftSpec::grey().with_max_value(65535.0).unwrap();
+        let fb = detect_and_compute(b.view(), &spec).unwrap();
+        assert!(!fa.keypoints.is_empty());
+        assert_eq!(fa.keypoints.len(), fb.keypoints.len());
+        for (p, q) in fa.keypoints.iter().zip(&fb.keypoints) {
+            assert!((p.x - q.x).abs() < 1e-3 && (p.y - q.y).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn parallel_equals_serial() {
+        let img = blobs(128, 96);
+        for spec in [SiftSpec::grey(), SiftSpec::mosaic()] {
+            let a = detect_and_compute(img.view(), &spec).unwrap();
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let b = pool.install(|| detect_and_compute(img.view(), &spec).unwrap());
+            assert_eq!(a, b);
+            assert!(!a.keypoints.is_empty());
+        }
+    }
+
+    #[test]
+    fn descriptors_are_normalised() {
+        let img = blobs(128, 96);
+        let f = detect_and_compute(img.view(), &SiftSpec::grey()).unwrap();
+        for d in &f.descriptors {
+            let n: f32 = d.iter().map(|&v| (v as f32).powi(2)).sum::<f32>().sqrt();
+            // 512 before saturation; clipping at 0.2 * 512 = 102 keeps every entry in u8.
+            assert!((n - 512.0).abs() < 8.0, "{n}");
+        }
+    }
+}

@@ -1,0 +1,48 @@
+//! Helpers shared by integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use mosaicd::image::Image;
+use mosaicd::npy::NpyArray;
+
+/// Directory of the oracle fixtures (`$MOSAICD_ORACLE`, default `target/oracle`).
+pub fn oracle_dir() -> PathBuf {
+    std::env::var_os("MOSAICD_ORACLE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/oracle"))
+}
+
+/// Read an oracle fixture; fails with instructions when it is missing.
+pub fn oracle(name: &str) -> NpyArray {
+    let p = oracle_dir().join(name);
+    if !p.exists() {
+        panic!(
+            "oracle fixture {} is missing: run `make oracle` (python3 tests/oracle/generate.py --out target/oracle) first",
+            p.display()
+        );
+    }
+    NpyArray::read(&p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A 2-D fixture as an f32 image.
+pub fn oracle_image(name: &str) -> Image<f32> {
+    let a = oracle(name);
+    assert_eq!(
+        a.shape.len(),
+        2,
+        "{name}: expected a 2-D array, got shape {:?}",
+        a.shape
+    );
+    Image::from_vec(a.shape[1], a.shape[0], a.data.iter().map(|&v| v as f32).collect()).unwrap()
+}
+
+/// Largest absolute difference between two equally sized images.
+pub fn max_abs_diff(a: &Image<f32>, b: &Image<f32>) -> f32 {
+    assert_eq!(a.dimensions(), b.dimensions(), "size mismatch");
+    a.as_slice()
+        .iter()
+        .zip(b.as_slice())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
