@@ -306,7 +306,12 @@ impl Detector {
         let t0 = Instant::now();
         let (w, h) = input.dimensions();
         let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
-        if w < ww || h < wh {
+        let up = self.spec.opts.upsample;
+        if w == 0
+            || h == 0
+            || ((w as f64 * up).round() as usize) < ww
+            || ((h as f64 * up).round() as usize) < wh
+        {
             return Err(HogError::ImageTooSmall {
                 width: w,
                 height: h,
@@ -733,6 +738,15 @@ mod tests {
         ));
         let img = Image::<f32>::new(0, 0);
         assert!(d.detect(&HogInput::Mosaic(img.view())).is_err());
+        // With upsampling, an image shorter than a window is searched at the magnified levels.
+        let up = DetectorOptions {
+            upsample: 2.0,
+            ..Default::default()
+        };
+        let d2 = Detector::new(model(1), &up).unwrap();
+        let small = Image::<u8>::from_fn(64, 100, |x, y| ((x * 3 + y) % 256) as u8);
+        let (_, st) = d2.detect(&HogInput::GreyU8(small.view())).unwrap();
+        assert!(st.levels >= 1 && st.windows >= 1);
     }
 
     #[test]

@@ -936,6 +936,27 @@ fn cells_from_planes_generic(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut C
 
 /// Assemble and L2-Hys-normalise every block from a cell grid.
 pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU features the function is compiled for were detected just above.
+        unsafe { blocks_from_cells_avx2(spec, cg, exec, dst) };
+        return;
+    }
+    blocks_from_cells_generic(spec, cg, exec, dst)
+}
+
+/// [`blocks_from_cells_generic`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn blocks_from_cells_avx2(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+    blocks_from_cells_generic(spec, cg, exec, dst)
+}
+
+#[inline(always)]
+fn blocks_from_cells_generic(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
     let nb = spec.nbins();
     let (ncx, ncy, cl) = (cg.ncx, cg.ncy, cg.cell_len);
     let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
@@ -979,7 +1000,7 @@ pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut Bl
 }
 
 /// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again.
-#[inline]
+#[inline(always)]
 pub fn normalize_l2hys(h: &mut [f32], eps1: f32, thresh: f32) {
     let sum: f32 = h.iter().map(|v| v * v).sum();
     let scale = 1.0 / (sum.sqrt() + eps1);
