@@ -476,3 +476,36 @@ fn check_against(schema: &serde_json::Value, v: &serde_json::Value, at: &str) {
         (t, v) => panic!("{at}: {v} does not match type {t:?}"),
     }
 }
+
+/// A crash (no `finish`, no drop: as after SIGKILL) keeps every flushed frame: flushing every 3
+/// frames and crashing after 10 leaves 9 readable frames, then a clear truncation error.
+#[test]
+fn crash_without_finish_keeps_flushed_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("crash.mcap");
+    let opts = RecorderOptions {
+        flush: FlushPolicy {
+            every_frames: Some(3),
+            every_ns: None,
+        },
+        ..Default::default()
+    };
+    let mut rec = McapRecorder::create(&path, opts).unwrap();
+    for i in 0..10 {
+        rec.write_frame(&frame(i, 64, 48)).unwrap();
+    }
+    std::mem::forget(rec); // no summary, no final chunk: what SIGKILL leaves
+    let (frames, err) = replay_all(&path);
+    assert_eq!(frames.len(), 9);
+    for (i, f) in frames.iter().enumerate() {
+        assert_eq!(f, &frame(i as u64, 64, 48));
+    }
+    assert!(
+        matches!(err, Some(CaptureError::Truncated { frames: 9, .. })),
+        "{err:?}"
+    );
+    // The summary reader refuses it clearly; a new recording at the same path starts cleanly.
+    assert!(RecordingInfo::read(&path).is_err());
+    record(&path, 2, RecorderOptions::default());
+    assert_eq!(RecordingInfo::read(&path).unwrap().count("/camera/raw"), 2);
+}

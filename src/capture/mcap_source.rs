@@ -9,8 +9,9 @@
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
 //! used, the data section, the summary) and record lengths limited to the file size.
-//! * A **truncated** file (a recording cut by a crash or a full disk) yields every message of its
-//!   complete chunks, then [`CaptureError::Truncated`].
+//! * A **truncated** file (a recording cut by a crash or a full disk, or a writer killed in the
+//!   middle of a chunk) yields every message of its complete chunks, then
+//!   [`CaptureError::Truncated`].
 //! * A **corrupt** file is refused: a bad magic, footer or summary fails [`McapSource::open`]; damage
 //!   inside the data yields [`CaptureError::Corrupt`] when reached and no frame from the damaged
 //!   chunk. Nothing panics.
@@ -237,8 +238,10 @@ impl McapSource {
     }
 
     fn classify(&self, e: mcap::McapError) -> CaptureError {
+        // UnexpectedEoc: the last chunk's header was never completed (the writer was killed
+        // mid-chunk; its placeholder header has no CRC): also an interrupted recording.
         let truncated = match &e {
-            mcap::McapError::UnexpectedEof => true,
+            mcap::McapError::UnexpectedEof | mcap::McapError::UnexpectedEoc => true,
             mcap::McapError::Io(io) => io.kind() == std::io::ErrorKind::UnexpectedEof,
             _ => false,
         };

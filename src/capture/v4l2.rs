@@ -291,11 +291,13 @@ fn open_device(path: &Path, opts: &V4l2Options) -> Result<Open, CaptureError> {
     let mut stream = v4l::io::mmap::Stream::with_buffers(&dev, BufType::VideoCapture, opts.buffers.max(1))
         .map_err(io_err(path, "cannot map capture buffers"))?;
     stream.set_timeout(std::time::Duration::from_millis(DEQUEUE_TIMEOUT_MS));
+    // Some drivers leave bytesperline 0 (notably for packed formats): then rows are unpadded.
+    let min_bpl = format.min_bytes_per_line(got.width as usize) as u32;
     let neg = Negotiated {
         format,
         width: got.width,
         height: got.height,
-        bytes_per_line: got.stride,
+        bytes_per_line: if got.stride == 0 { min_bpl } else { got.stride },
     };
     tracing::info!(path = %path.display(), card = %caps.card, fourcc = %fourcc_str(format.fourcc),
         width = got.width, height = got.height, bytes_per_line = got.stride, "V4L2 camera open");
@@ -391,7 +393,11 @@ impl Source for V4l2Source {
             }
         };
         let neg = open.neg;
-        let used = (meta.bytesused as usize).min(buf.len());
+        // bytesused 0 means "not reported" on some drivers: the whole buffer is the frame.
+        let used = match meta.bytesused as usize {
+            0 => buf.len(),
+            n => n.min(buf.len()),
+        };
         let mut frame = raw_frame_from_v4l2(
             &neg.format,
             &buf[..used],

@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use crate::raw::{Cfa, Levels, RawError, RawFrame, RawPixels};
 
 /// Rows per rayon task when unpacking.
-const STRIP_ROWS: usize = 64;
+pub const STRIP_ROWS: usize = 64;
 
 /// How samples are stored in a row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -92,6 +92,9 @@ pub struct RecordOptions {
     /// Preview decimation (0 = no preview).
     #[arg(long, default_value_t = 2)]
     pub preview_decimation: u32,
+    /// zstd compression level (1 fast; 3 smaller for 8-bit data).
+    #[arg(long, default_value_t = mosaicd::record::recorder::DEFAULT_COMPRESSION_LEVEL)]
+    pub compression_level: u32,
     /// Flush every N frames (bounds what a crash loses).
     #[arg(long, default_value_t = 30)]
     pub flush_frames: u32,
@@ -106,6 +109,7 @@ pub struct RecordOptions {
 fn recorder_options(a: &RecordArgs) -> RecorderOptions {
     RecorderOptions {
         camera: a.opts.camera.clone(),
+        compression_level: a.opts.compression_level,
         flush: FlushPolicy {
             every_frames: Some(a.opts.flush_frames.max(1)),
             every_ns: None,
@@ -284,6 +288,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             recorder: RecipeRecorder {
                 preview_decimation: a.opts.preview_decimation,
                 flush_frames: a.opts.flush_frames,
+                compression_level: a.opts.compression_level,
             },
         };
         let s = build_recording(&recipe, std::path::Path::new("/"), Some(&out), progress)?;

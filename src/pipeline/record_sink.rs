@@ -38,7 +38,10 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
         }),
         ..RecorderOptions::default()
     };
-    let (camera, frames) = (cam.name.clone(), cfg.record.frames || cfg.record.preview_decimation > 0);
+    let (camera, frames) = (
+        cam.name.clone(),
+        cfg.record.frames || cfg.record.preview_decimation > 0,
+    );
     Ok(Box::new(move || {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| SinkError::Start {
@@ -91,7 +94,9 @@ impl Sink for McapSink {
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
         let v = stats_json(&self.camera, s);
-        self.recorder.write_stats(s.timestamp_ns, &v).map_err(|e| self.err(e))
+        self.recorder
+            .write_stats(s.timestamp_ns, &v)
+            .map_err(|e| self.err(e))
     }
 
     fn finish(&mut self) -> Result<(), SinkError> {

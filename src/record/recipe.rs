@@ -114,10 +114,17 @@ pub struct RecipeRecorder {
     /// Flush every N frames.
     #[serde(default = "default_flush")]
     pub flush_frames: u32,
+    /// zstd level (default [`super::recorder::DEFAULT_COMPRESSION_LEVEL`]; 3 compresses
+    /// overlapping crops of 8-bit frames about 2x better, at about 4x the time).
+    #[serde(default = "default_level")]
+    pub compression_level: u32,
 }
 
 fn default_decimation() -> u32 {
     2
+}
+fn default_level() -> u32 {
+    super::recorder::DEFAULT_COMPRESSION_LEVEL
 }
 fn default_flush() -> u32 {
     super::recorder::DEFAULT_FLUSH_FRAMES
@@ -128,6 +135,7 @@ impl Default for RecipeRecorder {
         Self {
             preview_decimation: default_decimation(),
             flush_frames: default_flush(),
+            compression_level: default_level(),
         }
     }
 }
@@ -471,6 +479,7 @@ pub fn build_recording(
     }
     let opts = RecorderOptions {
         camera: recipe.camera.clone(),
+        compression_level: recipe.recorder.compression_level,
         flush: FlushPolicy {
             every_frames: Some(recipe.recorder.flush_frames.max(1)),
             every_ns: None,

@@ -19,6 +19,9 @@ use crate::raw::RawFrame;
 pub const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
 /// Default flush cadence in frames (a crash loses at most this many frames).
 pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
+/// Default zstd level: level 1 is about 4x faster than zstd's default (3) on noisy 12-bit 1080p
+/// frames for a file about 2 % larger (measured: docs/recording.md).
+pub const DEFAULT_COMPRESSION_LEVEL: u32 = 1;
 /// Write buffer in front of the file (bytes).
 const FILE_BUFFER: usize = 1 << 20;
 
@@ -88,7 +91,7 @@ pub struct RecorderOptions {
     pub camera: String,
     /// Chunk compression.
     pub compression: Compression,
-    /// Compression level (0 = the library default).
+    /// Compression level (0 = zstd's own default, 3; ours is [`DEFAULT_COMPRESSION_LEVEL`]).
     pub compression_level: u32,
     /// Target uncompressed chunk size in bytes.
     pub chunk_size: u64,
@@ -107,7 +110,7 @@ impl Default for RecorderOptions {
         Self {
             camera: "camera".into(),
             compression: Compression::Zstd,
-            compression_level: 0,
+            compression_level: DEFAULT_COMPRESSION_LEVEL,
             chunk_size: DEFAULT_CHUNK_SIZE,
             flush: FlushPolicy::default(),
             rotate: RotatePolicy::default(),

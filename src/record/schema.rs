@@ -646,6 +646,102 @@ mod tests {
         assert_eq!(json["points"][0]["type"], 2);
     }
 
+    fn props(v: &serde_json::Value) -> Vec<String> {
+        let mut k: Vec<String> = v["properties"].as_object().unwrap().keys().cloned().collect();
+        k.sort();
+        k
+    }
+
+    fn sorted(v: &[&str]) -> Vec<String> {
+        let mut k: Vec<String> = v.iter().map(|s| s.to_string()).collect();
+        k.sort();
+        k
+    }
+
+    /// Property names of the published Foxglove JSON schemas (github.com/foxglove/schemas,
+    /// schemas/jsonschema/RawImage.json and ImageAnnotations.json, checked 2026-11).
+    #[test]
+    fn schemas_have_the_published_foxglove_properties() {
+        let raw: serde_json::Value = serde_json::from_str(&raw_image_json_schema()).unwrap();
+        assert_eq!(
+            props(&raw),
+            sorted(&[
+                "timestamp",
+                "frame_id",
+                "width",
+                "height",
+                "encoding",
+                "step",
+                "data"
+            ])
+        );
+        assert_eq!(raw["properties"]["data"]["contentEncoding"], "base64");
+        let ann: serde_json::Value = serde_json::from_str(&image_annotations_json_schema()).unwrap();
+        assert_eq!(props(&ann), sorted(&["circles", "points", "texts"]));
+        assert_eq!(
+            props(&ann["properties"]["circles"]["items"]),
+            sorted(&[
+                "timestamp",
+                "position",
+                "diameter",
+                "thickness",
+                "fill_color",
+                "outline_color"
+            ])
+        );
+        assert_eq!(
+            props(&ann["properties"]["points"]["items"]),
+            sorted(&[
+                "timestamp",
+                "type",
+                "points",
+                "outline_color",
+                "outline_colors",
+                "fill_color",
+                "thickness"
+            ])
+        );
+        assert_eq!(
+            props(&ann["properties"]["texts"]["items"]),
+            sorted(&[
+                "timestamp",
+                "position",
+                "text",
+                "font_size",
+                "text_color",
+                "background_color"
+            ])
+        );
+        let line_loop = &ann["properties"]["points"]["items"]["properties"]["type"]["oneOf"][2];
+        assert_eq!(
+            (line_loop["title"].as_str(), line_loop["const"].as_u64()),
+            (Some("LINE_LOOP"), Some(2))
+        );
+        // Our serialised messages carry exactly these names.
+        let a = annotations_from_detections(
+            0,
+            &[Detection {
+                x: 0.0,
+                y: 0.0,
+                width: 1.0,
+                height: 1.0,
+                score: 0.0,
+            }],
+            1.0,
+        );
+        let v = serde_json::to_value(&a).unwrap();
+        let keys = |o: &serde_json::Value| {
+            let mut k: Vec<String> = o.as_object().unwrap().keys().cloned().collect();
+            k.sort();
+            k
+        };
+        assert_eq!(
+            keys(&v["points"][0]),
+            props(&ann["properties"]["points"]["items"])
+        );
+        assert_eq!(keys(&v["texts"][0]), props(&ann["properties"]["texts"]["items"]));
+    }
+
     #[test]
     fn our_json_schemas_parse() {
         for s in [
