@@ -152,7 +152,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
         dir.path(),
         &unique("gp"),
         camera,
-        "frames = 30\nwidth = 128\nheight = 96",
+        "frames = 12\nwidth = 160\nheight = 128",
         false,
     );
     let mut texts = Vec::new();
@@ -168,7 +168,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
             .unwrap();
             assert!(out.status.success(), "{}", stderr_of(&out));
             let text = strip_wall_clock(&std::fs::read_to_string(&out_path).unwrap());
-            assert_eq!(frames(&lines(&out_path)), (0..30).collect::<Vec<_>>());
+            assert_eq!(frames(&lines(&out_path)), (0..12).collect::<Vec<_>>());
             texts.push((format!("round {round}, {threads} threads"), text));
         }
     }
@@ -176,7 +176,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
         assert_eq!(t, &texts[0].1, "{name} differs from round 0, 1 thread");
     }
     let golden =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/golden/daemon-synthetic-128x96.jsonl");
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/golden/daemon-synthetic-160x128.jsonl");
     if std::env::var_os("REGENERATE").is_some() {
         std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
         std::fs::write(&golden, &texts[0].1).unwrap();

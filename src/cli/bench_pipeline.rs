@@ -7,12 +7,12 @@ use std::sync::Arc;
 
 use serde_json::json;
 
+use mosaicd::config::Config;
 use mosaicd::config::PublishConfig;
 use mosaicd::pipeline::clock::ReplayClock;
+use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
 use mosaicd::pipeline::pool::BufferPool;
-use mosaicd::config::Config;
-use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::stage::Stage;
 use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
 use mosaicd::publish::publisher::IceoryxSink;

@@ -23,10 +23,10 @@ use super::pool::BufferPool;
 use super::sinks::JsonlSink;
 use super::sources::{open_source, SourceOpenError};
 use super::stage::{Stage, StageSpec};
-use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
 use super::stats::StatsSnapshot;
 use crate::capture::SourceKind;
 use crate::config::{CameraConfig, Config};
+use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
 
 /// How often the daemon checks whether every pipeline has finished.
 const FINISH_POLL: Duration = Duration::from_millis(10);

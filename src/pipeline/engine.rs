@@ -293,7 +293,8 @@ impl Pipeline {
                             break;
                         }
                         let expected = *size.get_or_insert((item.frame.width(), item.frame.height()));
-                        let (ev_tx, mpool, fpool, stage) = (ev_tx.clone(), mpool.clone(), fpool.clone(), stage.clone());
+                        let (ev_tx, mpool, fpool, stage) =
+                            (ev_tx.clone(), mpool.clone(), fpool.clone(), stage.clone());
                         let i = index;
                         index += 1;
                         pool.spawn(move || {

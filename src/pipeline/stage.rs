@@ -157,7 +157,13 @@ impl Stage {
         {
             let mut mag = ImageViewMut::new(&mut maps.magnitude, w, h, w)?;
             let mut bin = ImageViewMut::new(&mut maps.bins, w, h, w)?;
-            mag_bin(frame.view(), frame.bit_depth(), &self.gradient, &mut mag, &mut bin)?;
+            mag_bin(
+                frame.view(),
+                frame.bit_depth(),
+                &self.gradient,
+                &mut mag,
+                &mut bin,
+            )?;
         }
         let sum: u64 = maps
             .magnitude
@@ -201,19 +207,21 @@ pub fn normalise_into(frame: &RawFrame, strip_rows: usize, dst: &mut Vec<f32>) {
         *s = UNIT_RANGE / levels.white.saturating_sub(levels.black[i]).max(1) as f32;
     }
     let view = frame.view();
-    dst.par_chunks_mut(strip_rows * w).enumerate().for_each(|(s, chunk)| {
-        for (r, row) in chunk.chunks_mut(w).enumerate() {
-            let y = s * strip_rows + r;
-            for (x, o) in row.iter_mut().enumerate() {
-                let v = match view {
-                    RawView::U8(v) => v.row(y)[x] as f32,
-                    RawView::U16(v) => v.row(y)[x] as f32,
-                };
-                let i = (y & 1) * 2 + (x & 1);
-                *o = ((v - levels.black[i] as f32) * scale[i]).max(0.0);
+    dst.par_chunks_mut(strip_rows * w)
+        .enumerate()
+        .for_each(|(s, chunk)| {
+            for (r, row) in chunk.chunks_mut(w).enumerate() {
+                let y = s * strip_rows + r;
+                for (x, o) in row.iter_mut().enumerate() {
+                    let v = match view {
+                        RawView::U8(v) => v.row(y)[x] as f32,
+                        RawView::U16(v) => v.row(y)[x] as f32,
+                    };
+                    let i = (y & 1) * 2 + (x & 1);
+                    *o = ((v - levels.black[i] as f32) * scale[i]).max(0.0);
+                }
             }
-        }
-    });
+        });
 }
 
 /// Gradient maps of one frame (reused between frames through the buffer pool).
@@ -284,13 +292,30 @@ mod tests {
         // reflect-101: the border columns have zero x-difference
         assert_eq!(maps.magnitude[5 * 16], 0);
         let expect = 20.0 * 14.0 * 12.0 / 4000.0 / (16.0 * 12.0);
-        assert!((out.mean_magnitude - expect).abs() < 1e-6, "{}", out.mean_magnitude);
+        assert!(
+            (out.mean_magnitude - expect).abs() < 1e-6,
+            "{}",
+            out.mean_magnitude
+        );
     }
 
     #[test]
     fn normalisation_equals_the_hog_modules_formula() {
-        let px: Vec<u16> = (0..32 * 20u32).map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095).collect();
-        let f = RawFrame::from_u16(32, 20, px, Cfa::Gbrg, 12, Levels { black: [60, 64, 62, 66], white: 4000 }).unwrap();
+        let px: Vec<u16> = (0..32 * 20u32)
+            .map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095)
+            .collect();
+        let f = RawFrame::from_u16(
+            32,
+            20,
+            px,
+            Cfa::Gbrg,
+            12,
+            Levels {
+                black: [60, 64, 62, 66],
+                white: 4000,
+            },
+        )
+        .unwrap();
         let want = crate::features::hog::mosaic_from_raw(&f);
         let mut got = Vec::new();
         normalise_into(&f, 4, &mut got);
@@ -299,13 +324,18 @@ mod tests {
 
     #[test]
     fn parallel_equals_serial_for_any_pool() {
-        let px: Vec<u16> = (0..64 * 50u32).map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095).collect();
+        let px: Vec<u16> = (0..64 * 50u32)
+            .map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095)
+            .collect();
         let f = RawFrame::from_u16(64, 50, px, Cfa::Grbg, 12, Levels::uniform(64, 4095)).unwrap();
         let serial = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let mut m1 = GradientMaps::default();
         let o1 = serial.install(|| stage().compute(&f, &mut m1)).unwrap();
         for threads in [2, 4] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
             let mut m = GradientMaps::default();
             let o = pool.install(|| stage().compute(&f, &mut m)).unwrap();
             assert_eq!(m, m1);

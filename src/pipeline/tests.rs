@@ -28,8 +28,15 @@ fn run(
             camera: "t".into(),
             queue_depth: 3,
             max_in_flight: in_flight,
-            stage: Stage::new(StageSpec { strip_rows: 8, ..StageSpec::default() }, None).unwrap(),
-                keep_frames: false,
+            stage: Stage::new(
+                StageSpec {
+                    strip_rows: 8,
+                    ..StageSpec::default()
+                },
+                None,
+            )
+            .unwrap(),
+            keep_frames: false,
         },
         Box::new(src),
         pool,
@@ -155,7 +162,7 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
             queue_depth: 1,
             max_in_flight: 1,
             stage: Stage::new(StageSpec::default(), None).unwrap(),
-                keep_frames: false,
+            keep_frames: false,
         },
         Box::new(src),
         pool,
