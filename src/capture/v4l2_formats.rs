@@ -297,7 +297,7 @@ fn unpack_row(fmt: &BayerFormat, src: &[u8], dst: &mut [u16]) -> Option<(usize, 
 }
 
 /// Unpack a driver buffer into `dst` (`width * height` u16 values, row-major, contiguous).
-/// Rows are unpacked in parallel strips of [`STRIP_ROWS`] on the current rayon pool.
+/// Rows are unpacked in parallel strips of `STRIP_ROWS` on the current rayon pool.
 pub fn unpack_into(
     fmt: &BayerFormat,
     buf: &[u8],

@@ -4,8 +4,9 @@
 
 use rayon::prelude::*;
 
-use super::scale_space::{blur, downsample2, gaussian_taps, upsample2};
+use super::scale_space::{blur_step, downsample2_step, upsample2_step};
 use super::{Keypoint, SiftSpec};
+use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
 
 /// Width of the border (in octave pixels) in which no extremum is searched (`SIFT_IMG_BORDER`).
@@ -55,9 +56,9 @@ pub(crate) struct Candidate {
 fn layer_sigmas(spec: &SiftSpec) -> Vec<f64> {
     let n = spec.n_octave_layers;
     let k = 2f64.powf(1.0 / n as f64);
-    let mut sig = vec![spec.sigma; n + 3];
+    let mut sig = vec![spec.sigma_px(); n + 3];
     for (i, s) in sig.iter_mut().enumerate().skip(1) {
-        let prev = k.powi(i as i32 - 1) * spec.sigma;
+        let prev = k.powi(i as i32 - 1) * spec.sigma_px();
         let total = prev * k;
         *s = (total * total - prev * prev).sqrt();
     }
@@ -87,11 +88,11 @@ fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
 }
 
 /// Build the Gaussian and DoG pyramids. `src` is already scaled to the 0..255 range.
-pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
+pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, SuperPixelError> {
     let step = spec.step();
     let st = step as f64;
     let init = if spec.double_image {
-        upsample2(src, step)
+        upsample2_step(src, step)?
     } else {
         src.clone()
     };
@@ -101,14 +102,14 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
     } else {
         SIFT_INIT_SIGMA
     };
-    let sig_diff = (spec.sigma * spec.sigma - init_sigma * init_sigma)
+    let init_sigma = init_sigma * spec.unit();
+    let sig_diff = (spec.sigma_px() * spec.sigma_px() - init_sigma * init_sigma)
         .max(0.01)
         .sqrt();
     let mut base = Image::new(0, 0);
-    blur(&init, &gaussian_taps(sig_diff / st), step, &mut base);
+    blur_step(&init, sig_diff / st, step, &mut base)?;
     let n_oct = octave_count(base.width(), base.height(), spec);
     let sig = layer_sigmas(spec);
-    let taps: Vec<Vec<f32>> = sig.iter().map(|s| gaussian_taps(s / st)).collect();
     let nl = spec.n_octave_layers;
     let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
     for o in 0..n_oct {
@@ -116,11 +117,11 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
         layers.push(if o == 0 {
             std::mem::take(&mut base)
         } else {
-            downsample2(&gauss[o - 1][nl], step)
+            downsample2_step(&gauss[o - 1][nl], step)?
         });
-        for t in taps.iter().skip(1) {
+        for s in sig.iter().skip(1) {
             let mut dst = Image::new(0, 0);
-            blur(layers.last().expect("layer 0 exists"), t, step, &mut dst);
+            blur_step(layers.last().expect("layer 0 exists"), s / st, step, &mut dst)?;
             layers.push(dst);
         }
         gauss.push(layers);
@@ -143,7 +144,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Pyramid {
                 .collect()
         })
         .collect();
-    Pyramid { gauss, dog }
+    Ok(Pyramid { gauss, dog })
 }
 
 /// Is `val` at (x, y) of `cur` an extremum over the `(2 reach + 1)^2 x 3` neighbourhood
@@ -486,7 +487,7 @@ fn orient(
     let s = spec.step();
     let n = SIFT_ORI_HIST_BINS;
     // Keypoint sigma in octave pixels.
-    let scl_octv = spec.sigma as f32 * 2f32.powf((rf.layer as f32 + rf.xi) / nl);
+    let scl_octv = spec.sigma_px() as f32 * 2f32.powf((rf.layer as f32 + rf.xi) / nl);
     let omax = orientation_hist(
         &pyr.gauss[o][rf.layer],
         rf.c,
@@ -581,5 +582,9 @@ mod tests {
         // Pixel 9 (plane index 4, phase 1) at octave 1 sits at plane 8 of the base: mosaic 17.
         assert_eq!(to_input(9, 0.0, 1, &spec), 17.0);
         assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
+        // Doubled planes: plane index 8 of the doubled plane is plane coordinate 3.75 originally.
+        let spec = SiftSpec::mosaic().with_double_image(true);
+        assert_eq!(to_input(16, 0.0, 0, &spec), 7.5);
+        assert_eq!(to_input(17, 0.0, 0, &spec), 8.5);
     }
 }

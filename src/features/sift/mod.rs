@@ -18,9 +18,12 @@
 //!   the mosaic, extrema are searched in a **5x5** (space) x 3 (scale) neighbourhood, refinement
 //!   and the edge test use same-colour differences two pixels apart, and orientation and descriptor
 //!   use the mosaic gradient `I(x+2) - I(x-2)` (the `[-1, 0, 1]` operator on same-colour taps).
-//!   Keypoints come back in full-resolution mosaic pixel coordinates. By default the mosaic is not
-//!   doubled (the grey path's octave -1 costs 4x the rest of the pyramid), see
-//!   [`SiftOptions::double_image`].
+//!   Keypoints come back in full-resolution mosaic pixel coordinates. Sigmas are in super-pixel
+//!   units by default ([`SiftOptions::sigma_in_super_pixels`]): each colour plane is blurred
+//!   exactly as grey SIFT blurs an image of the plane's size (sigma 1.6 plane pixels = 3.2 mosaic
+//!   pixels at the first layer, or 1.6 mosaic pixels once the planes are doubled). With sigmas in
+//!   mosaic pixels the finest layers are under-sampled on the half-resolution planes and the
+//!   four planes' aliasing produces many unstable extrema (measured in `docs/sift.md`).
 //!
 //! Thresholds are defined on OpenCV's 8-bit range: input of any range is scaled by
 //! `255 / max_value` first, so `contrastThreshold` means the same on u8, u16 (any bit depth) and
@@ -81,7 +84,7 @@ use crate::raw::{RawFrame, RawView};
 pub const MIN_SIZE: usize = 16;
 
 /// Errors from building a SIFT spec or running SIFT.
-#[derive(Debug, Clone, PartialEq, Error)]
+#[derive(Debug, Error)]
 pub enum SiftError {
     /// The image is smaller than [`MIN_SIZE`] in some dimension.
     #[error("image {width}x{height} is too small for SIFT (needs at least {min}x{min})")]
@@ -101,6 +104,9 @@ pub enum SiftError {
         /// Image height.
         height: usize,
     },
+    /// A scale-space operation failed (sizes are checked first, so this signals a bug).
+    #[error(transparent)]
+    ScaleSpace(#[from] crate::features::superpixel::SuperPixelError),
     /// An option is out of its range.
     #[error("SIFT option {name} = {value} is invalid (allowed: {allowed})")]
     InvalidOption {
@@ -136,10 +142,15 @@ pub struct SiftOptions {
     pub contrast_threshold: f64,
     /// Ratio of principal curvatures above which edges are rejected (`edgeThreshold`, 10).
     pub edge_threshold: f64,
-    /// Double the image first (`firstOctave = -1`): default true for grey, false for mosaic.
+    /// Double the image (every colour plane for a mosaic) first (`firstOctave = -1`); default
+    /// true for grey (OpenCV), false for the mosaic. False is 4x cheaper.
     pub double_image: bool,
     /// Value of full scale in the input (255 for u8 data, `2^bits - 1` for u16 data).
     pub max_value: f64,
+    /// Mosaic only: `sigma` (and the assumed input blur) are in super-pixel (colour-plane)
+    /// pixels, i.e. twice as large in mosaic pixels, so every colour plane is blurred exactly as
+    /// grey SIFT blurs an image of the plane's size. Default true; false means mosaic pixels.
+    pub sigma_in_super_pixels: bool,
 }
 
 impl SiftOptions {
@@ -153,10 +164,13 @@ impl SiftOptions {
             edge_threshold: 10.0,
             double_image: true,
             max_value: 255.0,
+            sigma_in_super_pixels: true,
         }
     }
 
-    /// The paper's mosaic SIFT with the same parameters, 8-bit data, no doubling.
+    /// The paper's mosaic SIFT with the same parameters on 8-bit data: sigma in super-pixels,
+    /// no doubling (the pyramid base is the mosaic itself: 4x cheaper than grey SIFT's doubled
+    /// base; doubling the planes is available and measured in `docs/sift.md`).
     pub fn mosaic() -> Self {
         Self {
             domain: Domain::Mosaic,
@@ -194,6 +208,7 @@ impl SiftOptions {
             edge_threshold: self.edge_threshold,
             double_image: self.double_image,
             max_value: self.max_value,
+            sigma_in_super_pixels: self.sigma_in_super_pixels,
         })
     }
 }
@@ -208,9 +223,30 @@ pub struct SiftSpec {
     edge_threshold: f64,
     double_image: bool,
     max_value: f64,
+    sigma_in_super_pixels: bool,
 }
 
 impl SiftSpec {
+    /// Length unit of `sigma` in pyramid-base pixels: 2 for a mosaic with super-pixel sigmas.
+    pub(crate) fn unit(&self) -> f64 {
+        if self.domain == Domain::Mosaic && self.sigma_in_super_pixels {
+            2.0
+        } else {
+            1.0
+        }
+    }
+
+    /// `sigma` in pyramid-base pixels.
+    pub(crate) fn sigma_px(&self) -> f64 {
+        self.sigma * self.unit()
+    }
+
+    /// The same spec with sigma measured in super-pixels (`true`) or mosaic pixels.
+    pub fn with_sigma_in_super_pixels(mut self, on: bool) -> Self {
+        self.sigma_in_super_pixels = on;
+        self
+    }
+
     /// Defaults for grey 8-bit data ([`SiftOptions::grey`]).
     pub fn grey() -> Self {
         SiftOptions::grey().build().expect("defaults are valid")
@@ -333,7 +369,7 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
     spec: &SiftSpec,
 ) -> Result<SiftFeatures, SiftError> {
     let img = prepare(src, spec)?;
-    let pyr = detect::build_pyramid(&img, spec);
+    let pyr = detect::build_pyramid(&img, spec)?;
     let cands = sorted_candidates(&pyr, spec);
     let s = spec.step();
     let descriptors = cands
@@ -349,8 +385,16 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
 /// Detect keypoints only (no descriptors).
 pub fn detect<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
     let img = prepare(src, spec)?;
-    let pyr = detect::build_pyramid(&img, spec);
+    let pyr = detect::build_pyramid(&img, spec)?;
     Ok(sorted_candidates(&pyr, spec).into_iter().map(|c| c.kp).collect())
+}
+
+/// Gaussian blur of one plane with OpenCV's float kernel for `sigma` (`BORDER_REFLECT_101`);
+/// used by the evaluation to blur test images.
+pub fn blur_plane(src: &Image<f32>, sigma: f64) -> Result<Image<f32>, SiftError> {
+    let mut out = Image::new(0, 0);
+    scale_space::blur_step(src, sigma, 1, &mut out)?;
+    Ok(out)
 }
 
 /// Mosaic keypoints of a raw frame, for the daemon: black level subtracted per tile position,

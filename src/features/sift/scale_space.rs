@@ -7,17 +7,64 @@
 //! (the paper's 2x2 super-pixel), and the result stays a valid mosaic of the same pattern. Kernel
 //! sigmas passed here are in **plane** pixels: a mosaic-pixel sigma `s` is `s / 2` on a plane.
 //!
-//! These are local stand-ins with the semantics of `features::superpixel` (`gaussian_blur`,
-//! `blur_mosaic`, `resize_mosaic`, `downsample2_mosaic`), written against plain slices so that the
-//! grey and the mosaic paths share one kernel.
+//! The pyramid uses `features::superpixel` (`gaussian_blur` / `blur_mosaic`, `resize_bilinear` /
+//! `resize_mosaic`, `downsample2` / `downsample2_mosaic`) through [`blur_step`], [`upsample2_step`]
+//! and [`downsample2_step`]. The plain-slice kernels below (one code path for both steps) were
+//! the stand-in before that module landed; they stay as the test oracle the super-pixel
+//! functions are checked against.
 
+#[cfg(test)]
 use rayon::prelude::*;
 
+use crate::features::superpixel::{
+    blur_mosaic, downsample2 as sp_downsample2, downsample2_mosaic, gaussian_blur, resize_bilinear,
+    resize_mosaic, GaussianKernel, SuperPixelError,
+};
 use crate::image::Image;
 
+/// Gaussian blur with plane sigma `sigma` of a grey image (`step = 1`) or a mosaic (`step = 2`).
+pub(crate) fn blur_step(
+    src: &Image<f32>,
+    sigma: f64,
+    step: usize,
+    dst: &mut Image<f32>,
+) -> Result<(), SuperPixelError> {
+    let k = GaussianKernel::from_sigma(sigma)?;
+    if step == 1 {
+        gaussian_blur(src.view(), &k, dst)
+    } else {
+        blur_mosaic(src.view(), &k, dst)
+    }
+}
+
+/// x2 bilinear upsampling of the image or of every colour plane.
+pub(crate) fn upsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>, SuperPixelError> {
+    let mut dst = Image::new(0, 0);
+    let (w, h) = src.dimensions();
+    if step == 1 {
+        resize_bilinear(src.view(), 2 * w, 2 * h, &mut dst)?;
+    } else {
+        resize_mosaic(src.view(), 2 * w, 2 * h, &mut dst)?;
+    }
+    Ok(dst)
+}
+
+/// The octave step: every other pixel, or every other super-pixel.
+pub(crate) fn downsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>, SuperPixelError> {
+    let mut dst = Image::new(0, 0);
+    if step == 1 {
+        sp_downsample2(src.view(), &mut dst)?;
+    } else {
+        downsample2_mosaic(src.view(), &mut dst)?;
+    }
+    Ok(dst)
+}
+
 /// Rows handed to one rayon task by the separable blur.
+#[cfg(test)]
 const BLUR_ROW_STRIP: usize = 16;
 
+#[cfg(test)]
 /// OpenCV's Gaussian kernel for floating-point images: `ksize = round(8 sigma + 1) | 1` taps of
 /// `exp(-x^2 / (2 sigma^2))`, normalised to sum 1 (computed in f64, stored as f32).
 pub(crate) fn gaussian_taps(sigma: f64) -> Vec<f32> {
@@ -36,6 +83,7 @@ pub(crate) fn gaussian_taps(sigma: f64) -> Vec<f32> {
     raw.iter().map(|v| (v / sum) as f32).collect()
 }
 
+#[cfg(test)]
 /// `BORDER_REFLECT_101` index into a plane of `n` samples (`n >= 1`).
 #[inline]
 pub(crate) fn reflect101(mut i: isize, n: usize) -> usize {
@@ -54,12 +102,14 @@ pub(crate) fn reflect101(mut i: isize, n: usize) -> usize {
     }
 }
 
+#[cfg(test)]
 /// Number of samples of phase `p` in a line of `len` pixels with same-colour step `step`.
 #[inline]
 fn plane_len(len: usize, step: usize, p: usize) -> usize {
     (len + step - 1 - p) / step
 }
 
+#[cfg(test)]
 /// Blur one line: `dst[x] = sum_k taps[k] * src[same-colour neighbour k - r of x]`.
 fn blur_line(src: &[f32], taps: &[f32], step: usize, dst: &mut [f32]) {
     let len = src.len();
@@ -85,6 +135,7 @@ fn blur_line(src: &[f32], taps: &[f32], step: usize, dst: &mut [f32]) {
     }
 }
 
+#[cfg(test)]
 /// Separable Gaussian blur of a `step`-interleaved image (`step = 1`: grey, `2`: mosaic planes),
 /// `BORDER_REFLECT_101` inside each plane. `src` and `dst` are `width * height`, contiguous.
 pub(crate) fn blur(src: &Image<f32>, taps: &[f32], step: usize, dst: &mut Image<f32>) {
@@ -124,6 +175,7 @@ pub(crate) fn blur(src: &Image<f32>, taps: &[f32], step: usize, dst: &mut Image<
         });
 }
 
+#[cfg(test)]
 /// Bilinear x2 upsampling of every plane (OpenCV `INTER_LINEAR`, half-pixel centres, replicated
 /// border): output is `2 * width` x `2 * height`.
 pub(crate) fn upsample2(src: &Image<f32>, step: usize) -> Image<f32> {
@@ -169,6 +221,7 @@ pub(crate) fn upsample2(src: &Image<f32>, step: usize) -> Image<f32> {
     out
 }
 
+#[cfg(test)]
 /// Keep every other same-colour sample (SIFT's octave step; OpenCV `INTER_NEAREST` to half size
 /// for `step = 1`, every other super-pixel for `step = 2`).
 pub(crate) fn downsample2(src: &Image<f32>, step: usize) -> Image<f32> {
@@ -245,6 +298,30 @@ mod tests {
         assert_eq!(d.dimensions(), (4, 2));
         assert_eq!(d.row(0), &[0.0, 1.0, 4.0, 5.0]);
         assert_eq!(d.row(1), &[10.0, 11.0, 14.0, 15.0]);
+    }
+
+    #[test]
+    fn superpixel_functions_equal_the_oracle_kernels() {
+        let img = Image::from_fn(46, 38, |x, y| {
+            ((x * 7 + y * 13) % 17) as f32 + 0.25 * (x % 2) as f32
+        });
+        for step in [1, 2] {
+            for sigma in [0.6, 1.2, 2.7] {
+                let mut a = Image::new(0, 0);
+                blur(&img, &gaussian_taps(sigma), step, &mut a);
+                let mut b = Image::new(0, 0);
+                blur_step(&img, sigma, step, &mut b).unwrap();
+                for (p, q) in a.as_slice().iter().zip(b.as_slice()) {
+                    assert!((p - q).abs() < 1e-4, "blur step {step} sigma {sigma}: {p} vs {q}");
+                }
+            }
+            let (a, b) = (upsample2(&img, step), upsample2_step(&img, step).unwrap());
+            assert_eq!(a.dimensions(), b.dimensions());
+            for (p, q) in a.as_slice().iter().zip(b.as_slice()) {
+                assert!((p - q).abs() < 1e-4, "upsample step {step}: {p} vs {q}");
+            }
+            assert_eq!(downsample2(&img, step), downsample2_step(&img, step).unwrap());
+        }
     }
 
     #[test]

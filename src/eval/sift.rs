@@ -1,0 +1,550 @@
+//! SIFT repeatability on Kodak, grey SIFT vs mosaic SIFT (paper §IV-B.5, eqs. 25–28, Fig. 12).
+//!
+//! For each image, each transform (Gaussian blur, scaling, rotation) and each level, features of
+//! the original and of the transformed image are matched (nearest neighbour, Lowe ratio 0.8,
+//! mutual); a match is correct when the ground-truth transform maps the first keypoint within
+//! `t = 3` pixels of the second. With `n1`, `n2` the keypoints of each image that fall inside the
+//! other image under the ground truth,
+//!
+//! `repeatability = correct matches / min(n1, n2)`.
+//!
+//! The grey path is OpenCV-equivalent SIFT on `grey = 0.299 R + 0.587 G + 0.114 B` (rounded, as
+//! `cv2.cvtColor`), transformed in the grey domain. The mosaic path samples an RGGB mosaic from the
+//! same RGB image and transforms it **in the mosaic domain**, as the paper does: blur and resize
+//! per colour plane (super-pixel), rotation of the R, G1, G2 and B sub-images separately, then
+//! re-interleaving. Ground truth is the transform in input-pixel coordinates (half-pixel centres
+//! for the resize, rotation about the image centre); the per-plane versions differ from it by less
+//! than a pixel, well inside `t`.
+//!
+//! ```
+//! use mosaicd::eval::sift::{Transform, ground_truth};
+//! let h = ground_truth(Transform::Scale(2.0), 100, 50);
+//! let (x, y) = mosaicd::features::sift::matching::apply(&h, (10.0, 10.0));
+//! assert!((x - 20.5).abs() < 1e-9 && (y - 20.5).abs() < 1e-9);
+//! ```
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::features::sift::matching::{apply, match_descriptors, Match, LOWE_RATIO};
+use crate::features::sift::{detect_and_compute, SiftError, SiftFeatures, SiftSpec};
+use crate::image::Image;
+
+/// Correctness threshold on the reprojection error, pixels (the paper's `t`).
+pub const MATCH_THRESHOLD_PX: f64 = 3.0;
+
+/// A transform applied to the test image.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Transform {
+    /// Gaussian blur with this sigma (input pixels).
+    Blur(f64),
+    /// Resize by this factor (sizes rounded to even).
+    Scale(f64),
+    /// Rotation by this angle in degrees about the image centre (same canvas, black outside).
+    Rotate(f64),
+}
+
+impl Transform {
+    /// Family name: `blur`, `scale` or `rotation`.
+    pub fn family(&self) -> &'static str {
+        match self {
+            Transform::Blur(_) => "blur",
+            Transform::Scale(_) => "scale",
+            Transform::Rotate(_) => "rotation",
+        }
+    }
+
+    /// The level value (sigma, factor or degrees).
+    pub fn level(&self) -> f64 {
+        match *self {
+            Transform::Blur(v) | Transform::Scale(v) | Transform::Rotate(v) => v,
+        }
+    }
+}
+
+/// The default levels: blur sigma 1–4, scale 0.5–2, rotation 15–90°.
+pub fn default_transforms() -> Vec<Transform> {
+    let mut t: Vec<Transform> = [1.0, 2.0, 3.0, 4.0].into_iter().map(Transform::Blur).collect();
+    t.extend([0.5, 0.75, 1.25, 1.5, 2.0].into_iter().map(Transform::Scale));
+    t.extend(
+        [15.0, 30.0, 45.0, 60.0, 75.0, 90.0]
+            .into_iter()
+            .map(Transform::Rotate),
+    );
+    t
+}
+
+/// Output size of `t` applied to a `w` x `h` image.
+pub fn output_size(t: Transform, w: usize, h: usize) -> (usize, usize) {
+    match t {
+        Transform::Scale(f) => (
+            even((w as f64 * f).round() as usize),
+            even((h as f64 * f).round() as usize),
+        ),
+        _ => (w, h),
+    }
+}
+
+fn even(v: usize) -> usize {
+    (v / 2 * 2).max(2)
+}
+
+/// Ground-truth map from original to transformed input-pixel coordinates (row-vector 3x3).
+pub fn ground_truth(t: Transform, w: usize, h: usize) -> [[f64; 3]; 3] {
+    match t {
+        Transform::Blur(_) => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        Transform::Scale(_) => {
+            let (ow, oh) = output_size(t, w, h);
+            let (fx, fy) = (ow as f64 / w as f64, oh as f64 / h as f64);
+            // x' = (x + 0.5) fx - 0.5
+            [
+                [fx, 0.0, 0.0],
+                [0.0, fy, 0.0],
+                [0.5 * fx - 0.5, 0.5 * fy - 0.5, 1.0],
+            ]
+        }
+        Transform::Rotate(deg) => {
+            let (s, c) = deg.to_radians().sin_cos();
+            let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+            // x' = c (x - cx) - s (y - cy) + cx ; y' = s (x - cx) + c (y - cy) + cy
+            [
+                [c, s, 0.0],
+                [-s, c, 0.0],
+                [cx - c * cx + s * cy, cy - s * cx - c * cy, 1.0],
+            ]
+        }
+    }
+}
+
+/// Bilinear sample of `src` at (x, y); `None` outside the image (constant border).
+fn bilinear(src: &Image<f32>, x: f64, y: f64, replicate: bool) -> Option<f32> {
+    let (w, h) = (src.width() as f64, src.height() as f64);
+    let (x, y) = if replicate {
+        (x.clamp(0.0, w - 1.0), y.clamp(0.0, h - 1.0))
+    } else {
+        if x < -0.5 || y < -0.5 || x > w - 0.5 || y > h - 0.5 {
+            return None;
+        }
+        (x.clamp(0.0, w - 1.0), y.clamp(0.0, h - 1.0))
+    };
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(src.width() - 1), (y0 + 1).min(src.height() - 1));
+    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+    let top = src.get(x0, y0) * (1.0 - fx) + src.get(x1, y0) * fx;
+    let bot = src.get(x0, y1) * (1.0 - fx) + src.get(x1, y1) * fx;
+    Some(top * (1.0 - fy) + bot * fy)
+}
+
+/// Apply `t` to one plane (grey image or one colour plane) of size `w` x `h` into `ow` x `oh`.
+fn transform_plane(src: &Image<f32>, t: Transform, ow: usize, oh: usize) -> Image<f32> {
+    let (w, h) = src.dimensions();
+    match t {
+        Transform::Blur(s) => crate::features::sift::blur_plane(src, s).unwrap_or_else(|_| src.clone()),
+        Transform::Scale(_) => {
+            let (fx, fy) = (w as f64 / ow as f64, h as f64 / oh as f64);
+            Image::from_fn(ow, oh, |x, y| {
+                bilinear(
+                    src,
+                    (x as f64 + 0.5) * fx - 0.5,
+                    (y as f64 + 0.5) * fy - 0.5,
+                    true,
+                )
+                .unwrap_or(0.0)
+            })
+        }
+        Transform::Rotate(deg) => {
+            let (s, c) = deg.to_radians().sin_cos();
+            let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+            Image::from_fn(ow, oh, |x, y| {
+                let (dx, dy) = (x as f64 - cx, y as f64 - cy);
+                // Inverse rotation.
+                let sx = c * dx + s * dy + cx;
+                let sy = -s * dx + c * dy + cy;
+                bilinear(src, sx, sy, false).unwrap_or(0.0)
+            })
+        }
+    }
+}
+
+/// Transform a grey image.
+pub fn grey_transformed(src: &Image<f32>, t: Transform) -> Image<f32> {
+    let (ow, oh) = output_size(t, src.width(), src.height());
+    transform_plane(src, t, ow, oh)
+}
+
+/// How the mosaic path resamples a colour plane under a geometric transform.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+pub enum PlaneWarp {
+    /// Each plane is warped as a small image about its own centre (the paper's wording); the
+    /// 2x2 phase offsets are not transformed, so the colour planes end up misregistered by up to
+    /// about a pixel (for a 90° rotation, exactly one pixel, but the planes are permuted without
+    /// interpolation). The default.
+    #[default]
+    OwnCentre,
+    /// Each plane is still resampled on its own (no colour mixing), but at the exact positions
+    /// of its pixels in mosaic coordinates: output pixel (x, y) of colour phase (px, py) samples
+    /// its plane at `((X - px) / 2, (Y - py) / 2)`, (X, Y) the inverse-transformed position.
+    PhaseCorrect,
+}
+
+/// Transform a mosaic in the mosaic domain: each of the four colour planes is transformed
+/// separately (blur sigma halved: plane pixels are two mosaic pixels) and re-interleaved.
+pub fn mosaic_transformed(src: &Image<f32>, t: Transform, warp: PlaneWarp) -> Image<f32> {
+    let (w, h) = src.dimensions();
+    let (ow, oh) = output_size(t, w, h);
+    let planes: Vec<Image<f32>> = (0..4)
+        .map(|i| {
+            let (px, py) = (i % 2, i / 2);
+            Image::from_fn(w / 2, h / 2, |x, y| src.get(2 * x + px, 2 * y + py))
+        })
+        .collect();
+    match (t, warp) {
+        (Transform::Blur(_), _) | (_, PlaneWarp::OwnCentre) => {
+            let t_plane = match t {
+                Transform::Blur(s0) => Transform::Blur(s0 / 2.0),
+                other => other,
+            };
+            let out: Vec<Image<f32>> = planes
+                .iter()
+                .map(|p| transform_plane(p, t_plane, ow / 2, oh / 2))
+                .collect();
+            Image::from_fn(ow, oh, |x, y| out[(y % 2) * 2 + (x % 2)].get(x / 2, y / 2))
+        }
+        (_, PlaneWarp::PhaseCorrect) => {
+            let hinv = invert_affine(&ground_truth(t, w, h));
+            let replicate = matches!(t, Transform::Scale(_));
+            Image::from_fn(ow, oh, |x, y| {
+                let (px, py) = (x % 2, y % 2);
+                let (sx, sy) = apply(&hinv, (x as f64, y as f64));
+                let (u, v) = ((sx - px as f64) / 2.0, (sy - py as f64) / 2.0);
+                bilinear(&planes[py * 2 + px], u, v, replicate).unwrap_or(0.0)
+            })
+        }
+    }
+}
+
+/// `round(0.299 R + 0.587 G + 0.114 B)` per pixel (OpenCV `COLOR_RGB2GRAY` weights).
+pub fn grey_from_rgb8(rgb: &image::RgbImage) -> Image<f32> {
+    Image::from_fn(rgb.width() as usize, rgb.height() as usize, |x, y| {
+        let p = rgb.get_pixel(x as u32, y as u32).0;
+        (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32).round()
+    })
+}
+
+/// RGGB mosaic sampled from an RGB image (cropped to even size).
+pub fn rggb_mosaic_from_rgb8(rgb: &image::RgbImage) -> Image<f32> {
+    let (w, h) = (rgb.width() as usize / 2 * 2, rgb.height() as usize / 2 * 2);
+    Image::from_fn(w, h, |x, y| {
+        let p = rgb.get_pixel(x as u32, y as u32).0;
+        let ch = match (x % 2, y % 2) {
+            (0, 0) => 0,
+            (1, 1) => 2,
+            _ => 1,
+        };
+        p[ch] as f32
+    })
+}
+
+/// Repeatability and match statistics of one image pair.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PairScore {
+    /// Keypoints of image 1 that map inside image 2.
+    pub n1: usize,
+    /// Keypoints of image 2 that map back inside image 1.
+    pub n2: usize,
+    /// Descriptor matches (ratio + mutual).
+    pub matches: usize,
+    /// Matches within `t` of the ground truth.
+    pub correct: usize,
+    /// `correct / min(n1, n2)` (0 when either is 0).
+    pub repeatability: f64,
+}
+
+fn invert_affine(h: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    // Row-vector affine: [x' y'] = [x y] M + t, M = [[a, b], [c, d]].
+    let (a, b, c, d) = (h[0][0], h[0][1], h[1][0], h[1][1]);
+    let det = a * d - b * c;
+    let (ia, ib, ic, id) = (d / det, -b / det, -c / det, a / det);
+    let (tx, ty) = (h[2][0], h[2][1]);
+    [
+        [ia, ib, 0.0],
+        [ic, id, 0.0],
+        [-(tx * ia + ty * ic), -(tx * ib + ty * id), 1.0],
+    ]
+}
+
+/// Score a pair: features of the original (`size1`) and of the transformed image (`size2`), and
+/// the ground truth `h` (affine, row vectors). Also returns the descriptor matches.
+pub fn score_pair(
+    f1: &SiftFeatures,
+    size1: (usize, usize),
+    f2: &SiftFeatures,
+    size2: (usize, usize),
+    h: &[[f64; 3]; 3],
+    t: f64,
+) -> (PairScore, Vec<Match>) {
+    let inside = |(x, y): (f64, f64), (w, h): (usize, usize)| {
+        x >= 0.0 && y >= 0.0 && x <= w as f64 - 1.0 && y <= h as f64 - 1.0
+    };
+    let hinv = invert_affine(h);
+    let n1 = f1
+        .keypoints
+        .iter()
+        .filter(|k| inside(apply(h, (k.x as f64, k.y as f64)), size2))
+        .count();
+    let n2 = f2
+        .keypoints
+        .iter()
+        .filter(|k| inside(apply(&hinv, (k.x as f64, k.y as f64)), size1))
+        .count();
+    let matches = match_descriptors(&f1.descriptors, &f2.descriptors, LOWE_RATIO, true);
+    let correct = matches
+        .iter()
+        .filter(|m| {
+            let (a, b) = (&f1.keypoints[m.query], &f2.keypoints[m.train]);
+            let (u, v) = apply(h, (a.x as f64, a.y as f64));
+            (u - b.x as f64).hypot(v - b.y as f64) <= t
+        })
+        .count();
+    let denom = n1.min(n2);
+    let repeatability = if denom == 0 {
+        0.0
+    } else {
+        correct as f64 / denom as f64
+    };
+    (
+        PairScore {
+            n1,
+            n2,
+            matches: matches.len(),
+            correct,
+            repeatability,
+        },
+        matches,
+    )
+}
+
+/// One row of the evaluation: an image, a transform level, both methods.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalRow {
+    /// Image file stem.
+    pub image: String,
+    /// Transform family.
+    pub family: &'static str,
+    /// Transform level.
+    pub level: f64,
+    /// Grey SIFT score.
+    pub grey: PairScore,
+    /// Mosaic SIFT score.
+    pub mosaic: PairScore,
+}
+
+/// Errors of the SIFT evaluation.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalSiftError {
+    /// An image could not be read.
+    #[error("cannot read image {path}: {source}")]
+    Image {
+        /// Path.
+        path: String,
+        /// Cause.
+        source: image::ImageError,
+    },
+    /// SIFT failed.
+    #[error(transparent)]
+    Sift(#[from] SiftError),
+}
+
+/// Evaluate one RGB image under every transform in `transforms`.
+pub fn evaluate_image(
+    path: &Path,
+    transforms: &[Transform],
+    grey_spec: &SiftSpec,
+    mosaic_spec: &SiftSpec,
+    warp: PlaneWarp,
+) -> Result<Vec<EvalRow>, EvalSiftError> {
+    let rgb = image::open(path)
+        .map_err(|source| EvalSiftError::Image {
+            path: path.display().to_string(),
+            source,
+        })?
+        .to_rgb8();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let grey = grey_from_rgb8(&rgb);
+    let mosaic = rggb_mosaic_from_rgb8(&rgb);
+    let g1 = detect_and_compute(grey.view(), grey_spec)?;
+    let m1 = detect_and_compute(mosaic.view(), mosaic_spec)?;
+    transforms
+        .iter()
+        .map(|&t| {
+            let g2img = grey_transformed(&grey, t);
+            let m2img = mosaic_transformed(&mosaic, t, warp);
+            let g2 = detect_and_compute(g2img.view(), grey_spec)?;
+            let m2 = detect_and_compute(m2img.view(), mosaic_spec)?;
+            let hg = ground_truth(t, grey.width(), grey.height());
+            let hm = ground_truth(t, mosaic.width(), mosaic.height());
+            let (grey_score, _) = score_pair(
+                &g1,
+                grey.dimensions(),
+                &g2,
+                g2img.dimensions(),
+                &hg,
+                MATCH_THRESHOLD_PX,
+            );
+            let (mosaic_score, _) = score_pair(
+                &m1,
+                mosaic.dimensions(),
+                &m2,
+                m2img.dimensions(),
+                &hm,
+                MATCH_THRESHOLD_PX,
+            );
+            Ok(EvalRow {
+                image: name.clone(),
+                family: t.family(),
+                level: t.level(),
+                grey: grey_score,
+                mosaic: mosaic_score,
+            })
+        })
+        .collect()
+}
+
+/// Per (family, level) summary over images.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelSummary {
+    /// Transform family.
+    pub family: &'static str,
+    /// Level.
+    pub level: f64,
+    /// Images.
+    pub n: usize,
+    /// Mean grey repeatability.
+    pub grey_mean: f64,
+    /// Mean mosaic repeatability.
+    pub mosaic_mean: f64,
+    /// Grey quartiles (25, 50, 75 %).
+    pub grey_q: [f64; 3],
+    /// Mosaic quartiles (25, 50, 75 %).
+    pub mosaic_q: [f64; 3],
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let pos = q * (sorted.len() - 1) as f64;
+    let (i, f) = (pos.floor() as usize, pos - pos.floor());
+    if i + 1 < sorted.len() {
+        sorted[i] * (1.0 - f) + sorted[i + 1] * f
+    } else {
+        sorted[i]
+    }
+}
+
+/// Summarise rows per transform level (in the order levels first appear).
+pub fn summarise(rows: &[EvalRow]) -> Vec<LevelSummary> {
+    let mut keys: Vec<(&'static str, f64)> = Vec::new();
+    for r in rows {
+        if !keys.iter().any(|&(f, l)| f == r.family && l == r.level) {
+            keys.push((r.family, r.level));
+        }
+    }
+    keys.into_iter()
+        .map(|(family, level)| {
+            let sel: Vec<&EvalRow> = rows
+                .iter()
+                .filter(|r| r.family == family && r.level == level)
+                .collect();
+            let mut g: Vec<f64> = sel.iter().map(|r| r.grey.repeatability).collect();
+            let mut m: Vec<f64> = sel.iter().map(|r| r.mosaic.repeatability).collect();
+            g.sort_by(f64::total_cmp);
+            m.sort_by(f64::total_cmp);
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+            LevelSummary {
+                family,
+                level,
+                n: sel.len(),
+                grey_mean: mean(&g),
+                mosaic_mean: mean(&m),
+                grey_q: [quantile(&g, 0.25), quantile(&g, 0.5), quantile(&g, 0.75)],
+                mosaic_q: [quantile(&m, 0.25), quantile(&m, 0.5), quantile(&m, 0.75)],
+            }
+        })
+        .collect()
+}
+
+/// Evaluate many images (in parallel over images; rows in input order).
+pub fn evaluate(
+    paths: &[std::path::PathBuf],
+    transforms: &[Transform],
+    grey_spec: &SiftSpec,
+    mosaic_spec: &SiftSpec,
+    warp: PlaneWarp,
+) -> Result<Vec<EvalRow>, EvalSiftError> {
+    let per: Vec<Result<Vec<EvalRow>, EvalSiftError>> = paths
+        .par_iter()
+        .map(|p| evaluate_image(p, transforms, grey_spec, mosaic_spec, warp))
+        .collect();
+    let mut rows = Vec::new();
+    for r in per {
+        rows.extend(r?);
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ground_truth_rotation_keeps_the_centre() {
+        let h = ground_truth(Transform::Rotate(37.0), 101, 51);
+        let (x, y) = apply(&h, (50.0, 25.0));
+        assert!((x - 50.0).abs() < 1e-9 && (y - 25.0).abs() < 1e-9);
+        let hi = invert_affine(&h);
+        let (u, v) = apply(&hi, apply(&h, (3.0, 7.0)));
+        assert!((u - 3.0).abs() < 1e-9 && (v - 7.0).abs() < 1e-9);
+        // 90 degrees: (cx + 10, cy) goes to (cx, cy + 10) (y down).
+        let h = ground_truth(Transform::Rotate(90.0), 101, 51);
+        let (x, y) = apply(&h, (60.0, 25.0));
+        assert!((x - 50.0).abs() < 1e-9 && (y - 35.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rotation_of_the_image_agrees_with_the_ground_truth() {
+        let mut img = Image::<f32>::new(41, 31);
+        img.set(30, 15, 1.0);
+        let r = grey_transformed(&img, Transform::Rotate(90.0));
+        let (x, y) = apply(&ground_truth(Transform::Rotate(90.0), 41, 31), (30.0, 15.0));
+        assert!((r.get(x.round() as usize, y.round() as usize) - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn mosaic_transform_keeps_the_pattern() {
+        let m = Image::from_fn(40, 30, |x, y| (10 * (1 + (x % 2) + 2 * (y % 2))) as f32);
+        for t in [Transform::Blur(2.0), Transform::Scale(0.5), Transform::Scale(1.5)] {
+            for warp in [PlaneWarp::OwnCentre, PlaneWarp::PhaseCorrect] {
+                let o = mosaic_transformed(&m, t, warp);
+                for y in 0..o.height() {
+                    for x in 0..o.width() {
+                        assert!((o.get(x, y) - m.get(x % 2, y % 2)).abs() < 1e-3);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn quantiles_by_hand() {
+        let v = [0.0, 1.0, 2.0, 3.0, 4.0];
+        assert_eq!(quantile(&v, 0.25), 1.0);
+        assert_eq!(quantile(&v, 0.5), 2.0);
+        assert_eq!(quantile(&v, 1.0), 4.0);
+    }
+}
