@@ -152,7 +152,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
         dir.path(),
         &unique("gp"),
         camera,
-        "frames = 30\nwidth = 128\nheight = 96",
+        "frames = 12\nwidth = 160\nheight = 128",
         false,
     );
     let mut texts = Vec::new();
@@ -168,7 +168,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
             .unwrap();
             assert!(out.status.success(), "{}", stderr_of(&out));
             let text = strip_wall_clock(&std::fs::read_to_string(&out_path).unwrap());
-            assert_eq!(frames(&lines(&out_path)), (0..30).collect::<Vec<_>>());
+            assert_eq!(frames(&lines(&out_path)), (0..12).collect::<Vec<_>>());
             texts.push((format!("round {round}, {threads} threads"), text));
         }
     }
@@ -176,7 +176,7 @@ fn replay_results_are_byte_identical_for_1_2_4_threads_twice_and_match_the_golde
         assert_eq!(t, &texts[0].1, "{name} differs from round 0, 1 thread");
     }
     let golden =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/golden/daemon-synthetic-128x96.jsonl");
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/golden/daemon-synthetic-160x128.jsonl");
     if std::env::var_os("REGENERATE").is_some() {
         std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
         std::fs::write(&golden, &texts[0].1).unwrap();
@@ -297,4 +297,64 @@ fn missing_device_and_missing_recording_are_clear_errors() {
         err.contains("/nonexistent/rec.mcap") && err.contains("not found"),
         "{err}"
     );
+}
+
+#[test]
+fn gradient_maps_are_published_as_decimated_slices() {
+    let dir = tempfile::tempdir().unwrap();
+    let (prefix, camera) = (unique("gp2"), unique("gc2"));
+    // Paced (live, 100 fps): a dynamic-slice subscriber maps the publisher's data segment on its
+    // first receive, which must happen while the publisher still exists (iceoryx2 "lost chunk").
+    let cfg = config(
+        dir.path(),
+        &prefix,
+        &camera,
+        "frames = 20\nlive = true\nfps = 100.0",
+        true,
+    );
+    let mut listener = Command::new(BIN)
+        .args([
+            "listen",
+            "--camera",
+            &camera,
+            "--prefix",
+            &prefix,
+            "--buffer",
+            "256",
+            "--until-final",
+        ])
+        .args(["--gradients", "--timeout-s", "60"])
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(listener.stderr.take().unwrap());
+    let mut line = String::new();
+    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+        line.clear();
+    }
+    let out = daemon(&cfg, &["--publish-gradients"]).output().unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let lout = listener.wait_with_output().unwrap();
+    assert!(lout.status.success());
+    let msgs: Vec<serde_json::Value> = String::from_utf8_lossy(&lout.stdout)
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .collect();
+    let grads: Vec<&serde_json::Value> = msgs.iter().filter(|m| m["topic"] == "gradients").collect();
+    let dets = msgs.iter().filter(|m| m["topic"] == "detections").count();
+    assert!(!grads.is_empty() && dets > 0);
+    // one gradients sample per detections message, except at most the first (segment mapping)
+    assert!(
+        grads.len() + 1 >= dets && grads.len() <= dets,
+        "{} gradients, {dets} detections",
+        grads.len()
+    );
+    // 96x64 decimated by 4 = 24x16; u16 magnitude + u8 bin per pixel.
+    for g in &grads {
+        assert_eq!((g["width"].as_u64(), g["height"].as_u64()), (Some(24), Some(16)));
+        assert_eq!(g["payload_bytes"], 24 * 16 * 3);
+        assert_eq!(g["orientation_bins"], 9);
+    }
 }

@@ -386,6 +386,10 @@ impl Pipeline {
             Some(Ok(e)) => e,
             _ => vec!["the orderer thread panicked".into()],
         };
+        // A failed sink stops itself (the pipeline goes on); count how many did.
+        self.stats
+            .failed_sink
+            .fetch_add(sink_errors.len() as u64, Ordering::Relaxed);
         PipelineReport {
             camera: self.camera.clone(),
             stats: self.stats.snapshot(),
@@ -447,7 +451,7 @@ fn capture_loop(
                 Stats::inc(&stats.failed_source);
                 tracing::warn!(source = %source.describe(), "source error: {e}");
                 *err.lock().unwrap_or_else(|e| e.into_inner()) = Some(e.to_string());
-                if source.is_finished() || kind == SourceKind::Replay && source.is_finished() {
+                if source.is_finished() {
                     break;
                 }
                 std::thread::sleep(SOURCE_ERROR_BACKOFF);

@@ -20,6 +20,8 @@ pub struct McapSink {
     camera: String,
     recorder: McapRecorder,
     frames: bool,
+    flush_every: u32,
+    since_flush: u32,
 }
 
 /// The recorder sink of a camera (`record.path`, `{camera}` substituted). The file is created in
@@ -42,6 +44,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
         cam.name.clone(),
         cfg.record.frames || cfg.record.preview_decimation > 0,
     );
+    let flush_every = cfg.record.flush_frames;
     Ok(Box::new(move || {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| SinkError::Start {
@@ -57,6 +60,8 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             camera,
             recorder,
             frames,
+            flush_every,
+            since_flush: 0,
         }) as Box<dyn Sink>)
     }))
 }
@@ -89,7 +94,15 @@ impl Sink for McapSink {
                 r.height as u32,
                 &r.output.detections,
             )
-            .map_err(|e| self.err(e))
+            .map_err(|e| self.err(e))?;
+        // The recorder's own cadence counts raw frames; results-only recordings flush here, so a
+        // crash loses at most `record.flush_frames` frames' results either way.
+        self.since_flush += 1;
+        if self.since_flush >= self.flush_every {
+            self.since_flush = 0;
+            self.recorder.flush().map_err(|e| self.err(e))?;
+        }
+        Ok(())
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
