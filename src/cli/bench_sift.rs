@@ -64,13 +64,23 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     let path = mosaicd::data::data_path("raw/openisp/test.RAW")?;
     let (w, h) = (1920usize, 1080usize);
     let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-    anyhow::ensure!(bytes.len() >= w * h * 2, "{} is not a 1920x1080 u16 frame", path.display());
-    let data: Vec<u16> = bytes.chunks_exact(2).take(w * h).map(|b| u16::from_le_bytes([b[0], b[1]]).min(1023) << 2).collect();
+    anyhow::ensure!(
+        bytes.len() >= w * h * 2,
+        "{} is not a 1920x1080 u16 frame",
+        path.display()
+    );
+    let data: Vec<u16> = bytes
+        .chunks_exact(2)
+        .take(w * h)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]).min(1023) << 2)
+        .collect();
     let white = 4095u16;
     let cfa = Cfa::Rggb;
     let frame = RawFrame::from_u16(w, h, data.clone(), cfa, 12, Levels::uniform(0, white))?;
 
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()?;
     let run_ours = |spec: SiftSpec| -> anyhow::Result<(f64, usize)> {
         let mut times = Vec::new();
         let mut n = 0;
@@ -127,11 +137,21 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_default();
     println!("bench sift: 1920x1080 12-bit RGGB (openisp test.RAW << 2), {} threads, median of {} runs, commit {commit}", args.threads, args.reps);
-    println!("  OpenCV demosaic + grey + SIFT.detectAndCompute: {:.3} s ({cv_n} keypoints)", cv_s);
-    println!("  mosaicd mosaic SIFT (keypoints + descriptors):   {:.3} s ({n_ours} keypoints)", ours);
+    println!(
+        "  OpenCV demosaic + grey + SIFT.detectAndCompute: {:.3} s ({cv_n} keypoints)",
+        cv_s
+    );
+    println!(
+        "  mosaicd mosaic SIFT (keypoints + descriptors):   {:.3} s ({n_ours} keypoints)",
+        ours
+    );
     println!("  speed-up: {:.2}x", cv_s / ours);
     if let Some((t, n)) = doubled {
-        println!("  mosaicd mosaic SIFT, doubled planes:            {:.3} s ({n} keypoints), speed-up {:.2}x", t, cv_s / t);
+        println!(
+            "  mosaicd mosaic SIFT, doubled planes:            {:.3} s ({n} keypoints), speed-up {:.2}x",
+            t,
+            cv_s / t
+        );
     }
     Ok(())
 }
