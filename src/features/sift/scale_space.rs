@@ -31,7 +31,7 @@ pub(crate) fn blur_step(
     let k = GaussianKernel::from_sigma(sigma)?;
     if step == 1 {
         gaussian_blur(src.view(), &k, dst)
-    } else if src.width() % 2 != 0 || src.height() % 2 != 0 {
+    } else if !src.width().is_multiple_of(2) || !src.height().is_multiple_of(2) {
         blur_mosaic(src.view(), &k, dst)
     } else {
         blur_symmetric(src, k.taps(), step, dst);
