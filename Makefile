@@ -13,7 +13,7 @@ setup:
 # Quick start 1: the main job on a bundled default.
 demo: setup
 	$(CARGO) build --release --quiet
-	./target/release/mosaicd gradients --raw $(MOSAICD_DATA)/raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw \
+	./target/release/mosaicd gradients $(MOSAICD_DATA)/raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw \
 		--width 768 --height 512 --bit-depth 14 --cfa RGGB --black 600 --white 15520 --out out/demo
 
 # Reference fixtures from OpenCV / scikit-image / colour-demosaicing (tests/oracle/gen_*.py).

@@ -1,1 +1,615 @@
 //! Typed daemon configuration, validated once at start-up.
+//!
+//! The daemon reads one TOML file (`config/mosaicd.toml` by default; every key is documented
+//! there). Parsing is strict: an unknown key is refused, a value of the wrong type is refused with
+//! its key, and [`Config::validate`] checks every range once, at start-up, with an error that NAMES
+//! the key and the allowed range ([`ConfigError`]). Nothing downstream re-checks.
+//!
+//! ```
+//! use mosaicd::config::Config;
+//! let cfg = Config::from_toml_str(r#"
+//!     [daemon]
+//!     threads = 2
+//!     [[camera]]
+//!     name = "front"
+//!     source = "synthetic"
+//!     width = 64
+//!     height = 48
+//!     frames = 4
+//! "#).unwrap();
+//! assert_eq!(cfg.daemon.threads, 2);
+//! assert_eq!(cfg.cameras[0].name, "front");
+//!
+//! let err = Config::from_toml_str("[daemon]\nthreads = 0\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n")
+//!     .unwrap_err();
+//! assert!(err.to_string().contains("daemon.threads"));
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::raw::Cfa;
+
+/// Largest worker pool we accept (a sanity bound, not a tuning hint).
+const MAX_THREADS: usize = 256;
+/// Largest number of frames computed concurrently.
+const MAX_IN_FLIGHT: usize = 64;
+/// Largest capture queue depth.
+const MAX_QUEUE_DEPTH: usize = 1024;
+/// Longest stop timeout we accept, in milliseconds (systemd's default `TimeoutStopSec` is 90 s).
+const MAX_SHUTDOWN_TIMEOUT_MS: u64 = 90_000;
+/// Shortest stats interval, in milliseconds.
+const MIN_STATS_INTERVAL_MS: u64 = 50;
+/// Largest subscriber buffer (samples held per subscriber before the oldest is overwritten).
+const MAX_SUBSCRIBER_BUFFER: usize = 4096;
+/// Largest frame side we accept from a config (16 k pixels).
+const MAX_SIDE: usize = 16_384;
+/// Allowed characters in a camera name (it becomes part of iceoryx2 service names).
+const NAME_CHARS: &str = "a-z, A-Z, 0-9, '_', '-'";
+
+/// Errors from loading or validating a configuration. Each names the offending key.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read config {path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The TOML did not parse or a key is unknown or of the wrong type (the message names the key).
+    #[error("config {origin}: {message}")]
+    Parse {
+        /// File name or `<string>`.
+        origin: String,
+        /// The parser's message (names the key and line).
+        message: String,
+    },
+    /// A value is outside its allowed range.
+    #[error("config key `{key}` = {value} is out of range: allowed {allowed}")]
+    OutOfRange {
+        /// Dotted key, e.g. `daemon.threads` or `camera[0].width`.
+        key: String,
+        /// The value found.
+        value: String,
+        /// The allowed range, in words.
+        allowed: String,
+    },
+    /// A key the chosen source needs is missing.
+    #[error("config key `{key}` is required when {when}")]
+    Missing {
+        /// Dotted key.
+        key: String,
+        /// The condition that makes it required.
+        when: String,
+    },
+    /// Two cameras share a name.
+    #[error("config key `camera[{index}].name` = {name:?} is used twice: camera names must be unique")]
+    DuplicateCamera {
+        /// Index of the second camera with the name.
+        index: usize,
+        /// The name.
+        name: String,
+    },
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Scheduling and process settings (`[daemon]`).
+    #[serde(default)]
+    pub daemon: DaemonConfig,
+    /// iceoryx2 publishing (`[publish]`).
+    #[serde(default)]
+    pub publish: PublishConfig,
+    /// MCAP recording of results (`[record]`).
+    #[serde(default)]
+    pub record: RecordConfig,
+    /// Per-frame compute (`[compute]`).
+    #[serde(default)]
+    pub compute: ComputeConfig,
+    /// One entry per camera (`[[camera]]`); at least one.
+    #[serde(default, rename = "camera")]
+    pub cameras: Vec<CameraConfig>,
+}
+
+/// `[daemon]`: scheduling and process settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DaemonConfig {
+    /// Size of the dedicated compute pool (`1..=256`).
+    pub threads: usize,
+    /// Frames computed concurrently per camera (`1..=64`).
+    pub max_in_flight: usize,
+    /// Capture queue depth per camera (`1..=1024`).
+    pub queue_depth: usize,
+    /// Stats period in milliseconds (`>= 50`): stats message, sd_notify STATUS, log line.
+    pub stats_interval_ms: u64,
+    /// Time allowed for draining at shutdown, in milliseconds (`1..=90000`).
+    pub shutdown_timeout_ms: u64,
+}
+
+impl Default for DaemonConfig {
+    fn default() -> Self {
+        Self {
+            threads: 2,
+            max_in_flight: 4,
+            queue_depth: 4,
+            stats_interval_ms: 1000,
+            shutdown_timeout_ms: 10_000,
+        }
+    }
+}
+
+/// `[publish]`: iceoryx2 services `<prefix>/<camera>/{detections,gradients,stats}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PublishConfig {
+    /// Publish at all.
+    pub enabled: bool,
+    /// First component of every service name.
+    pub service_prefix: String,
+    /// Samples each subscriber buffers before the oldest is overwritten (`1..=4096`).
+    pub subscriber_buffer: usize,
+    /// Publish the gradient maps too (dynamic slices).
+    pub gradients: bool,
+    /// Keep every n-th gradient pixel in x and y (`1..=64`).
+    pub gradients_decimation: usize,
+}
+
+impl Default for PublishConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            service_prefix: "mosaicd".into(),
+            subscriber_buffer: 64,
+            gradients: false,
+            gradients_decimation: 4,
+        }
+    }
+}
+
+/// `[record]`: results (and frames) to MCAP.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordConfig {
+    /// Record at all.
+    pub enabled: bool,
+    /// Output file; `{camera}` is replaced by the camera name.
+    pub path: PathBuf,
+    /// Also record the raw frames (lossless, full bit depth), not only results.
+    pub frames: bool,
+    /// Also record an 8-bit `foxglove.RawImage` preview, keeping every n-th 2x2 tile (`0` = no
+    /// preview, `1..=16`).
+    pub preview_decimation: u32,
+    /// Flush (close the chunk) every n frames: what a crash can lose (`1..=10000`).
+    pub flush_frames: u32,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            path: PathBuf::from("out/{camera}.mcap"),
+            frames: false,
+            preview_decimation: 0,
+            flush_frames: 30,
+        }
+    }
+}
+
+/// `[compute]`: the per-frame stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ComputeConfig {
+    /// Run pedestrian detection (multi-scale HOG + linear SVM on the mosaic).
+    pub detect: bool,
+    /// Detector model: `opencv-default` (OpenCV's people detector from the shared data directory,
+    /// `opencv_hog/default_people_detector_64x128.npy`) or a model file (`.json` ours; `.npy`,
+    /// `.yml`, text: OpenCV vectors).
+    pub model: String,
+    /// SVM score a window needs (OpenCV `hitThreshold`) (`-10..=10`).
+    pub hit_threshold: f32,
+    /// Scale factor between pyramid levels (`1.01..=2.0`, OpenCV 1.05).
+    pub scale_step: f64,
+    /// Maximum pyramid levels (`1..=64`).
+    pub max_levels: usize,
+    /// Start the pyramid magnified (`0.5..=4.0`; 2 finds people ~64 px tall).
+    pub upsample: f64,
+    /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
+    pub orientation_bins: usize,
+    /// Rows per parallel strip (`2..=4096`, even).
+    pub strip_rows: usize,
+}
+
+impl Default for ComputeConfig {
+    fn default() -> Self {
+        Self {
+            detect: true,
+            model: "opencv-default".into(),
+            hit_threshold: 0.0,
+            scale_step: 1.05,
+            max_levels: 64,
+            upsample: 1.0,
+            orientation_bins: 9,
+            strip_rows: 64,
+        }
+    }
+}
+
+/// Which kind of source a camera reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SourceType {
+    /// An MCAP recording in our format (`path`).
+    Mcap,
+    /// A V4L2 device (`device`).
+    V4l2,
+    /// A deterministic synthetic stream generated in process (`width`, `height`, `bit_depth`,
+    /// `cfa`, `frames`).
+    Synthetic,
+}
+
+/// `[[camera]]`: one source.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraConfig {
+    /// Unique name; part of the service names (`a-z A-Z 0-9 _ -`, 1..=64 chars).
+    pub name: String,
+    /// Source kind: `mcap`, `v4l2`, `synthetic`.
+    pub source: SourceType,
+    /// MCAP recording to replay (`source = "mcap"`).
+    #[serde(default)]
+    pub path: Option<PathBuf>,
+    /// V4L2 device (`source = "v4l2"`).
+    #[serde(default)]
+    pub device: Option<PathBuf>,
+    /// Replay at the recorded rate instead of as fast as possible.
+    #[serde(default)]
+    pub realtime: bool,
+    /// Replay in a loop.
+    #[serde(default, rename = "loop")]
+    pub looped: bool,
+    /// Frame width (synthetic, V4L2 request) (`2..=16384`, even).
+    #[serde(default = "default_width")]
+    pub width: usize,
+    /// Frame height (`2..=16384`, even).
+    #[serde(default = "default_height")]
+    pub height: usize,
+    /// Bit depth (synthetic) (`8..=16`).
+    #[serde(default = "default_bit_depth")]
+    pub bit_depth: u8,
+    /// CFA pattern (synthetic): `RGGB`, `BGGR`, `GRBG`, `GBRG`.
+    #[serde(default = "default_cfa")]
+    pub cfa: String,
+    /// Frame rate (synthetic when live, V4L2 request) (`0 < fps <= 1000`).
+    #[serde(default = "default_fps")]
+    pub fps: f64,
+    /// Number of frames (synthetic); 0 = endless.
+    #[serde(default)]
+    pub frames: u64,
+    /// Treat the synthetic stream as a live camera (drop-oldest) instead of a replay.
+    #[serde(default)]
+    pub live: bool,
+}
+
+fn default_width() -> usize {
+    640
+}
+fn default_height() -> usize {
+    480
+}
+fn default_bit_depth() -> u8 {
+    12
+}
+fn default_cfa() -> String {
+    "RGGB".into()
+}
+fn default_fps() -> f64 {
+    30.0
+}
+
+impl CameraConfig {
+    /// A synthetic camera with the given name and size (tests, benches).
+    pub fn synthetic(name: &str, width: usize, height: usize, frames: u64) -> Self {
+        Self {
+            name: name.into(),
+            source: SourceType::Synthetic,
+            path: None,
+            device: None,
+            realtime: false,
+            looped: false,
+            width,
+            height,
+            bit_depth: default_bit_depth(),
+            cfa: default_cfa(),
+            fps: default_fps(),
+            frames,
+            live: false,
+        }
+    }
+
+    /// The parsed CFA pattern (validated by [`Config::validate`]).
+    pub fn cfa(&self) -> Result<Cfa, ConfigError> {
+        parse_cfa(&self.cfa).ok_or_else(|| ConfigError::OutOfRange {
+            key: "camera.cfa".into(),
+            value: format!("{:?}", self.cfa),
+            allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
+        })
+    }
+}
+
+fn parse_cfa(s: &str) -> Option<Cfa> {
+    match s.to_ascii_uppercase().as_str() {
+        "RGGB" => Some(Cfa::Rggb),
+        "BGGR" => Some(Cfa::Bggr),
+        "GRBG" => Some(Cfa::Grbg),
+        "GBRG" => Some(Cfa::Gbrg),
+        _ => None,
+    }
+}
+
+fn range<T: PartialOrd + std::fmt::Display>(key: &str, v: T, lo: T, hi: T) -> Result<(), ConfigError> {
+    if v < lo || v > hi {
+        return Err(ConfigError::OutOfRange {
+            key: key.into(),
+            value: v.to_string(),
+            allowed: format!("{lo}..={hi}"),
+        });
+    }
+    Ok(())
+}
+
+impl Config {
+    /// Parse and validate a TOML string.
+    pub fn from_toml_str(s: &str) -> Result<Self, ConfigError> {
+        Self::parse(s, "<string>")
+    }
+
+    /// Read, parse and validate a file. Relative `path`s inside are resolved against the current
+    /// directory (the daemon's working directory), as on the command line.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    fn parse(s: &str, origin: &str) -> Result<Self, ConfigError> {
+        let cfg: Config = toml::from_str(s).map_err(|e| ConfigError::Parse {
+            origin: origin.into(),
+            message: e.to_string().trim().replace('\n', " "),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Check every value once. Call again after applying CLI overrides.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let d = &self.daemon;
+        range("daemon.threads", d.threads, 1, MAX_THREADS)?;
+        range("daemon.max_in_flight", d.max_in_flight, 1, MAX_IN_FLIGHT)?;
+        range("daemon.queue_depth", d.queue_depth, 1, MAX_QUEUE_DEPTH)?;
+        range(
+            "daemon.stats_interval_ms",
+            d.stats_interval_ms,
+            MIN_STATS_INTERVAL_MS,
+            3_600_000,
+        )?;
+        range(
+            "daemon.shutdown_timeout_ms",
+            d.shutdown_timeout_ms,
+            1,
+            MAX_SHUTDOWN_TIMEOUT_MS,
+        )?;
+        let p = &self.publish;
+        range(
+            "publish.subscriber_buffer",
+            p.subscriber_buffer,
+            1,
+            MAX_SUBSCRIBER_BUFFER,
+        )?;
+        range("publish.gradients_decimation", p.gradients_decimation, 1, 64)?;
+        if !valid_name(&p.service_prefix) {
+            return Err(ConfigError::OutOfRange {
+                key: "publish.service_prefix".into(),
+                value: format!("{:?}", p.service_prefix),
+                allowed: format!("1..=64 characters from {NAME_CHARS}"),
+            });
+        }
+        range("record.preview_decimation", self.record.preview_decimation, 0, 16)?;
+        range("record.flush_frames", self.record.flush_frames, 1, 10_000)?;
+        let c = &self.compute;
+        range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
+        range("compute.strip_rows", c.strip_rows, 2, 4096)?;
+        range("compute.hit_threshold", c.hit_threshold, -10.0, 10.0)?;
+        range("compute.scale_step", c.scale_step, 1.01, 2.0)?;
+        range("compute.max_levels", c.max_levels, 1, 64)?;
+        range("compute.upsample", c.upsample, 0.5, 4.0)?;
+        if c.model.is_empty() {
+            return Err(ConfigError::Missing {
+                key: "compute.model".into(),
+                when: "compute.detect = true".into(),
+            });
+        }
+        if !c.strip_rows.is_multiple_of(2) {
+            return Err(ConfigError::OutOfRange {
+                key: "compute.strip_rows".into(),
+                value: c.strip_rows.to_string(),
+                allowed: "an even number in 2..=4096 (strips keep the 2x2 phase)".into(),
+            });
+        }
+        if self.cameras.is_empty() {
+            return Err(ConfigError::Missing {
+                key: "camera".into(),
+                when: "the daemon starts (add at least one [[camera]] table)".into(),
+            });
+        }
+        for (i, cam) in self.cameras.iter().enumerate() {
+            let key = |k: &str| format!("camera[{i}].{k}");
+            if !valid_name(&cam.name) {
+                return Err(ConfigError::OutOfRange {
+                    key: key("name"),
+                    value: format!("{:?}", cam.name),
+                    allowed: format!("1..=64 characters from {NAME_CHARS}"),
+                });
+            }
+            if self.cameras[..i].iter().any(|c| c.name == cam.name) {
+                return Err(ConfigError::DuplicateCamera {
+                    index: i,
+                    name: cam.name.clone(),
+                });
+            }
+            for (k, v) in [("width", cam.width), ("height", cam.height)] {
+                range(&key(k), v, 2, MAX_SIDE)?;
+                if v % 2 != 0 {
+                    return Err(ConfigError::OutOfRange {
+                        key: key(k),
+                        value: v.to_string(),
+                        allowed: format!("an even number in 2..={MAX_SIDE} (whole 2x2 tiles)"),
+                    });
+                }
+            }
+            range(&key("bit_depth"), cam.bit_depth, 8, 16)?;
+            if parse_cfa(&cam.cfa).is_none() {
+                return Err(ConfigError::OutOfRange {
+                    key: key("cfa"),
+                    value: format!("{:?}", cam.cfa),
+                    allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
+                });
+            }
+            if !(cam.fps > 0.0 && cam.fps <= 1000.0) {
+                return Err(ConfigError::OutOfRange {
+                    key: key("fps"),
+                    value: cam.fps.to_string(),
+                    allowed: "0 < fps <= 1000".into(),
+                });
+            }
+            match cam.source {
+                SourceType::Mcap if cam.path.is_none() => {
+                    return Err(ConfigError::Missing {
+                        key: key("path"),
+                        when: "source = \"mcap\"".into(),
+                    })
+                }
+                SourceType::V4l2 if cam.device.is_none() => {
+                    return Err(ConfigError::Missing {
+                        key: key("device"),
+                        when: "source = \"v4l2\"".into(),
+                    })
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// The recording path for a camera (`{camera}` substituted).
+    pub fn record_path(&self, camera: &str) -> PathBuf {
+        PathBuf::from(self.record.path.to_string_lossy().replace("{camera}", camera))
+    }
+}
+
+fn valid_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= 64
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MIN: &str = "[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n";
+
+    #[test]
+    fn defaults_fill_missing_sections() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.daemon, DaemonConfig::default());
+        assert_eq!(c.compute.orientation_bins, 9);
+        assert_eq!(c.cameras[0].cfa().unwrap(), Cfa::Rggb);
+    }
+
+    #[test]
+    fn every_range_error_names_its_key() {
+        let cases = [
+            ("[daemon]\nthreads = 0\n", "daemon.threads"),
+            ("[daemon]\nthreads = 1000\n", "daemon.threads"),
+            ("[daemon]\nmax_in_flight = 0\n", "daemon.max_in_flight"),
+            ("[daemon]\nqueue_depth = 0\n", "daemon.queue_depth"),
+            ("[daemon]\nstats_interval_ms = 1\n", "daemon.stats_interval_ms"),
+            (
+                "[daemon]\nshutdown_timeout_ms = 0\n",
+                "daemon.shutdown_timeout_ms",
+            ),
+            ("[publish]\nsubscriber_buffer = 0\n", "publish.subscriber_buffer"),
+            ("[publish]\nservice_prefix = \"a/b\"\n", "publish.service_prefix"),
+            ("[compute]\nstrip_rows = 3\n", "compute.strip_rows"),
+            ("[compute]\norientation_bins = 0\n", "compute.orientation_bins"),
+            ("[compute]\nscale_step = 1.0\n", "compute.scale_step"),
+            ("[compute]\nupsample = 9.0\n", "compute.upsample"),
+            ("[record]\nflush_frames = 0\n", "record.flush_frames"),
+        ];
+        for (extra, key) in cases {
+            let err = Config::from_toml_str(&format!("{extra}{MIN}")).unwrap_err();
+            let msg = err.to_string();
+            assert!(msg.contains(key), "{msg} should name {key}");
+            assert!(msg.contains("allowed"), "{msg} should give the range");
+        }
+        let cam_cases = [
+            ("width = 3\n", "camera[0].width"),
+            ("height = 0\n", "camera[0].height"),
+            ("bit_depth = 17\n", "camera[0].bit_depth"),
+            ("cfa = \"RGBW\"\n", "camera[0].cfa"),
+            ("fps = 0.0\n", "camera[0].fps"),
+        ];
+        for (extra, key) in cam_cases {
+            let msg = Config::from_toml_str(&format!("{MIN}{extra}"))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains(key), "{msg} should name {key}");
+        }
+    }
+
+    #[test]
+    fn unknown_and_mistyped_keys_are_refused_by_name() {
+        let msg = Config::from_toml_str(&format!("[daemon]\nthreadz = 2\n{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("threadz"), "{msg}");
+        let msg = Config::from_toml_str(&format!("[daemon]\nthreads = \"two\"\n{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("threads"), "{msg}");
+    }
+
+    #[test]
+    fn source_specific_keys_are_required() {
+        let msg = Config::from_toml_str("[[camera]]\nname = \"a\"\nsource = \"mcap\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("camera[0].path"), "{msg}");
+        let msg = Config::from_toml_str("[[camera]]\nname = \"a\"\nsource = \"v4l2\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("camera[0].device"), "{msg}");
+        let msg = Config::from_toml_str("").unwrap_err().to_string();
+        assert!(msg.contains("`camera`"), "{msg}");
+        let msg = Config::from_toml_str(&format!("{MIN}{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("camera[1].name"), "{msg}");
+    }
+
+    #[test]
+    fn record_path_substitutes_camera() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.record_path("front"), PathBuf::from("out/front.mcap"));
+    }
+}

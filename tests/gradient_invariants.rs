@@ -46,6 +46,7 @@ fn every_path_equals_scalar_oracle_bit_for_bit() {
             for border in BORDERS {
                 for (bins, range) in [
                     (9, AngleRange::Unsigned),
+                    (12, AngleRange::Unsigned),
                     (36, AngleRange::Signed),
                     (8, AngleRange::Signed),
                 ] {

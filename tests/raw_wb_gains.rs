@@ -2,9 +2,10 @@
 //! ISP's grey image? (issue 2, item 2.)
 //!
 //! For each real raw frame: the reference is the frame normalised (black/white), demosaiced
-//! bilinearly, white-balanced with the best gains we know for it (the sensor's tuning when we have
-//! it, otherwise grey world), clamped to [0, 1] and turned into BT.601 grey; its gradient is the
-//! [-1, 0, 1] central difference in x and y, magnitude `sqrt(gx² + gy²)`. The mosaic gradient is the
+//! bilinearly (`isp::demosaic`), white-balanced with the best gains we know for it (the sensor's
+//! tuning when we have it, otherwise grey world), clamped to [0, 1] and turned into BT.601 grey
+//! (`isp::grey`); its gradient is the [-1, 0, 1] central difference in x and y
+//! (`features::gradient`), magnitude `sqrt(gx² + gy²)`. The mosaic gradient is the
 //! same operator applied directly to the normalised mosaic (taps at x±1 and y±1 share a colour),
 //! once without gains and once with each gains mode. Scores over the interior (2-pixel border
 //! left out): PSNR of the magnitude maps (peak 1) and GMSD (std of the gradient-magnitude
@@ -15,16 +16,17 @@
 //! docs/raw.md reports; the cheap test checks one small frame on every run.
 
 use mosaicd::data::require;
+use mosaicd::features::gradient::{gradients_from_image, GradientSpec};
 use mosaicd::image::Image;
+use mosaicd::isp::demosaic::rgb_from_mosaic_bilinear;
+use mosaicd::isp::grey::grey_from_rgb_f32;
 use mosaicd::raw::levels::{f32_from_raw, grey_world_gains, Compression, Gains, NormaliseOptions};
-use mosaicd::raw::{load_input, Cfa, Colour, InputOptions, RawFrame};
+use mosaicd::raw::{load_input, Cfa, InputOptions, RawFrame};
 
 /// GMSD stability constant for values in [0, 1] (170 for [0, 255] in Xue et al.).
 const GMSD_C: f64 = 170.0 / (255.0 * 255.0);
 /// Border left out of the scores (the gradient and the demosaic both touch 1 pixel).
 const BORDER: usize = 2;
-/// BT.601 luma weights.
-const BT601: [f32; 3] = [0.299, 0.587, 0.114];
 
 fn normalised(frame: &RawFrame, gains: Gains) -> Image<f32> {
     let spec = NormaliseOptions {
@@ -36,68 +38,24 @@ fn normalised(frame: &RawFrame, gains: Gains) -> Image<f32> {
     f32_from_raw(frame, &spec).unwrap()
 }
 
-fn colour_index(c: Colour) -> usize {
-    match c {
-        Colour::Red => 0,
-        Colour::Green => 1,
-        Colour::Blue => 2,
-    }
-}
-
-/// Bilinear demosaic as normalised convolution: for each colour, the weighted mean of the 3x3
-/// neighbours of that colour, weights [1 2 1; 2 4 2; 1 2 1] (equal to the classic bilinear kernels
-/// in the interior; at the border only the existing neighbours count).
-fn rgb_from_mosaic_bilinear(m: &Image<f32>, cfa: Cfa) -> Image<[f32; 3]> {
-    const W: [[f32; 3]; 3] = [[1.0, 2.0, 1.0], [2.0, 4.0, 2.0], [1.0, 2.0, 1.0]];
-    let (w, h) = m.dimensions();
-    Image::from_fn(w, h, |x, y| {
-        let mut sum = [0f32; 3];
-        let mut wsum = [0f32; 3];
-        let own = colour_index(cfa.colour_at(x, y));
-        for (dy, wrow) in W.iter().enumerate() {
-            for (dx, &wt) in wrow.iter().enumerate() {
-                let (xx, yy) = (x as isize + dx as isize - 1, y as isize + dy as isize - 1);
-                if xx < 0 || yy < 0 || xx >= w as isize || yy >= h as isize {
-                    continue;
-                }
-                let (xx, yy) = (xx as usize, yy as usize);
-                let c = colour_index(cfa.colour_at(xx, yy));
-                sum[c] += wt * m.get(xx, yy);
-                wsum[c] += wt;
-            }
-        }
-        let mut out = [0f32; 3];
-        for c in 0..3 {
-            out[c] = if c == own { m.get(x, y) } else { sum[c] / wsum[c] };
-        }
-        out
-    })
-}
-
 fn grey_reference(frame: &RawFrame, gains: [f32; 3]) -> Image<f32> {
     let lin = normalised(frame, Gains::None);
-    let rgb = rgb_from_mosaic_bilinear(&lin, frame.cfa());
-    rgb.map(|p| {
-        let mut g = 0.0;
-        for c in 0..3 {
-            g += BT601[c] * (p[c] * gains[c]).min(1.0);
-        }
-        g
-    })
+    let rgb = rgb_from_mosaic_bilinear(lin.view(), frame.cfa()).unwrap();
+    let balanced = rgb.map(|p| {
+        [
+            (p[0] * gains[0]).min(1.0),
+            (p[1] * gains[1]).min(1.0),
+            (p[2] * gains[2]).min(1.0),
+        ]
+    });
+    grey_from_rgb_f32(&balanced.view())
 }
 
-/// [-1, 0, 1] gradient (gx, gy); 0 on the 1-pixel border.
+/// `features::gradient` central difference [-1, 0, 1] (gx, gy) per pixel.
 fn gradient(img: &Image<f32>) -> Image<[f32; 2]> {
+    let g = gradients_from_image(&img.view(), &GradientSpec::default()).unwrap();
     let (w, h) = img.dimensions();
-    Image::from_fn(w, h, |x, y| {
-        if x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
-            return [0.0, 0.0];
-        }
-        [
-            img.get(x + 1, y) - img.get(x - 1, y),
-            img.get(x, y + 1) - img.get(x, y - 1),
-        ]
-    })
+    Image::from_fn(w, h, |x, y| [g.gx.get(x, y), g.gy.get(x, y)])
 }
 
 /// Unsigned orientation difference in degrees (0..=90) between two gradient vectors.

@@ -5,7 +5,19 @@
 //! downstream: a live source's oldest queued frame is dropped when compute falls behind, a replay
 //! source is back-pressured and never dropped, so replay output is deterministic.
 
+use std::path::PathBuf;
+
 use crate::raw::RawFrame;
+
+pub mod clock;
+pub mod files;
+pub mod mcap_source;
+pub mod v4l2;
+pub mod v4l2_formats;
+
+pub use clock::{Clock, FakeClock, MonotonicClock};
+pub use files::{FileSource, FileSourceOptions};
+pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 
 /// How frames from a source may be treated when compute falls behind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -31,6 +43,127 @@ pub enum CaptureError {
         #[source]
         source: std::io::Error,
     },
+    /// A recording ends in the middle of a record: every complete frame before was delivered.
+    #[error("{path} is truncated after {frames} complete frame(s) (an interrupted recording?): {}", crate::record::read::mcap_detail(.source))]
+    Truncated {
+        /// File.
+        path: PathBuf,
+        /// Frames delivered before the cut.
+        frames: u64,
+        /// What the reader saw.
+        #[source]
+        source: mcap::McapError,
+    },
+    /// A recording (or a message in it) is damaged; nothing after the damage is used.
+    #[error("{path} is corrupt after {frames} frame(s): {source}")]
+    Corrupt {
+        /// File.
+        path: PathBuf,
+        /// Frames delivered before the damage.
+        frames: u64,
+        /// What is wrong.
+        #[source]
+        source: Damage,
+    },
+    /// A recording holds no raw-frame channel (or not the requested one).
+    #[error("{path}: no raw-frame channel {wanted} (channels found: {found})")]
+    NoRawChannel {
+        /// File.
+        path: PathBuf,
+        /// Requested topic, or the schema name.
+        wanted: String,
+        /// Topics present.
+        found: String,
+    },
+    /// A V4L2 format or buffer that cannot be interpreted.
+    #[error(transparent)]
+    Format(#[from] v4l2_formats::V4l2FormatError),
+    /// The camera device node does not exist.
+    #[error("camera {path} does not exist (is the camera connected and its driver loaded? `v4l2-ctl --list-devices` lists cameras)")]
+    DeviceMissing {
+        /// Device path.
+        path: PathBuf,
+    },
+    /// The device cannot stream video capture.
+    #[error("{path} ({card}) is not a streaming video-capture device")]
+    NotCapture {
+        /// Device path.
+        path: PathBuf,
+        /// The driver's card name.
+        card: String,
+    },
+    /// The device offers no Bayer format we can read.
+    #[error("the device offers no Bayer format we support (offered: {offered}; preferred: {preferred:?}); see capture::v4l2_formats for the list")]
+    NoBayerFormat {
+        /// FourCCs offered.
+        offered: String,
+        /// FourCC asked for.
+        preferred: Option<String>,
+    },
+    /// The device stopped delivering frames (unplugged, driver error); reopening follows.
+    #[error("camera {path} was lost: {source}; reopening with back-off")]
+    DeviceLost {
+        /// Device path.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A reopen attempt failed; the next one is after the back-off.
+    #[error("camera {path} unavailable (attempt {attempt}, next in {retry_in_ms} ms): {source}")]
+    DeviceUnavailable {
+        /// Device path.
+        path: PathBuf,
+        /// Failed attempts so far.
+        attempt: u32,
+        /// Delay before the next attempt (ms).
+        retry_in_ms: u64,
+        /// Why this attempt failed.
+        #[source]
+        source: Box<CaptureError>,
+    },
+    /// A sidecar that does not parse.
+    #[error("sidecar {path} does not parse: {source}")]
+    Sidecar {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: Box<toml::de::Error>,
+    },
+    /// A sidecar value out of range.
+    #[error("sidecar {path}: {key} = {value} is invalid: expected {why}")]
+    SidecarValue {
+        /// File.
+        path: PathBuf,
+        /// Key.
+        key: &'static str,
+        /// Value.
+        value: String,
+        /// Allowed values.
+        why: &'static str,
+    },
+    /// An invalid source option.
+    #[error("invalid source option {name} = {value}: {why}")]
+    Option {
+        /// Option name.
+        name: &'static str,
+        /// Offending value.
+        value: String,
+        /// Allowed values.
+        why: &'static str,
+    },
+}
+
+/// What is wrong in a corrupt recording.
+#[derive(Debug, thiserror::Error)]
+pub enum Damage {
+    /// The MCAP structure (magic, CRC, record, compression).
+    #[error("{}", crate::record::read::mcap_detail(.0))]
+    Mcap(#[from] mcap::McapError),
+    /// A raw-frame message that does not decode.
+    #[error(transparent)]
+    Message(#[from] crate::record::schema::SchemaError),
 }
 
 /// A producer of raw frames.

@@ -1,10 +1,136 @@
-//! `mosaicd bench pipeline` (in progress).
+//! `mosaicd bench pipeline`: replay throughput (frames/s) and capture→publish latency p50/p99 of
+//! the daemon pipeline on a synthetic stream (default 1920x1080 12-bit RGGB, 2 threads), with the
+//! iceoryx2 publishers on; then the same run with a subscriber that never reads, and the ratio (a
+//! stalled subscriber must not slow the daemon). Not a test: numbers for docs/daemon.md.
+
+use std::sync::Arc;
+
+use serde_json::json;
+
+use mosaicd::config::PublishConfig;
+use mosaicd::pipeline::clock::ReplayClock;
+use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
+use mosaicd::pipeline::pool::BufferPool;
+use mosaicd::config::Config;
+use mosaicd::pipeline::daemon::{load_detector, stage_spec};
+use mosaicd::pipeline::stage::Stage;
+use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
+use mosaicd::publish::publisher::IceoryxSink;
+use mosaicd::publish::service::{create_node, detections_service, subscriber};
 
 /// Arguments of `mosaicd bench pipeline`.
 #[derive(clap::Args, Debug)]
-pub struct BenchPipelineArgs {}
+pub struct BenchPipelineArgs {
+    /// Frame width.
+    #[arg(long, default_value_t = 1920)]
+    width: usize,
+    /// Frame height.
+    #[arg(long, default_value_t = 1080)]
+    height: usize,
+    /// Bit depth.
+    #[arg(long, default_value_t = 12)]
+    bit_depth: u8,
+    /// Frames per run.
+    #[arg(long, default_value_t = 120)]
+    frames: u64,
+    /// Compute threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Frames in flight.
+    #[arg(long, default_value_t = 4)]
+    max_in_flight: usize,
+    /// Gradients only (no pedestrian detection).
+    #[arg(long)]
+    no_detect: bool,
+    /// Skip the stalled-subscriber run.
+    #[arg(long)]
+    no_stalled: bool,
+}
+
+fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result<(f64, f64, f64)> {
+    let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?);
+    let frames = BufferPool::new(16);
+    let src = SyntheticSource::with_pool(
+        SyntheticSpec {
+            width: a.width,
+            height: a.height,
+            bit_depth: a.bit_depth,
+            frames: a.frames,
+            ..Default::default()
+        },
+        frames.clone(),
+    );
+    let publish = PublishConfig {
+        service_prefix: "mosaicd-bench".into(),
+        ..PublishConfig::default()
+    };
+    let p = Pipeline::start(
+        PipelineSpec {
+            camera: camera.into(),
+            queue_depth: 4,
+            max_in_flight: a.max_in_flight,
+            stage: stage.clone(),
+            keep_frames: false,
+        },
+        Box::new(src),
+        pool,
+        Arc::new(ReplayClock::default()),
+        vec![IceoryxSink::factory(camera, &publish)],
+        frames,
+    )?;
+    let r = p.join();
+    anyhow::ensure!(
+        r.stats.processed == a.frames,
+        "processed {} of {}",
+        r.stats.processed,
+        a.frames
+    );
+    Ok((
+        r.stats.processed as f64 / r.elapsed.as_secs_f64(),
+        r.stats.latency_p50_us / 1e3,
+        r.stats.latency_p99_us / 1e3,
+    ))
+}
 
 /// Run `mosaicd bench pipeline`.
-pub fn run(_args: BenchPipelineArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd bench pipeline` is not built yet")
+pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
+    let mut cfg = Config::default();
+    cfg.compute.detect = !a.no_detect;
+    let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
+    let cam = format!("bench{}", std::process::id());
+    let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
+    println!(
+        "pipeline {}x{} {}-bit, detection {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
+    );
+    let mut stalled = None;
+    if !a.no_stalled {
+        // A subscriber that never reads, held for the whole second run.
+        let cam2 = format!("{cam}s");
+        let node = create_node(&format!("mosaicd-bench-stall-{}", std::process::id()), true)?;
+        let svc = detections_service(
+            &node,
+            "mosaicd-bench",
+            &cam2,
+            PublishConfig::default().subscriber_buffer,
+        )?;
+        let _sub = subscriber(&svc, PublishConfig::default().subscriber_buffer, "stalled")?;
+        let (fps2, p50b, p99b) = one_run(&a, &cam2, &stage)?;
+        println!(
+            "with a subscriber that never reads: {:.1} frames/s ({:+.1} %), latency p50 {:.2} ms p99 {:.2} ms",
+            fps2,
+            (fps2 / fps - 1.0) * 100.0,
+            p50b,
+            p99b
+        );
+        stalled = Some(fps2);
+    }
+    let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
+    println!(
+        "{}",
+        json!({"detect": !a.no_detect, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
+               "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
+               "fps_with_stalled_subscriber": stalled, "commit": commit})
+    );
+    Ok(())
 }

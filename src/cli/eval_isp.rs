@@ -51,8 +51,14 @@ pub enum IspEval {
     Gradients(ExperimentArgs),
     /// Fig. 9: GMSD of the mosaic gradient vs grey / R / G / B / colour-max gradients.
     Channels(ExperimentArgs),
+    /// Table IV: each demosaicing method vs true colour (Kodak).
+    Demosaic(ExperimentArgs),
     /// Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize.
     ScaleSpace(ExperimentArgs),
+    /// Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first).
+    Pipeline(ExperimentArgs),
+    /// Gradient and HOG-input degradation under the paper's three noise levels.
+    Noise(ExperimentArgs),
     /// Every experiment above, one after the other; optionally writes docs/REPRODUCTION.md.
     All(AllArgs),
 }
@@ -66,21 +72,27 @@ fn print_and_write(r: &Report, out: &std::path::Path) -> anyhow::Result<()> {
 
 /// Run one of the experiments.
 pub fn run(cmd: IspEval) -> anyhow::Result<()> {
-    use mosaicd::eval::{channels, gradients, scale_space};
+    use mosaicd::eval::{channels, demosaic, gradients, noise, pipeline, scale_space};
     type Runner = fn(&EvalOptions) -> mosaicd::eval::common::Result<Report>;
-    let all: [(&str, Runner); 3] = [
-        ("gradients", gradients::run),
-        ("channels", channels::run),
-        ("scale-space", scale_space::run),
+    let all: [Runner; 6] = [
+        gradients::run,
+        demosaic::run,
+        scale_space::run,
+        pipeline::run,
+        channels::run,
+        noise::run,
     ];
     match cmd {
         IspEval::Gradients(a) => print_and_write(&gradients::run(&a.options())?, &a.out),
         IspEval::Channels(a) => print_and_write(&channels::run(&a.options())?, &a.out),
+        IspEval::Demosaic(a) => print_and_write(&demosaic::run(&a.options())?, &a.out),
         IspEval::ScaleSpace(a) => print_and_write(&scale_space::run(&a.options())?, &a.out),
+        IspEval::Pipeline(a) => print_and_write(&pipeline::run(&a.options())?, &a.out),
+        IspEval::Noise(a) => print_and_write(&noise::run(&a.options())?, &a.out),
         IspEval::All(a) => {
             let opts = a.common.options();
             let mut reports = Vec::new();
-            for (_, f) in all {
+            for f in all {
                 let r = f(&opts)?;
                 print_and_write(&r, &opts.out)?;
                 reports.push(r);

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
+use mosaicd::raw::levels::{Compression, Gains, NormaliseOptions, NormaliseSpec};
 use mosaicd::raw::{load_input, Cfa, Container, Endian, InputOptions, LoadedInput};
 
 /// Parse `--black`: one value for every tile position, or four comma-separated values in tile
@@ -61,6 +62,13 @@ pub struct InputArgs {
     /// Sample container of a headerless file (default: u8 for 8-bit, u16 above).
     #[arg(long, value_enum)]
     pub container: Option<Container>,
+    /// White-balance gains applied when normalising: none (default, measured best for gradient
+    /// parity, see docs/raw.md), file, grey-world, auto (file, else grey world) or R,G,B.
+    #[arg(long, default_value = "none")]
+    pub gains: Gains,
+    /// Tone compression after normalising: none (default), sqrt (as OpenCV HOG) or gamma:EXPONENT.
+    #[arg(long, default_value = "none")]
+    pub compress: Compression,
 }
 
 // Used by the subcommands that flatten `InputArgs` (gradients, detect, sift) as they land.
@@ -81,10 +89,33 @@ impl InputArgs {
         }
     }
 
+    /// The validated normalisation spec of `--gains` and `--compress`.
+    pub fn normalise_spec(&self) -> anyhow::Result<NormaliseSpec> {
+        Ok(NormaliseOptions {
+            gains: self.gains,
+            compression: self.compress,
+        }
+        .build()?)
+    }
+
     /// Load the input.
     pub fn load(&self) -> anyhow::Result<LoadedInput> {
-        load_input(&self.input, &self.options())
-            .with_context(|| format!("loading input {}", self.input.display()))
+        let loaded = load_input(&self.input, &self.options())
+            .with_context(|| format!("loading input {}", self.input.display()))?;
+        let f = &loaded.frame;
+        tracing::info!(
+            input = %self.input.display(),
+            width = f.width(),
+            height = f.height(),
+            cfa = %f.cfa(),
+            bit_depth = f.bit_depth(),
+            black = ?f.levels().black,
+            white = f.levels().white,
+            wb_gains = ?f.wb_gains,
+            rgb = loaded.rgb.is_some(),
+            "loaded input"
+        );
+        Ok(loaded)
     }
 }
 
@@ -97,6 +128,54 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         input: InputArgs,
+    }
+
+    #[test]
+    fn loads_the_demo_frame() {
+        let p = mosaicd::data::require("raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw");
+        let c = Cli::try_parse_from([
+            "x".as_ref(),
+            p.as_os_str(),
+            "--width".as_ref(),
+            "768".as_ref(),
+            "--height".as_ref(),
+            "512".as_ref(),
+            "--bit-depth".as_ref(),
+            "14".as_ref(),
+            "--cfa".as_ref(),
+            "RGGB".as_ref(),
+            "--black".as_ref(),
+            "600".as_ref(),
+            "--white".as_ref(),
+            "15520".as_ref(),
+        ])
+        .unwrap();
+        let l = c.input.load().unwrap();
+        assert_eq!(
+            (l.frame.width(), l.frame.height(), l.frame.bit_depth()),
+            (768, 512, 14)
+        );
+        assert_eq!(l.frame.cfa(), Cfa::Rggb);
+        assert!(l.rgb.is_none());
+        // A wrong size is one clear error naming the file.
+        let c = Cli::try_parse_from([
+            "x".as_ref(),
+            p.as_os_str(),
+            "--width".as_ref(),
+            "700".as_ref(),
+            "--height".as_ref(),
+            "512".as_ref(),
+            "--bit-depth".as_ref(),
+            "14".as_ref(),
+            "--cfa".as_ref(),
+            "RGGB".as_ref(),
+        ])
+        .unwrap();
+        let e = format!("{:#}", c.input.load().unwrap_err());
+        assert!(
+            e.contains("DSC_1339_768x512_rggb.raw") && e.contains("786432"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -135,6 +214,16 @@ mod tests {
         let c = Cli::try_parse_from(["x", "f.png", "--black", "1,2,3,4", "--cfa", "gbrg"]).unwrap();
         assert_eq!(c.input.black, Some([1, 2, 3, 4]));
         assert_eq!(c.input.cfa, Some(Cfa::Gbrg));
+        assert_eq!(c.input.gains, Gains::None);
+        assert_eq!(c.input.compress, Compression::None);
+        let c = Cli::try_parse_from(["x", "f", "--gains", "1.5,1,2", "--compress", "gamma:0.45"]).unwrap();
+        assert_eq!(c.input.gains, Gains::Fixed([1.5, 1.0, 2.0]));
+        assert_eq!(
+            c.input.normalise_spec().unwrap().compression(),
+            Compression::Gamma(0.45)
+        );
+        let c = Cli::try_parse_from(["x", "f", "--gains", "0,1,1"]).unwrap();
+        assert!(c.input.normalise_spec().is_err());
         assert!(Cli::try_parse_from(["x", "f", "--bit-depth", "17"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--black", "1,2"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--cfa", "RGBG"]).is_err());

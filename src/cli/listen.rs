@@ -1,10 +1,137 @@
-//! `mosaicd listen` (in progress).
+//! `mosaicd listen`: a subscriber in its own process that prints what a daemon publishes as JSON
+//! lines (one object per sample, with a `"topic"` key).
+//!
+//! It opens (or creates, if it starts first) the camera's `detections` and `stats` services — and
+//! `gradients` with `--gradients` — with the same settings as the daemon. It stops after `--count`
+//! detections, after the daemon's final stats with `--until-final`, after `--timeout-s`, or on
+//! SIGINT/SIGTERM.
+
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+
+use mosaicd::publish::messages::DetectionsMsg;
+use mosaicd::publish::service::{
+    create_node, detections_service, gradients_service, stats_service, subscriber,
+};
+
+/// Poll period of the subscriber loop.
+const CYCLE: Duration = Duration::from_millis(1);
 
 /// Arguments of `mosaicd listen`.
 #[derive(clap::Args, Debug)]
-pub struct ListenArgs {}
+pub struct ListenArgs {
+    /// Camera name (as in the daemon's config).
+    #[arg(long)]
+    camera: String,
+    /// Service name prefix (`publish.service_prefix`).
+    #[arg(long, default_value = "mosaicd")]
+    prefix: String,
+    /// Samples buffered per service (must not exceed the daemon's `publish.subscriber_buffer`).
+    #[arg(long, default_value_t = 64)]
+    buffer: usize,
+    /// Exit after this many detections messages.
+    #[arg(long)]
+    count: Option<u64>,
+    /// Exit after the daemon's final stats message.
+    #[arg(long)]
+    until_final: bool,
+    /// Exit after this many seconds.
+    #[arg(long)]
+    timeout_s: Option<f64>,
+    /// Also print the gradients service (header and payload size).
+    #[arg(long)]
+    gradients: bool,
+}
+
+fn detections_json(m: &DetectionsMsg) -> serde_json::Value {
+    json!({
+        "topic": "detections",
+        "index": m.index,
+        "sequence": m.sequence,
+        "sensor_sequence": if m.sensor_sequence == u64::MAX { None } else { Some(m.sensor_sequence) },
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "publish_timestamp_ns": m.publish_timestamp_ns,
+        "latency_ns": m.latency_ns,
+        "frame_width": m.frame_width,
+        "frame_height": m.frame_height,
+        "box_count": m.box_count,
+        "overflow": m.overflow,
+        "mean_magnitude": m.mean_magnitude,
+        "boxes": m.boxes(),
+    })
+}
 
 /// Run `mosaicd listen`.
-pub fn run(_args: ListenArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd listen` is not built yet")
+pub fn run(args: ListenArgs) -> anyhow::Result<()> {
+    let node = create_node(&format!("mosaicd-listen-{}", std::process::id()), false)?;
+    let det = detections_service(&node, &args.prefix, &args.camera, args.buffer)?;
+    let st = stats_service(&node, &args.prefix, &args.camera, args.buffer)?;
+    let det_sub = subscriber(&det, args.buffer, "detections")?;
+    let st_sub = subscriber(&st, args.buffer, "stats")?;
+    let grad = if args.gradients {
+        let svc = gradients_service(&node, &args.prefix, &args.camera, args.buffer)?;
+        let sub = svc
+            .subscriber_builder()
+            .buffer_size(args.buffer)
+            .create()
+            .map_err(|e| anyhow::anyhow!("gradients subscriber: {e}"))?;
+        Some((svc, sub))
+    } else {
+        None
+    };
+    eprintln!(
+        "mosaicd listen: subscribed to {}/{}/{{detections,stats}}",
+        args.prefix, args.camera
+    );
+    let start = Instant::now();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let mut received = 0u64;
+    let mut finished = false;
+    let drain_detections = |out: &mut std::io::StdoutLock<'_>, received: &mut u64| -> anyhow::Result<()> {
+        while let Some(s) = det_sub.receive()? {
+            writeln!(out, "{}", detections_json(&s))?;
+            *received += 1;
+        }
+        Ok(())
+    };
+    while node.wait(CYCLE).is_ok() {
+        drain_detections(&mut out, &mut received)?;
+        if let Some((_, sub)) = &grad {
+            while let Some(s) = sub.receive()? {
+                let mut v = serde_json::to_value(s.user_header())?;
+                v["topic"] = json!("gradients");
+                v["payload_bytes"] = json!(s.payload().len());
+                writeln!(out, "{v}")?;
+            }
+        }
+        while let Some(s) = st_sub.receive()? {
+            let mut v = serde_json::to_value(*s)?;
+            v["topic"] = json!("stats");
+            writeln!(out, "{v}")?;
+            if s.is_final != 0 {
+                finished = true;
+            }
+        }
+        out.flush()?;
+        if finished && args.until_final {
+            // Everything the daemon published went out before its final stats.
+            drain_detections(&mut out, &mut received)?;
+            break;
+        }
+        if args.count.is_some_and(|c| received >= c) {
+            break;
+        }
+        if args.timeout_s.is_some_and(|t| start.elapsed().as_secs_f64() >= t) {
+            out.flush()?;
+            anyhow::bail!(
+                "timed out after {:?} s with {received} detections messages",
+                args.timeout_s.unwrap_or(0.0)
+            );
+        }
+    }
+    out.flush()?;
+    Ok(())
 }

@@ -1,10 +1,300 @@
-//! `mosaicd record` (in progress).
+//! `mosaicd record`: make a recording (MCAP, our schemas) from a recipe, a V4L2 camera, or raw
+//! files / RGB images with a camera motion.
+//!
+//! ```text
+//! mosaicd record --recipe recordings/demo.toml                 # rebuild recordings/out/demo.mcap
+//! mosaicd record --device /dev/video0 --frames 300 -o cam.mcap # a live camera
+//! mosaicd record frames/ --sidecar frames/mosaicd-raw.toml -o files.mcap   # raw files as a stream
+//! mosaicd record kodim12.png --crop 512x384 --path 0,0:255,127 --noise low --frames 30 -o pan.mcap
+//! ```
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+
+use mosaicd::capture::files::{FileSource, FileSourceOptions, Sidecar};
+use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
+use mosaicd::capture::Source;
+use mosaicd::raw::Levels;
+use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
+use mosaicd::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
 
 /// Arguments of `mosaicd record`.
 #[derive(clap::Args, Debug)]
-pub struct RecordArgs {}
+pub struct RecordArgs {
+    /// Raw files / directories (played in order) or one image/raw file with `--crop` motion.
+    pub inputs: Vec<PathBuf>,
+    /// Build the recording a recipe describes (recordings/*.toml).
+    #[arg(long, conflicts_with_all = ["device", "inputs"])]
+    pub recipe: Option<PathBuf>,
+    /// Record a V4L2 camera (e.g. /dev/video0).
+    #[arg(long, conflicts_with = "inputs")]
+    pub device: Option<PathBuf>,
+    /// Output file (default: the recipe's output, else out/recording.mcap).
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Data root for recipe files (default: $MOSAICD_DATA or ../shared/data).
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Frames to record (camera: required; files: default all; motion: default 30).
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// Frame rate (timestamps of files/motion; requested rate of a camera).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Camera, motion and recorder options.
+    #[command(flatten)]
+    pub opts: Box<RecordOptions>,
+}
+
+/// The less common options of `mosaicd record` (boxed to keep the CLI enum small).
+#[derive(clap::Args, Debug)]
+pub struct RecordOptions {
+    /// Preferred camera FourCC (e.g. pRAA, RG12).
+    #[arg(long)]
+    pub fourcc: Option<String>,
+    /// Sensor black level (camera) — V4L2 does not report it.
+    #[arg(long)]
+    pub black: Option<u16>,
+    /// Sensor white level (camera).
+    #[arg(long)]
+    pub white: Option<u16>,
+    /// Sidecar TOML for every raw file.
+    #[arg(long)]
+    pub sidecar: Option<PathBuf>,
+    /// Camera motion: crop window WxH moved along --path over one still input.
+    #[arg(long)]
+    pub crop: Option<String>,
+    /// Crop-window waypoints "x0,y0:x1,y1:..." (default 0,0).
+    #[arg(long, default_value = "0,0")]
+    pub path: String,
+    /// Keep crop offsets even (the pattern phase never changes); default any offset.
+    #[arg(long)]
+    pub even: bool,
+    /// Noise preset for motion recordings: none, low, medium, high.
+    #[arg(long, default_value = "none")]
+    pub noise: String,
+    /// Seed (noise, synthetic scenes).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Camera profile (config/cameras stem) for RGB images through the reverse ISP.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// Output pattern for RGB images.
+    #[arg(long)]
+    pub cfa: Option<String>,
+    /// Output bit depth for RGB images.
+    #[arg(long)]
+    pub bit_depth: Option<u8>,
+    /// Camera name (topics /<camera>/raw, ...).
+    #[arg(long, default_value = "camera")]
+    pub camera: String,
+    /// Preview decimation (0 = no preview).
+    #[arg(long, default_value_t = 2)]
+    pub preview_decimation: u32,
+    /// Flush every N frames (bounds what a crash loses).
+    #[arg(long, default_value_t = 30)]
+    pub flush_frames: u32,
+    /// Start a new file after this many MB.
+    #[arg(long)]
+    pub rotate_mb: Option<u64>,
+    /// Start a new file after this many seconds of recorded time.
+    #[arg(long)]
+    pub rotate_secs: Option<u64>,
+}
+
+fn recorder_options(a: &RecordArgs) -> RecorderOptions {
+    RecorderOptions {
+        camera: a.opts.camera.clone(),
+        flush: FlushPolicy {
+            every_frames: Some(a.opts.flush_frames.max(1)),
+            every_ns: None,
+        },
+        rotate: RotatePolicy {
+            bytes: a.opts.rotate_mb.map(|m| m * 1024 * 1024),
+            duration_ns: a.opts.rotate_secs.map(|s| s * 1_000_000_000),
+        },
+        preview: (a.opts.preview_decimation > 0).then_some(PreviewOptions {
+            decimation: a.opts.preview_decimation,
+        }),
+        ..Default::default()
+    }
+}
+
+fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--crop {s:?}: expected WxH"))?;
+    Ok((w.trim().parse()?, h.trim().parse()?))
+}
+
+fn parse_path(s: &str) -> anyhow::Result<Vec<[usize; 2]>> {
+    s.split(':')
+        .map(|p| {
+            let (x, y) = p
+                .split_once(',')
+                .with_context(|| format!("--path point {p:?}: expected x,y"))?;
+            Ok([x.trim().parse()?, y.trim().parse()?])
+        })
+        .collect()
+}
+
+fn progress(done: u64, total: u64) {
+    if total > 0 && (done == total || done.is_multiple_of((total / 10).max(1))) {
+        eprintln!("  {done}/{total} frames");
+    }
+}
+
+fn record_source(
+    a: &RecordArgs,
+    mut src: Box<dyn Source>,
+    limit: Option<u64>,
+    out: PathBuf,
+) -> anyhow::Result<()> {
+    let mut rec = McapRecorder::create(&out, recorder_options(a))?;
+    let mut n = 0u64;
+    let mut errors = 0u64;
+    while limit.is_none_or(|l| n < l) {
+        match src.next_frame() {
+            Ok(Some(f)) => {
+                rec.write_frame(&f)?;
+                n += 1;
+                if let Some(l) = limit {
+                    progress(n, l);
+                } else if n.is_multiple_of(10) {
+                    eprintln!("  {n} frames");
+                }
+            }
+            Ok(None) => break,
+            Err(e) if !src.is_finished() => {
+                errors += 1;
+                eprintln!("  skipped: {e}");
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let s = rec.finish()?;
+    println!(
+        "recorded {n} frames from {} ({errors} skipped) into {}",
+        src.describe(),
+        s.files
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(())
+}
 
 /// Run `mosaicd record`.
-pub fn run(_args: RecordArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd record` is not built yet")
+pub fn run(a: RecordArgs) -> anyhow::Result<()> {
+    let data_root = a.data.clone().unwrap_or_else(mosaicd::data::data_root);
+    if let Some(recipe_path) = &a.recipe {
+        let recipe = Recipe::load(recipe_path)?;
+        eprintln!(
+            "building {} ({} frames) from {}",
+            recipe.name,
+            recipe.frames,
+            recipe_path.display()
+        );
+        let s = build_recording(&recipe, &data_root, a.out.as_deref(), progress).with_context(|| {
+            format!(
+                "recipe {} (data root {})",
+                recipe_path.display(),
+                data_root.display()
+            )
+        })?;
+        println!("recorded {} frames into {}", s.frames, s.files[0].display());
+        return Ok(());
+    }
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out/recording.mcap"));
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    if let Some(dev) = &a.device {
+        let Some(frames) = a.frames else {
+            bail!("--device needs --frames N");
+        };
+        let fourcc = match &a.opts.fourcc {
+            Some(f) if f.len() == 4 => Some(<[u8; 4]>::try_from(f.as_bytes()).expect("len 4")),
+            Some(f) => bail!("--fourcc {f:?}: expected 4 characters"),
+            None => None,
+        };
+        let levels = match (a.opts.black, a.opts.white) {
+            (None, None) => None,
+            (b, w) => Some(Levels::uniform(
+                b.unwrap_or(0),
+                w.context("--black needs --white")?,
+            )),
+        };
+        let opts = V4l2Options {
+            fourcc,
+            fps: a.fps.map(|f| f.round() as u32),
+            levels,
+            ..Default::default()
+        };
+        let src = V4l2Source::open(dev, opts)?;
+        return record_source(&a, Box::new(src), Some(frames), out);
+    }
+    if a.inputs.is_empty() {
+        bail!("nothing to record: give --recipe FILE, --device /dev/videoN, or input files");
+    }
+    if let Some(crop) = &a.opts.crop {
+        let [input] = a.inputs.as_slice() else {
+            bail!("--crop takes exactly one still input");
+        };
+        let (w, h) = parse_size(crop)?;
+        let ext = input
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .unwrap_or_default();
+        let rgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg") && a.opts.sidecar.is_none();
+        let format = match &a.opts.sidecar {
+            Some(s) => Some(Sidecar::read(s)?),
+            None => None,
+        };
+        let recipe = Recipe {
+            name: input.display().to_string(),
+            output: out.clone(),
+            frames: a.frames.unwrap_or(30),
+            fps: a.fps.unwrap_or(30.0),
+            seed: a.opts.seed,
+            noise: a.opts.noise.clone(),
+            camera: a.opts.camera.clone(),
+            source: SourceSpec {
+                kind: if rgb { "rgb" } else { "raw" }.into(),
+                file: Some(std::path::absolute(input)?),
+                format,
+                profile: a.opts.profile.clone(),
+                cfa: a.opts.cfa.clone(),
+                bit_depth: a.opts.bit_depth,
+                width: None,
+                height: None,
+            },
+            motion: Motion {
+                width: w,
+                height: h,
+                waypoints: parse_path(&a.opts.path)?,
+                align: if a.opts.even { Align::Even } else { Align::Any },
+            },
+            recorder: RecipeRecorder {
+                preview_decimation: a.opts.preview_decimation,
+                flush_frames: a.opts.flush_frames,
+            },
+        };
+        let s = build_recording(&recipe, std::path::Path::new("/"), Some(&out), progress)?;
+        println!("recorded {} frames into {}", s.frames, s.files[0].display());
+        return Ok(());
+    }
+    let opts = FileSourceOptions {
+        fps: a.fps.unwrap_or(mosaicd::capture::files::DEFAULT_FPS),
+        sidecar: a.opts.sidecar.clone(),
+        ..Default::default()
+    };
+    let src = FileSource::open(&a.inputs, opts)?;
+    record_source(&a, Box::new(src), a.frames, out)
 }

@@ -1,19 +1,181 @@
-//! `mosaicd run` and `mosaicd replay` (in progress).
+//! `mosaicd run` (the daemon, from a config) and `mosaicd replay FILE.mcap`.
+//!
+//! Both load a config (default `config/mosaicd.toml`), apply command-line overrides, validate once,
+//! run until the sources end or SIGTERM/SIGINT, and print a summary (frames, detections,
+//! throughput, latency p50/p99, drops and failures by reason). Exit status is non-zero when a
+//! source ended with an error (truncated or corrupt recording, lost device) or a sink failed — after
+//! everything already captured has been processed and written.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use mosaicd::config::{CameraConfig, Config, SourceType};
+use mosaicd::pipeline::daemon::{self, DaemonError, RunOptions, RunSummary};
+use mosaicd::pipeline::engine::SinkFactory;
+use mosaicd::publish::publisher::IceoryxSink;
+
+/// Default config file.
+const DEFAULT_CONFIG: &str = "config/mosaicd.toml";
+
+/// Overrides shared by `run` and `replay`.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct Overrides {
+    /// Compute threads (`daemon.threads`).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Frames in flight per camera (`daemon.max_in_flight`).
+    #[arg(long)]
+    max_in_flight: Option<usize>,
+    /// Service name prefix (`publish.service_prefix`).
+    #[arg(long)]
+    service_prefix: Option<String>,
+    /// Do not publish over iceoryx2.
+    #[arg(long)]
+    no_publish: bool,
+    /// Also publish gradient maps (`publish.gradients`).
+    #[arg(long)]
+    publish_gradients: bool,
+    /// Write results as JSON lines (`{camera}` is replaced by the camera name).
+    #[arg(long, value_name = "FILE")]
+    results: Option<PathBuf>,
+    /// Print the summary as one JSON object on stdout instead of text.
+    #[arg(long)]
+    json_summary: bool,
+}
 
 /// Arguments of `mosaicd run`.
 #[derive(clap::Args, Debug)]
-pub struct RunArgs {}
+pub struct RunArgs {
+    /// Config file.
+    #[arg(long, short, default_value = DEFAULT_CONFIG)]
+    config: PathBuf,
+    #[command(flatten)]
+    overrides: Overrides,
+}
 
 /// Arguments of `mosaicd replay`.
 #[derive(clap::Args, Debug)]
-pub struct ReplayArgs {}
+pub struct ReplayArgs {
+    /// The recording.
+    file: PathBuf,
+    /// Config file for everything but the source (missing file: built-in defaults).
+    #[arg(long, short)]
+    config: Option<PathBuf>,
+    /// Camera name used in service names and outputs.
+    #[arg(long, default_value = "replay")]
+    camera: String,
+    /// Replay at the recorded rate instead of as fast as possible.
+    #[arg(long)]
+    realtime: bool,
+    /// Loop the recording.
+    #[arg(long = "loop")]
+    looped: bool,
+    /// Record results (and frames) to this MCAP file.
+    #[arg(long, value_name = "OUT.mcap")]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    overrides: Overrides,
+}
+
+fn apply(cfg: &mut Config, o: &Overrides) -> anyhow::Result<()> {
+    if let Some(t) = o.threads {
+        cfg.daemon.threads = t;
+    }
+    if let Some(m) = o.max_in_flight {
+        cfg.daemon.max_in_flight = m;
+    }
+    if let Some(p) = &o.service_prefix {
+        cfg.publish.service_prefix = p.clone();
+    }
+    if o.no_publish {
+        cfg.publish.enabled = false;
+    }
+    if o.publish_gradients {
+        cfg.publish.gradients = true;
+    }
+    cfg.validate().context("after command-line overrides")?;
+    Ok(())
+}
+
+fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError> + '_ {
+    move |cam: &CameraConfig| {
+        let mut v = Vec::new();
+        if cfg.publish.enabled {
+            v.push(IceoryxSink::factory(&cam.name, &cfg.publish));
+        }
+        if cfg.record.enabled {
+            v.push(mosaicd::pipeline::record_sink::recorder_sink(cfg, cam)?);
+        }
+        Ok(v)
+    }
+}
+
+fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
+    let opts = RunOptions {
+        results_out: o.results.clone(),
+    };
+    let builder = sinks_for(cfg);
+    let summary = daemon::run(cfg, &opts, &builder)?;
+    report(&summary, o.json_summary)
+}
+
+fn report(summary: &RunSummary, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string(summary)?);
+    } else {
+        for l in summary.lines() {
+            println!("{l}");
+        }
+    }
+    let mut problems = Vec::new();
+    for c in &summary.cameras {
+        if let Some(e) = &c.source_error {
+            problems.push(format!("camera {}: input ended with an error: {e}", c.camera));
+        }
+        for e in &c.sink_errors {
+            problems.push(format!("camera {}: {e}", c.camera));
+        }
+    }
+    if !problems.is_empty() {
+        anyhow::bail!(
+            "{} (everything captured before it was processed and written)",
+            problems.join("; ")
+        );
+    }
+    Ok(())
+}
 
 /// Run `mosaicd run`.
-pub fn run(_args: RunArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd run` is not built yet")
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let mut cfg = Config::load(&args.config)?;
+    apply(&mut cfg, &args.overrides)?;
+    execute(&cfg, &args.overrides)
 }
 
 /// Run `mosaicd replay`.
-pub fn replay(_args: ReplayArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd replay` is not built yet")
+pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
+    let mut cfg = match &args.config {
+        Some(p) => Config::load(p)?,
+        None => {
+            let default = PathBuf::from(DEFAULT_CONFIG);
+            if default.exists() {
+                Config::load(&default)?
+            } else {
+                Config::default()
+            }
+        }
+    };
+    let mut cam = CameraConfig::synthetic(&args.camera, 2, 2, 0);
+    cam.source = SourceType::Mcap;
+    cam.path = Some(args.file.clone());
+    cam.realtime = args.realtime;
+    cam.looped = args.looped;
+    cfg.cameras = vec![cam];
+    if let Some(out) = &args.out {
+        cfg.record.enabled = true;
+        cfg.record.path = out.clone();
+    }
+    apply(&mut cfg, &args.overrides)?;
+    execute(&cfg, &args.overrides)
 }

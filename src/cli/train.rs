@@ -1,10 +1,85 @@
-//! `mosaicd train` (in progress).
+//! `mosaicd train`: train a HOG + linear SVM people detector in one input domain.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use mosaicd::detect::train::{evaluate_windows, train, TrainOptions};
+use mosaicd::raw::Cfa;
+
+use super::detect::DomainArg;
 
 /// Arguments of `mosaicd train`.
 #[derive(clap::Args, Debug)]
-pub struct TrainArgs {}
+pub struct TrainArgs {
+    /// Input domain: mosaic, grey or colour.
+    #[arg(long, value_enum)]
+    pub domain: DomainArg,
+    /// Output model (.json).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed for the split, the negatives and the SVM.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// SVM cost C.
+    #[arg(long, default_value_t = 0.01)]
+    pub c: f64,
+    /// Random negative windows per negative image.
+    #[arg(long, default_value_t = 10)]
+    pub neg_per_image: usize,
+    /// Hard-negative mining rounds.
+    #[arg(long, default_value_t = 1)]
+    pub rounds: usize,
+    /// Hard negatives kept per round (highest scores).
+    #[arg(long, default_value_t = 5000)]
+    pub max_hard: usize,
+    /// Use at most this many training negative images (0 = all).
+    #[arg(long, default_value_t = 0)]
+    pub max_neg_images: usize,
+    /// Held-out fraction (photos and negative images).
+    #[arg(long, default_value_t = 0.2)]
+    pub val_fraction: f64,
+    /// CFA used to sample mosaics.
+    #[arg(long, default_value = "RGGB")]
+    pub cfa: Cfa,
+    /// Skip the validation (window-level DET) after training.
+    #[arg(long)]
+    pub no_eval: bool,
+    /// Threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
 
 /// Run `mosaicd train`.
-pub fn run(_args: TrainArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd train` is not built yet")
+pub fn run(a: TrainArgs) -> anyhow::Result<()> {
+    let o = TrainOptions {
+        domain: a.domain.into(),
+        cfa: a.cfa,
+        seed: a.seed,
+        c: a.c,
+        neg_per_image: a.neg_per_image,
+        mining_rounds: a.rounds,
+        max_hard_per_round: a.max_hard,
+        val_fraction: a.val_fraction,
+        max_neg_images: a.max_neg_images,
+    };
+    let root = mosaicd::data::data_root();
+    mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
+    let t0 = Instant::now();
+    let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+    let (mut model, split) = pool.install(|| train(&root, &o, &mut progress))?;
+    let cmd: Vec<String> = std::env::args().collect();
+    model.provenance["command"] = serde_json::json!(cmd.join(" "));
+    model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
+    if !a.no_eval {
+        let ev = pool.install(|| evaluate_windows(&model, &split, o.domain, o.cfa, &mut progress))?;
+        eprintln!(
+            "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
+            ev.positives, ev.negative_windows, ev.miss_rate_at
+        );
+        model.provenance["validation"] = serde_json::to_value(&ev)?;
+    }
+    model.save(&a.out)?;
+    eprintln!("wrote {}", a.out.display());
+    Ok(())
 }

@@ -38,8 +38,16 @@ use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
 use super::pyramid::{resize_bilinear, resize_mosaic, PyramidError};
 use super::Detection;
-use crate::features::hog::{block_grid, BlockGrid, Exec, HogError, HogInput, HogSpec, HogTimings, CELL_SIZE};
+use crate::features::hog::{
+    blocks_from_cells, cell_grid, resize_cell_grid, BlockGrid, CellGrid, Exec, HogError, HogInput, HogSpec,
+    HogTimings, CELL_SIZE,
+};
 use crate::image::Image;
+
+/// Gain applied to resampled cells of approximated levels. Cell sums of a coarser level grow
+/// between 1 (step edges) and the scale ratio (smooth ramps); L2-Hys normalisation removes the
+/// difference except for its epsilon, so we use 1.
+const APPROX_GAIN: f32 = 1.0;
 
 /// Window rows scored per parallel task.
 const SCORE_STRIP_ROWS: usize = 4;
@@ -100,6 +108,10 @@ pub struct DetectorOptions {
     pub hit_threshold: f32,
     /// Suppression.
     pub nms: NmsMethod,
+    /// Feature-pyramid approximation (Dollár et al. 2014): levels are taken in groups of this many;
+    /// the first of each group is computed exactly, the others resample its cell grid. 1 = every
+    /// level exact (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
+    pub approx_levels: usize,
 }
 
 impl Default for DetectorOptions {
@@ -113,6 +125,7 @@ impl Default for DetectorOptions {
                 threshold: 2,
                 eps: 0.2,
             },
+            approx_levels: 1,
         }
     }
 }
@@ -135,6 +148,9 @@ impl DetectorSpec {
         }
         if !(o.upsample.is_finite() && (1.0..=8.0).contains(&o.upsample)) {
             return bad("upsample", o.upsample.to_string(), "[1, 8]");
+        }
+        if !(1..=64).contains(&o.approx_levels) {
+            return bad("approx_levels", o.approx_levels.to_string(), "1..=64");
         }
         if !o.hit_threshold.is_finite() {
             return bad("hit_threshold", o.hit_threshold.to_string(), "finite");
@@ -169,6 +185,8 @@ pub struct DetectStats {
     pub resize: Duration,
     /// HOG stage times.
     pub hog: HogTimings,
+    /// Cell-grid resampling of approximated levels.
+    pub cell_resample: Duration,
     /// SVM scoring.
     pub svm: Duration,
     /// NMS.
@@ -303,10 +321,12 @@ impl Detector {
         }
         let linear = linear_from_input(input);
         let levels = self.levels(w, h, mosaic);
-        let run = |lv: &Level| self.detect_level(&linear, lv, exec);
+        let k = self.spec.opts.approx_levels.max(1);
+        let groups: Vec<&[Level]> = levels.chunks(k).collect();
+        let run = |g: &&[Level]| self.detect_group(&linear, g, exec);
         let per_level: Vec<Result<(Vec<Detection>, DetectStats), DetectError>> = match exec {
-            Exec::Parallel => levels.par_iter().map(run).collect(),
-            Exec::Serial => levels.iter().map(run).collect(),
+            Exec::Parallel => groups.par_iter().map(run).collect(),
+            Exec::Serial => groups.iter().map(run).collect(),
         };
         let mut stats = DetectStats {
             levels: levels.len(),
@@ -320,6 +340,7 @@ impl Detector {
             stats.resize += s.resize;
             stats.hog += s.hog;
             stats.svm += s.svm;
+            stats.cell_resample += s.cell_resample;
         }
         stats.hits = hits.len();
         stats.total = t0.elapsed();
@@ -349,13 +370,14 @@ impl Detector {
         self.detect_with(input, Exec::Serial)
     }
 
-    fn detect_level(
+    /// Exact cell grid of one level (resize + gamma + gradients + cells).
+    fn exact_cells(
         &self,
         linear: &Linear,
         lv: &Level,
         exec: Exec,
-    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
-        let mut stats = DetectStats::default();
+        stats: &mut DetectStats,
+    ) -> Result<CellGrid, DetectError> {
         let t = Instant::now();
         let resize = |src: &Image<f32>, mosaic: bool| -> Result<Option<Image<f32>>, PyramidError> {
             if src.dimensions() == (lv.width, lv.height) {
@@ -369,33 +391,86 @@ impl Detector {
             }
             Ok(Some(d))
         };
-        let mut grid = BlockGrid::empty();
-        let hog_t = match linear {
+        let mut cells = CellGrid::empty();
+        match linear {
             Linear::Grey(p) => {
                 let r = resize(p, false)?;
-                stats.resize = t.elapsed();
+                stats.resize += t.elapsed();
+                let t = Instant::now();
                 let v = r.as_ref().unwrap_or(p).view();
-                block_grid(&self.hog, &HogInput::GreyF32(v), exec, &mut grid)?
+                cell_grid(&self.hog, &HogInput::GreyF32(v), exec, &mut cells)?;
+                stats.hog.cells += t.elapsed();
             }
             Linear::Mosaic(p) => {
                 let r = resize(p, true)?;
-                stats.resize = t.elapsed();
+                stats.resize += t.elapsed();
+                let t = Instant::now();
                 let v = r.as_ref().unwrap_or(p).view();
-                block_grid(&self.hog, &HogInput::Mosaic(v), exec, &mut grid)?
+                cell_grid(&self.hog, &HogInput::Mosaic(v), exec, &mut cells)?;
+                stats.hog.cells += t.elapsed();
             }
             Linear::Colour(ps) => {
                 let r: Vec<Option<Image<f32>>> =
                     ps.iter().map(|p| resize(p, false)).collect::<Result<_, _>>()?;
-                stats.resize = t.elapsed();
+                stats.resize += t.elapsed();
+                let t = Instant::now();
                 let v = [0, 1, 2].map(|c| r[c].as_ref().unwrap_or(&ps[c]).view());
-                block_grid(&self.hog, &HogInput::ColourF32(v), exec, &mut grid)?
+                cell_grid(&self.hog, &HogInput::ColourF32(v), exec, &mut cells)?;
+                stats.hog.cells += t.elapsed();
             }
+        }
+        Ok(cells)
+    }
+
+    /// One group of levels: the first is computed exactly, the others (approximate mode) from its
+    /// cells.
+    fn detect_group(
+        &self,
+        linear: &Linear,
+        group: &[Level],
+        exec: Exec,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let mut stats = DetectStats::default();
+        let mut dets = Vec::new();
+        let Some(head) = group.first() else {
+            return Ok((dets, stats));
         };
-        stats.hog = hog_t;
+        let exact = self.exact_cells(linear, head, exec, &mut stats)?;
+        let mut approx = CellGrid::empty();
+        let mut grid = BlockGrid::empty();
+        for (i, lv) in group.iter().enumerate() {
+            let cells = if i == 0 {
+                &exact
+            } else {
+                let t = Instant::now();
+                resize_cell_grid(
+                    &exact,
+                    lv.width / CELL_SIZE,
+                    lv.height / CELL_SIZE,
+                    APPROX_GAIN,
+                    exec,
+                    &mut approx,
+                );
+                stats.cell_resample += t.elapsed();
+                &approx
+            };
+            let t = Instant::now();
+            blocks_from_cells(&self.hog, cells, exec, &mut grid);
+            stats.hog.blocks += t.elapsed();
+            let (d, s) = self.score_level(&grid, lv, exec);
+            dets.extend(d);
+            stats.svm += s.svm;
+            stats.windows += s.windows;
+        }
+        Ok((dets, stats))
+    }
+
+    fn score_level(&self, grid: &BlockGrid, lv: &Level, exec: Exec) -> (Vec<Detection>, DetectStats) {
+        let mut stats = DetectStats::default();
         let t = Instant::now();
         let (nwx, nwy) = grid.windows(&self.hog);
         let mut scores = vec![0.0f32; nwx * nwy];
-        score_windows(&self.hog, &self.model, &grid, &mut scores, exec);
+        score_windows(&self.hog, &self.model, grid, &mut scores, exec);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
         let thr = self.spec.opts.hit_threshold;
@@ -416,7 +491,46 @@ impl Detector {
                 }
             }
         }
-        Ok((dets, stats))
+        (dets, stats)
+    }
+
+    /// Visit every window of the exact pyramid (levels in order, windows row-major) with its level,
+    /// the level's block grid, its block position and its score. For training and evaluation.
+    pub fn for_each_window(
+        &self,
+        input: &HogInput,
+        mut f: impl FnMut(&Level, &BlockGrid, usize, usize, f32),
+    ) -> Result<usize, DetectError> {
+        let (w, h) = input.dimensions();
+        let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
+        if w < ww || h < wh {
+            return Err(HogError::ImageTooSmall {
+                width: w,
+                height: h,
+                win_width: ww,
+                win_height: wh,
+            }
+            .into());
+        }
+        let mosaic = matches!(input, HogInput::Mosaic(_));
+        if mosaic && (w % 2 != 0 || h % 2 != 0) {
+            return Err(HogError::OddMosaic { width: w, height: h }.into());
+        }
+        let linear = linear_from_input(input);
+        let mut stats = DetectStats::default();
+        let mut grid = BlockGrid::empty();
+        let mut count = 0;
+        for lv in self.levels(w, h, mosaic) {
+            let cells = self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats)?;
+            blocks_from_cells(&self.hog, &cells, Exec::Parallel, &mut grid);
+            let scores = self.score_grid(&grid);
+            let (nwx, _) = grid.windows(&self.hog);
+            for (i, &sc) in scores.iter().enumerate() {
+                f(&lv, &grid, i % nwx, i / nwx, sc);
+            }
+            count += scores.len();
+        }
+        Ok(count)
     }
 
     /// Scores of every window of one block grid (row-major, `windows()` wide).
@@ -429,7 +543,7 @@ impl Detector {
 }
 
 /// 8-lane dot product (vectorises on SSE2/AVX2).
-#[inline]
+#[inline(always)]
 fn dot(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
@@ -446,30 +560,78 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
     s
 }
 
-/// Window scores: for each window row, accumulate block-row by block-row the dot products of each
-/// block with the weight slice for its position in the window.
-fn score_windows(hog: &HogSpec, model: &LinearModel, grid: &BlockGrid, scores: &mut [f32], exec: Exec) {
+/// Scores of window rows `first..` into `chunk` (`nwx` per row): for each block row of the window
+/// and each block column, the dot products of the blocks with the weight slice for that position.
+#[inline(always)]
+fn score_rows(
+    hog: &HogSpec,
+    model: &LinearModel,
+    grid: &BlockGrid,
+    first: usize,
+    nwx: usize,
+    chunk: &mut [f32],
+) {
     let (bw, bh) = hog.blocks_per_window();
     let bl = hog.block_len();
+    let w = &model.weights;
+    for (k, row) in chunk.chunks_mut(nwx).enumerate() {
+        let wy = first + k;
+        row.iter_mut().for_each(|v| *v = model.bias);
+        for by in 0..bh {
+            let brow = grid.block_row(wy + by);
+            for bx in 0..bw {
+                let ws = &w[(bx * bh + by) * bl..][..bl];
+                for (v, blk) in row.iter_mut().zip(brow[bx * bl..].chunks_exact(bl)) {
+                    *v += dot(blk, ws);
+                }
+            }
+        }
+    }
+}
+
+/// [`score_rows`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA (checked by the caller with `is_x86_feature_detected!`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn score_rows_avx2(
+    hog: &HogSpec,
+    model: &LinearModel,
+    grid: &BlockGrid,
+    first: usize,
+    nwx: usize,
+    chunk: &mut [f32],
+) {
+    score_rows(hog, model, grid, first, nwx, chunk)
+}
+
+fn score_rows_dispatch(
+    hog: &HogSpec,
+    model: &LinearModel,
+    grid: &BlockGrid,
+    first: usize,
+    nwx: usize,
+    chunk: &mut [f32],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the features this function is compiled for were just detected on this CPU.
+        // It measured ~2x faster than the SSE2 baseline on the SVM stage.
+        unsafe { score_rows_avx2(hog, model, grid, first, nwx, chunk) };
+        return;
+    }
+    score_rows(hog, model, grid, first, nwx, chunk)
+}
+
+/// Window scores of a whole grid, parallel over strips of window rows.
+fn score_windows(hog: &HogSpec, model: &LinearModel, grid: &BlockGrid, scores: &mut [f32], exec: Exec) {
     let (nwx, _) = grid.windows(hog);
     if nwx == 0 {
         return;
     }
-    let w = &model.weights;
     let work = |(s, chunk): (usize, &mut [f32])| {
-        for (k, row) in chunk.chunks_mut(nwx).enumerate() {
-            let wy = s * SCORE_STRIP_ROWS + k;
-            row.iter_mut().for_each(|v| *v = model.bias);
-            for by in 0..bh {
-                let brow = grid.block_row(wy + by);
-                for bx in 0..bw {
-                    let ws = &w[(bx * bh + by) * bl..][..bl];
-                    for (wx, v) in row.iter_mut().enumerate() {
-                        *v += dot(&brow[(wx + bx) * bl..][..bl], ws);
-                    }
-                }
-            }
-        }
+        score_rows_dispatch(hog, model, grid, s * SCORE_STRIP_ROWS, nwx, chunk)
     };
     match exec {
         Exec::Parallel => scores
@@ -495,6 +657,34 @@ pub fn domain_of(input: &HogInput) -> Domain {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::hog::block_grid;
+
+    #[test]
+    fn approximate_pyramid_scores_every_level_and_is_deterministic() {
+        let exact = DetectorOptions {
+            hit_threshold: -1e9,
+            nms: NmsMethod::None,
+            ..Default::default()
+        };
+        let approx = DetectorOptions {
+            approx_levels: 5,
+            ..exact
+        };
+        let img = Image::<u8>::from_fn(300, 400, |x, y| ((x * 5 + y * 3 + (x * y) / 7) % 256) as u8);
+        let inp = HogInput::GreyU8(img.view());
+        let de = Detector::new(model(5), &exact).unwrap();
+        let da = Detector::new(model(5), &approx).unwrap();
+        let (e, se) = de.detect(&inp).unwrap();
+        let (a, sa) = da.detect(&inp).unwrap();
+        let (b, _) = da.detect_serial(&inp).unwrap();
+        assert_eq!(a, b);
+        assert_eq!((se.windows, se.levels), (sa.windows, sa.levels));
+        // Exact levels (every 5th, first one included) give identical boxes and scores.
+        let lv0 = se.windows.min(e.len());
+        let first_level = de.levels(300, 400, false)[0];
+        let n0 = ((first_level.width / 8 - 7) * (first_level.height / 8 - 15)).min(lv0);
+        assert_eq!(&e[..n0], &a[..n0]);
+    }
 
     fn model(seed: u32) -> LinearModel {
         let v: Vec<f32> = (0..3781u32)

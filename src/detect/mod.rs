@@ -5,6 +5,8 @@ pub mod detector;
 pub mod model;
 pub mod nms;
 pub mod pyramid;
+pub mod svm;
+pub mod train;
 pub mod types;
 
 pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod};

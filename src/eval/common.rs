@@ -38,20 +38,12 @@ pub enum EvalError {
         /// Decoder message.
         reason: String,
     },
-    /// A raw file does not have the expected size.
-    #[error("{path}: {len} bytes, expected {expected} for {width}x{height}")]
-    RawSize {
-        /// File.
-        path: PathBuf,
-        /// Bytes found.
-        len: usize,
-        /// Bytes expected.
-        expected: usize,
-        /// Width.
-        width: usize,
-        /// Height.
-        height: usize,
-    },
+    /// A raw file could not be loaded.
+    #[error(transparent)]
+    Raw(#[from] crate::raw::RawError),
+    /// An ISP step (demosaicing, noise, forward ISP) failed.
+    #[error(transparent)]
+    Isp(#[from] crate::isp::IspError),
     /// A metric failed.
     #[error(transparent)]
     Metrics(#[from] MetricsError),
@@ -125,8 +117,8 @@ pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
     Ok(Image::from_vec(w as usize, h as usize, px).expect("size from decoder"))
 }
 
-/// A real raw frame of the shared data set, normalised to [0, 1] with its black/white level.
-#[derive(Debug, Clone, PartialEq)]
+/// A real raw frame of the shared data set.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawInput {
     /// Short name.
     pub name: &'static str,
@@ -138,18 +130,18 @@ pub struct RawInput {
     pub height: usize,
     /// Pattern.
     pub cfa: Cfa,
-    /// 8 or 16-bit little-endian container.
-    pub sixteen_bit: bool,
+    /// Significant bits (8 → `u8` container, else little-endian `u16`).
+    pub bit_depth: u8,
     /// Black level.
-    pub black: f32,
+    pub black: u16,
     /// White level.
-    pub white: f32,
-    /// White-balance gains (R, G, B) used by the minimal forward ISP.
-    pub wb: [f32; 3],
+    pub white: u16,
+    /// The sensor's tuning (white balance, colour matrix) is the shipped Infinite-ISP profile;
+    /// otherwise the forward ISP uses unit gains and an identity matrix (no tuning is known).
+    pub infinite_isp_profile: bool,
 }
 
-/// The real raw frames used by the experiments (see `../shared/data/README.md`). White-balance
-/// gains are rough grey-world values for the forward ISP adapter; they only scale channels.
+/// The real raw frames used by the experiments (see `../shared/data/README.md`).
 pub const RAW_INPUTS: [RawInput; 3] = [
     RawInput {
         name: "nikon_rose",
@@ -157,10 +149,10 @@ pub const RAW_INPUTS: [RawInput; 3] = [
         width: 768,
         height: 512,
         cfa: Cfa::Rggb,
-        sixteen_bit: true,
-        black: 600.0,
-        white: 15520.0,
-        wb: [2.0, 1.0, 1.5],
+        bit_depth: 14,
+        black: 600,
+        white: 15520,
+        infinite_isp_profile: false,
     },
     RawInput {
         name: "infinite_outdoor1",
@@ -168,10 +160,11 @@ pub const RAW_INPUTS: [RawInput; 3] = [
         width: 2592,
         height: 1536,
         cfa: Cfa::Grbg,
-        sixteen_bit: false,
-        black: 12.5,
-        white: 255.0,
-        wb: [1.6, 1.0, 1.6],
+        bit_depth: 8,
+        // 50/1023 of the 10-bit original, cut to 8 bits.
+        black: 12,
+        white: 255,
+        infinite_isp_profile: true,
     },
     RawInput {
         name: "infinite_indoor1",
@@ -179,10 +172,10 @@ pub const RAW_INPUTS: [RawInput; 3] = [
         width: 2592,
         height: 1536,
         cfa: Cfa::Grbg,
-        sixteen_bit: false,
-        black: 12.5,
-        white: 255.0,
-        wb: [1.6, 1.0, 1.6],
+        bit_depth: 8,
+        black: 12,
+        white: 255,
+        infinite_isp_profile: true,
     },
 ];
 
@@ -191,49 +184,45 @@ pub fn raw_inputs(limit: Option<usize>) -> &'static [RawInput] {
     &RAW_INPUTS[..limit.unwrap_or(RAW_INPUTS.len()).min(RAW_INPUTS.len())]
 }
 
-/// Reads a headerless raw frame and normalises it: `(v − black) / (white − black)`, not clamped.
-/// *Adapter*: replaced by `raw::load` once on main.
-pub fn load_raw(input: &RawInput) -> Result<Image<f32>> {
+/// Loads a raw input as a [`RawFrame`](crate::raw::RawFrame) with `raw::load::load_headerless`.
+pub fn load_raw_frame(input: &RawInput) -> Result<crate::raw::RawFrame> {
+    use crate::raw::{Container, Endian, Levels, RawFormat};
     let path = crate::data::data_path(input.rel)?;
-    let bytes = std::fs::read(&path).map_err(|source| EvalError::Io {
-        path: path.clone(),
-        source,
-    })?;
-    let bpp = if input.sixteen_bit { 2 } else { 1 };
-    let expected = input.width * input.height * bpp;
-    if bytes.len() != expected {
-        return Err(EvalError::RawSize {
-            path,
-            len: bytes.len(),
-            expected,
-            width: input.width,
-            height: input.height,
-        });
-    }
-    let scale = 1.0 / (input.white - input.black);
-    let data: Vec<f32> = if input.sixteen_bit {
-        bytes
-            .chunks_exact(2)
-            .map(|b| (u16::from_le_bytes([b[0], b[1]]) as f32 - input.black) * scale)
-            .collect()
+    let container = if input.bit_depth == 8 {
+        Container::U8
     } else {
-        bytes.iter().map(|&b| (b as f32 - input.black) * scale).collect()
+        Container::U16
     };
-    Ok(Image::from_vec(input.width, input.height, data).expect("size checked"))
+    let fmt = RawFormat::new(
+        input.width,
+        input.height,
+        input.bit_depth,
+        input.cfa,
+        container,
+        Endian::Little,
+        Levels::uniform(input.black, input.white),
+    );
+    Ok(crate::raw::load::load_headerless(&path, &fmt)?)
 }
 
-/// Samples an RGB image through a CFA: each pixel keeps the channel its filter passes (both greens
-/// take G). *Adapter*: equals `isp::reverse::mosaic_from_rgb`.
+/// The camera profile the forward ISP uses for a raw input.
+pub fn raw_profile(input: &RawInput) -> crate::isp::CameraProfile {
+    let mut p = crate::isp::CameraProfile::default();
+    if !input.infinite_isp_profile {
+        p.name = format!("{}-untuned", input.name);
+        p.wb_gains = [1.0; 3];
+        p.ccm = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    }
+    p.black_level = input.black;
+    p.white_level = input.white;
+    p.bit_depth = input.bit_depth;
+    p.cfa = input.cfa;
+    p
+}
+
+/// Samples an RGB image through a CFA (both greens take G): `raw::sample::mosaic_from_rgb`.
 pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {
-    use crate::raw::cfa::Colour;
-    Image::from_fn(rgb.width(), rgb.height(), |x, y| {
-        let p = rgb.get(x, y);
-        match cfa.colour_at(x, y) {
-            Colour::Red => p[0],
-            Colour::Green => p[1],
-            Colour::Blue => p[2],
-        }
-    })
+    crate::raw::sample::mosaic_from_rgb(&rgb, cfa)
 }
 
 /// BT.601 luma `0.299 R + 0.587 G + 0.114 B` (what OpenCV's `COLOR_RGB2GRAY` and MATLAB's
@@ -359,7 +348,7 @@ impl Table {
     /// GitHub markdown.
     pub fn to_markdown(&self) -> String {
         let mut s = format!(
-            "**{}**\n\n| {} |\n|{}|\n",
+            "**{}**\n\n| {} |\n|{}\n",
             self.title,
             self.headers.join(" | "),
             "---|".repeat(self.headers.len())
@@ -504,7 +493,7 @@ mod tests {
         let mut t = Table::new("T", &["a", "bb"]);
         t.row(vec!["1".into(), "2".into()]);
         assert!(t.to_text().contains("a  bb"));
-        assert!(t.to_markdown().contains("| 1 | 2 |"));
+        assert!(t.to_markdown().contains("| a | bb |\n|---|---|\n| 1 | 2 |"));
         assert_eq!(finite_mean(&[1.0, f64::INFINITY, 3.0]), (2.0, 1));
     }
 }

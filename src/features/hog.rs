@@ -360,8 +360,8 @@ pub fn mosaic_from_raw(frame: &RawFrame) -> Image<f32> {
     out
 }
 
-/// OpenCV's `fastAtan32f` in degrees, [0, 360).
-#[inline]
+/// OpenCV's `fastAtan32f` in degrees, [0, 360) (branch-free so it vectorises).
+#[inline(always)]
 pub fn fast_atan2_deg(y: f32, x: f32) -> f32 {
     // Polynomial constants of OpenCV mathfuncs_core (atan2_p1..p7), in degrees.
     const DEG: f32 = (180.0 / std::f64::consts::PI) as f32;
@@ -371,22 +371,17 @@ pub fn fast_atan2_deg(y: f32, x: f32) -> f32 {
     const P7: f32 = -0.044_326_555_f32 * DEG;
     const EPS: f32 = f64::EPSILON as f32;
     let (ax, ay) = (x.abs(), y.abs());
-    let mut a = if ax >= ay {
-        let c = ay / (ax + EPS);
-        let c2 = c * c;
-        (((P7 * c2 + P5) * c2 + P3) * c2 + P1) * c
-    } else {
-        let c = ax / (ay + EPS);
-        let c2 = c * c;
-        90.0 - (((P7 * c2 + P5) * c2 + P3) * c2 + P1) * c
-    };
-    if x < 0.0 {
-        a = 180.0 - a;
-    }
+    // ax >= ay: c = ay/(ax+eps); else c = ax/(ay+eps) — both are min/(max+eps).
+    let c = ax.min(ay) / (ax.max(ay) + EPS);
+    let c2 = c * c;
+    let p = (((P7 * c2 + P5) * c2 + P3) * c2 + P1) * c;
+    let a = if ax >= ay { p } else { 90.0 - p };
+    let a = if x < 0.0 { 180.0 - a } else { a };
     if y < 0.0 {
-        a = 360.0 - a;
+        360.0 - a
+    } else {
+        a
     }
-    a
 }
 
 /// Gamma-corrected planes in 8-bit units: one plane, or three (B, G, R order as OpenCV) for RGB.
@@ -489,47 +484,112 @@ fn reflect101(i: isize, n: usize) -> usize {
     r.clamp(0, n - 1) as usize
 }
 
+/// Scratch rows for [`gradient_row`].
+struct RowScratch {
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    m: Vec<f32>,
+}
+
+impl RowScratch {
+    fn new(w: usize) -> Self {
+        Self {
+            dx: vec![0.0; w],
+            dy: vec![0.0; w],
+            m: vec![0.0; w],
+        }
+    }
+}
+
+/// Derivatives of one plane's row `y` into `dx`, `dy` (reflect-101 at the borders).
+#[inline(always)]
+fn derivatives(
+    plane: &Image<f32>,
+    tap: usize,
+    y: usize,
+    ym: usize,
+    yp: usize,
+    dx: &mut [f32],
+    dy: &mut [f32],
+) {
+    let w = plane.width();
+    let r = plane.row(y);
+    let (rm, rp) = (plane.row(ym), plane.row(yp));
+    for ((d, a), b) in dy.iter_mut().zip(rp).zip(rm) {
+        *d = a - b;
+    }
+    if w > 2 * tap {
+        for ((d, a), b) in dx[tap..w - tap].iter_mut().zip(&r[2 * tap..]).zip(r) {
+            *d = a - b;
+        }
+    }
+    let t = tap as isize;
+    for x in (0..tap.min(w)).chain(w.saturating_sub(tap).max(tap.min(w))..w) {
+        dx[x] = r[reflect101(x as isize + t, w)] - r[reflect101(x as isize - t, w)];
+    }
+}
+
 /// One row of quantised gradients: two bins and two weights per pixel (OpenCV `qangle`, `grad`).
-fn gradient_row(p: &Planes, y: usize, nbins: usize, bins: &mut [[u8; 2]], wts: &mut [[f32; 2]]) {
+#[inline(always)]
+fn gradient_row(
+    p: &Planes,
+    y: usize,
+    nbins: usize,
+    sc: &mut RowScratch,
+    bins: &mut [[u8; 2]],
+    wts: &mut [[f32; 2]],
+) {
     let w = p.width;
     let t = p.tap as isize;
     let ym = reflect101(y as isize - t, p.height);
     let yp = reflect101(y as isize + t, p.height);
-    let half_if_mosaic = if p.tap == 2 { 0.5f32 } else { 1.0 };
-    let angle_scale = (nbins as f64 / std::f64::consts::PI) as f32;
-    let to_rad = (std::f64::consts::PI / 180.0) as f32;
     let n = bins.len().min(w);
-    for x in 0..n {
-        let (xm, xp) = if x >= p.tap && x + p.tap < w {
-            (x - p.tap, x + p.tap)
-        } else {
-            (reflect101(x as isize - t, w), reflect101(x as isize + t, w))
-        };
-        let mut best = (0.0f32, 0.0f32, -1.0f32);
-        for (c, plane) in p.planes.iter().enumerate() {
-            let r = plane.row(y);
-            let dx = r[xp] - r[xm];
-            let dy = plane.row(yp)[x] - plane.row(ym)[x];
-            let m = dx * dx + dy * dy;
-            // OpenCV colour rule: R beats G only if strictly larger, and the winner beats B only if
-            // strictly larger (planes are B, G, R here).
-            if c == 0 || m > best.2 {
-                best = (dx, dy, m);
+    derivatives(&p.planes[0], p.tap, y, ym, yp, &mut sc.dx, &mut sc.dy);
+    if p.planes.len() > 1 {
+        // OpenCV colour rule: a later plane (B, G, R order) wins only when strictly larger.
+        for (d, (a, b)) in sc.m.iter_mut().zip(sc.dx.iter().zip(&sc.dy)) {
+            *d = a * a + b * b;
+        }
+        let mut dx2 = vec![0.0f32; w];
+        let mut dy2 = vec![0.0f32; w];
+        for plane in &p.planes[1..] {
+            derivatives(plane, p.tap, y, ym, yp, &mut dx2, &mut dy2);
+            for x in 0..w {
+                let m = dx2[x] * dx2[x] + dy2[x] * dy2[x];
+                if m > sc.m[x] {
+                    sc.m[x] = m;
+                    sc.dx[x] = dx2[x];
+                    sc.dy[x] = dy2[x];
+                }
             }
         }
-        let (dx, dy) = (best.0 * half_if_mosaic, best.1 * half_if_mosaic);
-        let mag = (dx * dx + dy * dy).sqrt();
-        let ang = fast_atan2_deg(dy, dx) * to_rad * angle_scale - 0.5;
+    }
+    if p.tap == 2 {
+        // Same-colour taps are two pixels apart: halve to keep the [-1,0,1] scale.
+        sc.dx.iter_mut().for_each(|v| *v *= 0.5);
+        sc.dy.iter_mut().for_each(|v| *v *= 0.5);
+    }
+    let angle_scale = (nbins as f64 / std::f64::consts::PI) as f32;
+    let to_rad = (std::f64::consts::PI / 180.0) as f32;
+    let nb = nbins as i32;
+    // Vectorisable pass: magnitude into dx, bin coordinate into dy.
+    for (dx, dy) in sc.dx[..n].iter_mut().zip(&mut sc.dy[..n]) {
+        let (gx, gy) = (*dx, *dy);
+        *dx = (gx * gx + gy * gy).sqrt();
+        *dy = fast_atan2_deg(gy, gx) * to_rad * angle_scale - 0.5;
+    }
+    for x in 0..n {
+        let (mag, ang) = (sc.dx[x], sc.dy[x]);
         let hf = ang.floor();
         let frac = ang - hf;
         let mut h = hf as i32;
         if h < 0 {
-            h += nbins as i32;
-        } else if h >= nbins as i32 {
-            h -= nbins as i32;
+            h += nb;
+        } else if h >= nb {
+            h -= nb;
         }
-        let h = (h.clamp(0, nbins as i32 - 1)) as usize;
-        let h1 = if h + 1 < nbins { h + 1 } else { 0 };
+        let h = h.clamp(0, nb - 1);
+        let h1 = if h + 1 < nb { h + 1 } else { 0 };
         bins[x] = [h as u8, h1 as u8];
         wts[x] = [mag * (1.0 - frac), mag * frac];
     }
@@ -691,28 +751,165 @@ fn block_grid_from_planes(
     dst: &mut BlockGrid,
 ) -> (std::time::Duration, std::time::Duration) {
     let t0 = std::time::Instant::now();
+    let mut cells = CellGrid::empty();
+    cells_from_planes(spec, p, exec, &mut cells);
+    let t_cells = t0.elapsed();
+    let t1 = std::time::Instant::now();
+    blocks_from_cells(spec, &cells, exec, dst);
+    (t_cells, t1.elapsed())
+}
+
+/// Per-cell weighted histograms of one image at one scale: for each 8x8 cell, 4 y-profiles x 4
+/// x-profiles x nbins values (see the module docs). Blocks are sums of four cells' entries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellGrid {
+    ncx: usize,
+    ncy: usize,
+    cell_len: usize,
+    data: Vec<f32>,
+}
+
+impl CellGrid {
+    /// An empty grid.
+    pub fn empty() -> Self {
+        Self {
+            ncx: 0,
+            ncy: 0,
+            cell_len: 0,
+            data: Vec::new(),
+        }
+    }
+    /// Cells across.
+    pub fn cells_x(&self) -> usize {
+        self.ncx
+    }
+    /// Cells down.
+    pub fn cells_y(&self) -> usize {
+        self.ncy
+    }
+}
+
+/// Compute the cell grid of `input` (the expensive, per-pixel part of HOG).
+pub fn cell_grid(spec: &HogSpec, input: &HogInput, exec: Exec, dst: &mut CellGrid) -> Result<(), HogError> {
+    let planes = planes_from_input(spec, input)?;
+    cells_from_planes(spec, &planes, exec, dst);
+    Ok(())
+}
+
+/// Bilinear resampling of a cell grid to `new_ncx x new_ncy` cells, times `gain` — the
+/// feature-pyramid approximation of Dollár et al. (2014): the cells of a level between exact
+/// levels are predicted from the nearest finer exact level. Cell centres are aligned with
+/// half-cell offsets (as `cv2.resize`).
+pub fn resize_cell_grid(
+    src: &CellGrid,
+    new_ncx: usize,
+    new_ncy: usize,
+    gain: f32,
+    exec: Exec,
+    dst: &mut CellGrid,
+) {
+    let cl = src.cell_len;
+    dst.ncx = new_ncx;
+    dst.ncy = new_ncy;
+    dst.cell_len = cl;
+    dst.data.clear();
+    dst.data.resize(new_ncx * new_ncy * cl, 0.0);
+    if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
+        return;
+    }
+    let taps = |n: usize, m: usize| -> Vec<(usize, usize, f32)> {
+        let sc = n as f32 / m as f32;
+        (0..m)
+            .map(|d| {
+                let s = ((d as f32 + 0.5) * sc - 0.5).clamp(0.0, (n - 1) as f32);
+                let i = s.floor() as usize;
+                (i, (i + 1).min(n - 1), s - i as f32)
+            })
+            .collect()
+    };
+    let tx = taps(src.ncx, new_ncx);
+    let ty = taps(src.ncy, new_ncy);
+    let work = |(y, row): (usize, &mut [f32])| {
+        let (y0, y1, fy) = ty[y];
+        for (x, out) in row.chunks_mut(cl).enumerate() {
+            let (x0, x1, fx) = tx[x];
+            let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
+            let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
+            let w00 = (1.0 - fx) * (1.0 - fy) * gain;
+            let w10 = fx * (1.0 - fy) * gain;
+            let w01 = (1.0 - fx) * fy * gain;
+            let w11 = fx * fy * gain;
+            for k in 0..cl {
+                out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
+            }
+        }
+    };
+    match exec {
+        Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
+        Exec::Serial => dst.data.chunks_mut(new_ncx * cl).enumerate().for_each(work),
+    }
+}
+
+fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU features the function is compiled for were detected just above. The
+        // AVX2 build vectorises the magnitude/atan pass and the profile accumulation 8 lanes wide.
+        unsafe { cells_from_planes_avx2(spec, p, exec, out) };
+        return;
+    }
+    cells_from_planes_generic(spec, p, exec, out)
+}
+
+/// [`cells_from_planes_generic`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn cells_from_planes_avx2(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
+    cells_from_planes_generic(spec, p, exec, out)
+}
+
+#[inline(always)]
+fn cells_from_planes_generic(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
     let nb = spec.nbins();
     let ncx = p.width / CELL_SIZE;
     let ncy = p.height / CELL_SIZE;
     let cl = cell_len(nb);
-    let mut cells = vec![0.0f32; ncx * ncy * cl];
+    out.ncx = ncx;
+    out.ncy = ncy;
+    out.cell_len = cl;
+    out.data.clear();
+    out.data.resize(ncx * ncy * cl, 0.0);
+    let cells = &mut out.data;
     let strip = STRIP_CELL_ROWS * ncx * cl;
+    // Non-zero x-profiles per pixel column of a cell (3 of 4 for the default geometry).
+    let nonzero: Vec<Vec<(usize, f32)>> = (0..CELL_SIZE)
+        .map(|j| {
+            (0..PROFILES)
+                .filter(|&px| spec.profile[px][j] != 0.0)
+                .map(|px| (px, spec.profile[px][j]))
+                .collect()
+        })
+        .collect();
+    let nonzero = &nonzero;
     let work = |(s, chunk): (usize, &mut [f32])| {
         let mut bins = vec![[0u8; 2]; ncx * CELL_SIZE];
         let mut wts = vec![[0.0f32; 2]; ncx * CELL_SIZE];
+        let mut sc = RowScratch::new(p.width);
         let mut rowacc = vec![0.0f32; PROFILES * nb];
         for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
             let cy = s * STRIP_CELL_ROWS + k;
             for i in 0..CELL_SIZE {
-                gradient_row(p, cy * CELL_SIZE + i, nb, &mut bins, &mut wts);
+                gradient_row(p, cy * CELL_SIZE + i, nb, &mut sc, &mut bins, &mut wts);
                 for (cx, cell) in cell_row.chunks_mut(cl).enumerate() {
                     rowacc.iter_mut().for_each(|v| *v = 0.0);
-                    for j in 0..CELL_SIZE {
-                        let x = cx * CELL_SIZE + j;
-                        let [b0, b1] = bins[x];
-                        let [w0, w1] = wts[x];
-                        for (px, acc) in rowacc.chunks_mut(nb).enumerate() {
-                            let pw = spec.profile[px][j];
+                    let x0 = cx * CELL_SIZE;
+                    let cols = bins[x0..x0 + CELL_SIZE].iter().zip(&wts[x0..x0 + CELL_SIZE]);
+                    for (nz, (&[b0, b1], &[w0, w1])) in nonzero.iter().zip(cols) {
+                        for &(px, pw) in nz {
+                            let acc = &mut rowacc[px * nb..(px + 1) * nb];
                             acc[b0 as usize] += pw * w0;
                             acc[b1 as usize] += pw * w1;
                         }
@@ -735,10 +932,12 @@ fn block_grid_from_planes(
         Exec::Parallel => cells.par_chunks_mut(strip.max(1)).enumerate().for_each(work),
         Exec::Serial => cells.chunks_mut(strip.max(1)).enumerate().for_each(work),
     }
+}
 
-    let t_cells = t0.elapsed();
-    let t1 = std::time::Instant::now();
-    // Blocks from cells, then L2-Hys.
+/// Assemble and L2-Hys-normalise every block from a cell grid.
+pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+    let nb = spec.nbins();
+    let (ncx, ncy, cl) = (cg.ncx, cg.ncy, cg.cell_len);
     let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
     let nby = ncy.saturating_sub(BLOCK_CELLS - 1);
     let bl = spec.block_len();
@@ -749,7 +948,7 @@ fn block_grid_from_planes(
     dst.data.resize(nbx * nby * bl, 0.0);
     let thresh = spec.opts.l2hys_threshold;
     let eps1 = bl as f32 * L2HYS_EPS_PER_ELEMENT;
-    let cells = &cells;
+    let cells = &cg.data;
     let row_work = |(by, row): (usize, &mut [f32])| {
         for (bx, blk) in row.chunks_mut(bl).enumerate() {
             for bcx in 0..BLOCK_CELLS {
@@ -777,7 +976,6 @@ fn block_grid_from_planes(
             Exec::Serial => dst.data.chunks_mut(nbx * bl).enumerate().for_each(row_work),
         }
     }
-    (t_cells, t1.elapsed())
 }
 
 /// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again.

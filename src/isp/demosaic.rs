@@ -70,9 +70,10 @@ use std::str::FromStr;
 
 use rayon::prelude::*;
 
+use super::noise::linear_from_raw;
 use super::{mirror, IspError};
 use crate::image::{Image, ImageView};
-use crate::raw::{Cfa, Colour};
+use crate::raw::{Cfa, Colour, RawFrame};
 
 /// Rows per parallel strip.
 pub const DEMOSAIC_STRIP_ROWS: usize = 16;
@@ -141,7 +142,12 @@ impl FromStr for DemosaicMethod {
     }
 }
 
-/// Mirror-bordered read access to a mosaic.
+/// Read access to a mosaic at integer offsets around the pixel being computed.
+trait Access {
+    fn at(&self, x: isize, y: isize) -> f32;
+}
+
+/// Mirror-bordered read access (any position).
 #[derive(Clone, Copy)]
 struct Src<'a> {
     v: ImageView<'a, f32>,
@@ -149,7 +155,32 @@ struct Src<'a> {
     h: usize,
 }
 
-impl Src<'_> {
+/// Unmirrored read access, valid only where every tap lies inside the image (the interior fast
+/// path; it returns exactly what [`Src`] returns there).
+#[derive(Clone, Copy)]
+struct Direct<'a> {
+    data: &'a [f32],
+    stride: usize,
+}
+
+impl Access for Direct<'_> {
+    #[inline(always)]
+    fn at(&self, x: isize, y: isize) -> f32 {
+        debug_assert!(x >= 0 && y >= 0);
+        self.data[y as usize * self.stride + x as usize]
+    }
+}
+
+impl<'a> Src<'a> {
+    fn direct(&self) -> Direct<'a> {
+        Direct {
+            data: self.v.as_slice(),
+            stride: self.v.stride(),
+        }
+    }
+}
+
+impl Access for Src<'_> {
     #[inline]
     fn at(&self, x: isize, y: isize) -> f32 {
         let xi = if x >= 0 && (x as usize) < self.w {
@@ -180,12 +211,6 @@ fn ci(c: Colour) -> usize {
 fn chan(cfa: Cfa, x: isize, y: isize) -> usize {
     ci(cfa.colour_at((x & 1) as usize, (y & 1) as usize))
 }
-
-/// Bilinear kernels (colour-demosaicing's `H_G` and `H_RB`), `[dy + 1][dx + 1]`, over 4.
-const BILINEAR_G: [[f32; 3]; 3] = [[0.0, 1.0, 0.0], [1.0, 4.0, 1.0], [0.0, 1.0, 0.0]];
-const BILINEAR_RB: [[f32; 3]; 3] = [[1.0, 2.0, 1.0], [2.0, 4.0, 2.0], [1.0, 2.0, 1.0]];
-/// Both bilinear kernels are divided by this.
-const BILINEAR_NORM: f32 = 4.0;
 
 /// Malvar–He–Cutler kernels `[dy + 2][dx + 2]`, over [`MALVAR_NORM`]: G at R/B sites.
 const MALVAR_G_AT_RB: [[f32; 5]; 5] = [
@@ -250,20 +275,43 @@ const BICUBIC_G: [(isize, isize, f32); 16] = {
     ]
 };
 
-#[inline]
-fn conv5(s: &Src<'_>, x: isize, y: isize, k: &[[f32; 5]; 5]) -> f32 {
-    let mut acc = 0.0;
-    for (dy, row) in k.iter().enumerate() {
-        for (dx, &w) in row.iter().enumerate() {
-            if w != 0.0 {
-                acc += w * s.at(x + dx as isize - 2, y + dy as isize - 2);
+/// Non-zero taps `(dx, dy, weight)` of a 5x5 kernel, zero-padded to [`MAX_TAPS`].
+const MAX_TAPS: usize = 12;
+type Taps = ([(isize, isize, f32); MAX_TAPS], usize);
+
+const fn taps_of(k: &[[f32; 5]; 5]) -> Taps {
+    let mut out = [(0isize, 0isize, 0f32); MAX_TAPS];
+    let mut n = 0;
+    let mut dy = 0;
+    while dy < 5 {
+        let mut dx = 0;
+        while dx < 5 {
+            if k[dy][dx] != 0.0 {
+                out[n] = (dx as isize - 2, dy as isize - 2, k[dy][dx]);
+                n += 1;
             }
+            dx += 1;
         }
+        dy += 1;
+    }
+    (out, n)
+}
+
+const TAPS_G_AT_RB: Taps = taps_of(&MALVAR_G_AT_RB);
+const TAPS_ROW: Taps = taps_of(&MALVAR_ROW);
+const TAPS_COL: Taps = taps_of(&MALVAR_COL);
+const TAPS_DIAG: Taps = taps_of(&MALVAR_DIAG);
+
+#[inline(always)]
+fn conv5<A: Access>(s: &A, x: isize, y: isize, taps: &Taps) -> f32 {
+    let mut acc = 0.0;
+    for &(dx, dy, w) in &taps.0[..taps.1] {
+        acc += w * s.at(x + dx, y + dy);
     }
     acc / MALVAR_NORM
 }
 
-fn px_nearest(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+fn px_nearest<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     let (tx, ty) = (x & !1, y & !1);
     let own = chan(cfa, x, y);
     let mut out = [0.0; 3];
@@ -283,22 +331,27 @@ fn px_nearest(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     out
 }
 
-fn px_bilinear(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+fn px_bilinear<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+    // The masked-plane convolution with H_G = [0 1 0; 1 4 1; 0 1 0]/4 and
+    // H_RB = [1 2 1; 2 4 2; 1 2 1]/4, written per site (taps summed in kernel order).
+    let own = chan(cfa, x, y);
+    let v = s.at(x, y);
+    let (l, r, u, d) = (s.at(x - 1, y), s.at(x + 1, y), s.at(x, y - 1), s.at(x, y + 1));
     let mut out = [0.0; 3];
-    for dy in -1..=1isize {
-        for dx in -1..=1isize {
-            let c = chan(cfa, x + dx, y + dy);
-            let k = if c == 1 { &BILINEAR_G } else { &BILINEAR_RB };
-            let w = k[(dy + 1) as usize][(dx + 1) as usize];
-            if w != 0.0 {
-                out[c] += w * s.at(x + dx, y + dy);
-            }
-        }
+    out[own] = v;
+    if own == 1 {
+        let row_c = chan(cfa, x + 1, y);
+        out[row_c] = (l + r) / 2.0;
+        out[2 - row_c] = (u + d) / 2.0;
+    } else {
+        out[1] = (u + l + r + d) / 4.0;
+        let diag = s.at(x - 1, y - 1) + s.at(x + 1, y - 1) + s.at(x - 1, y + 1) + s.at(x + 1, y + 1);
+        out[2 - own] = diag / 4.0;
     }
-    out.map(|v| v / BILINEAR_NORM)
+    out
 }
 
-fn px_bicubic(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+fn px_bicubic<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     let own = chan(cfa, x, y);
     let mut out = [0.0; 3];
     out[own] = s.at(x, y);
@@ -341,7 +394,7 @@ fn px_bicubic(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     out
 }
 
-fn px_malvar(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+fn px_malvar<A: Access>(s: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     let own = chan(cfa, x, y);
     let v = s.at(x, y);
     match own {
@@ -350,22 +403,22 @@ fn px_malvar(s: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
             let row_c = chan(cfa, x + 1, y);
             let col_c = 2 - row_c;
             let mut out = [0.0, v, 0.0];
-            out[row_c] = conv5(s, x, y, &MALVAR_ROW);
-            out[col_c] = conv5(s, x, y, &MALVAR_COL);
+            out[row_c] = conv5(s, x, y, &TAPS_ROW);
+            out[col_c] = conv5(s, x, y, &TAPS_COL);
             out
         }
         c => {
             let mut out = [0.0; 3];
             out[c] = v;
-            out[1] = conv5(s, x, y, &MALVAR_G_AT_RB);
-            out[2 - c] = conv5(s, x, y, &MALVAR_DIAG);
+            out[1] = conv5(s, x, y, &TAPS_G_AT_RB);
+            out[2 - c] = conv5(s, x, y, &TAPS_DIAG);
             out
         }
     }
 }
 
 /// Hamilton–Adams green at a non-green site.
-fn ha_green(s: &Src<'_>, x: isize, y: isize) -> f32 {
+fn ha_green<A: Access>(s: &A, x: isize, y: isize) -> f32 {
     let a = s.at(x, y);
     let (g4, g6, g2, g8) = (s.at(x - 1, y), s.at(x + 1, y), s.at(x, y - 1), s.at(x, y + 1));
     let (a3, a7, a1, a9) = (s.at(x - 2, y), s.at(x + 2, y), s.at(x, y - 2), s.at(x, y + 2));
@@ -385,7 +438,7 @@ fn ha_green(s: &Src<'_>, x: isize, y: isize) -> f32 {
 }
 
 /// Hamilton–Adams full-colour pixel given the full green plane `g`.
-fn px_hamilton_adams(s: &Src<'_>, g: &Src<'_>, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
+fn px_hamilton_adams<A: Access>(s: &A, g: &A, cfa: Cfa, x: isize, y: isize) -> [f32; 3] {
     let own = chan(cfa, x, y);
     let gc = g.at(x, y);
     let mut out = [0.0; 3];
@@ -434,12 +487,34 @@ fn check(src: &ImageView<'_, f32>, dst: &Image<[f32; 3]>) -> Result<(), IspError
     Ok(())
 }
 
-/// Run `f(x, y)` for every pixel into `dst`, in parallel strips (or serially).
-fn fill<T: Copy + Send + Sync>(dst: &mut Image<T>, parallel: bool, f: impl Fn(isize, isize) -> T + Sync) {
-    let w = dst.width();
+/// Run `edge(x, y)` for pixels within `radius` of the border and `inner(x, y)` elsewhere, for
+/// every pixel into `dst`, in parallel strips (or serially).
+fn fill<T: Copy + Send + Sync>(
+    dst: &mut Image<T>,
+    parallel: bool,
+    radius: usize,
+    edge: impl Fn(isize, isize) -> T + Sync,
+    inner: impl Fn(isize, isize) -> T + Sync,
+) {
+    let (w, h) = dst.dimensions();
     let strip = |(s, rows): (usize, &mut [T])| {
-        for (i, d) in rows.iter_mut().enumerate() {
-            *d = f((i % w) as isize, (s * DEMOSAIC_STRIP_ROWS + i / w) as isize);
+        for (r, row) in rows.chunks_mut(w).enumerate() {
+            let y = s * DEMOSAIC_STRIP_ROWS + r;
+            let yi = y as isize;
+            if y < radius || y + radius >= h || w <= 2 * radius {
+                for (x, d) in row.iter_mut().enumerate() {
+                    *d = edge(x as isize, yi);
+                }
+                continue;
+            }
+            for (x, d) in row.iter_mut().enumerate() {
+                let interior = x >= radius && x + radius < w;
+                *d = if interior {
+                    inner(x as isize, yi)
+                } else {
+                    edge(x as isize, yi)
+                };
+            }
         }
     };
     if parallel {
@@ -455,12 +530,33 @@ fn fill<T: Copy + Send + Sync>(dst: &mut Image<T>, parallel: bool, f: impl Fn(is
     }
 }
 
+/// Tap radius of each method (how far from the pixel it reads).
+const RADIUS_NEAREST: usize = 1;
+const RADIUS_BILINEAR: usize = 1;
+const RADIUS_BICUBIC: usize = 3;
+const RADIUS_MALVAR: usize = 2;
+const RADIUS_HA_GREEN: usize = 2;
+const RADIUS_HA_RB: usize = 1;
+
+/// How [`demosaic_impl`] runs: the production path, or serial / all-mirrored twins for tests.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Mode {
+    parallel: bool,
+    /// Use the mirrored accessor everywhere (the oracle for the interior fast path).
+    mirror_everywhere: bool,
+}
+
+const FAST: Mode = Mode {
+    parallel: true,
+    mirror_everywhere: false,
+};
+
 fn demosaic_impl(
     src: ImageView<'_, f32>,
     cfa: Cfa,
     method: DemosaicMethod,
     dst: &mut Image<[f32; 3]>,
-    parallel: bool,
+    mode: Mode,
 ) -> Result<(), IspError> {
     check(&src, dst)?;
     let s = Src {
@@ -468,26 +564,78 @@ fn demosaic_impl(
         w: src.width(),
         h: src.height(),
     };
+    let d = s.direct();
+    let par = mode.parallel;
+    let r = |radius: usize| {
+        if mode.mirror_everywhere {
+            usize::MAX / 4
+        } else {
+            radius
+        }
+    };
     match method {
-        DemosaicMethod::Nearest => fill(dst, parallel, |x, y| px_nearest(&s, cfa, x, y)),
-        DemosaicMethod::Bilinear => fill(dst, parallel, |x, y| px_bilinear(&s, cfa, x, y)),
-        DemosaicMethod::Bicubic => fill(dst, parallel, |x, y| px_bicubic(&s, cfa, x, y)),
-        DemosaicMethod::Malvar => fill(dst, parallel, |x, y| px_malvar(&s, cfa, x, y)),
+        DemosaicMethod::Nearest => fill(
+            dst,
+            par,
+            r(RADIUS_NEAREST),
+            |x, y| px_nearest(&s, cfa, x, y),
+            |x, y| px_nearest(&d, cfa, x, y),
+        ),
+        DemosaicMethod::Bilinear => fill(
+            dst,
+            par,
+            r(RADIUS_BILINEAR),
+            |x, y| px_bilinear(&s, cfa, x, y),
+            |x, y| px_bilinear(&d, cfa, x, y),
+        ),
+        DemosaicMethod::Bicubic => fill(
+            dst,
+            par,
+            r(RADIUS_BICUBIC),
+            |x, y| px_bicubic(&s, cfa, x, y),
+            |x, y| px_bicubic(&d, cfa, x, y),
+        ),
+        DemosaicMethod::Malvar => fill(
+            dst,
+            par,
+            r(RADIUS_MALVAR),
+            |x, y| px_malvar(&s, cfa, x, y),
+            |x, y| px_malvar(&d, cfa, x, y),
+        ),
         DemosaicMethod::HamiltonAdams => {
             let mut green = Image::<f32>::new(s.w, s.h);
-            fill(&mut green, parallel, |x, y| {
-                if chan(cfa, x, y) == 1 {
-                    s.at(x, y)
-                } else {
-                    ha_green(&s, x, y)
-                }
-            });
+            fill(
+                &mut green,
+                par,
+                r(RADIUS_HA_GREEN),
+                |x, y| {
+                    if chan(cfa, x, y) == 1 {
+                        s.at(x, y)
+                    } else {
+                        ha_green(&s, x, y)
+                    }
+                },
+                |x, y| {
+                    if chan(cfa, x, y) == 1 {
+                        d.at(x, y)
+                    } else {
+                        ha_green(&d, x, y)
+                    }
+                },
+            );
             let g = Src {
                 v: green.view(),
                 w: s.w,
                 h: s.h,
             };
-            fill(dst, parallel, |x, y| px_hamilton_adams(&s, &g, cfa, x, y));
+            let gd = g.direct();
+            fill(
+                dst,
+                par,
+                r(RADIUS_HA_RB),
+                |x, y| px_hamilton_adams(&s, &g, cfa, x, y),
+                |x, y| px_hamilton_adams(&d, &gd, cfa, x, y),
+            );
         }
     }
     Ok(())
@@ -500,7 +648,7 @@ pub fn demosaic_into(
     method: DemosaicMethod,
     dst: &mut Image<[f32; 3]>,
 ) -> Result<(), IspError> {
-    demosaic_impl(src, cfa, method, dst, true)
+    demosaic_impl(src, cfa, method, dst, FAST)
 }
 
 /// Demosaic an `f32` mosaic with `method` (allocating).
@@ -540,6 +688,14 @@ pub fn rgb_from_mosaic_hamilton_adams(
     cfa: Cfa,
 ) -> Result<Image<[f32; 3]>, IspError> {
     rgb_from_mosaic(src, cfa, DemosaicMethod::HamiltonAdams)
+}
+
+/// Demosaic a raw frame into linear camera RGB: each value is first normalised with the frame's
+/// levels to `y = (v − black) / (white − black)` (no white balance, no colour matrix), then
+/// demosaiced with `method` (unclipped `f32`).
+pub fn rgb_from_raw(frame: &RawFrame, method: DemosaicMethod) -> Result<Image<[f32; 3]>, IspError> {
+    let lin = linear_from_raw(frame);
+    rgb_from_mosaic(lin.view(), frame.cfa(), method)
 }
 
 /// Demosaic an 8-bit mosaic; results are rounded and clamped to `0..=255`.
@@ -640,6 +796,33 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn bicubic_reproduces_quadratics_where_bilinear_does_not() {
+        // Keys' cubic (a = -1/2) reproduces polynomials up to degree 2, on the square R/B lattices
+        // and (in rotated coordinates) on the green quincunx.
+        let q = |x: f32, y: f32, k: f32| 0.2 + 0.003 * k * (x * x) - 0.002 * (x * y) + 0.001 * (y * y);
+        let rgb = Image::from_fn(24, 20, |x, y| {
+            let (x, y) = (x as f32, y as f32);
+            [q(x, y, 1.0), q(x, y, 2.0), q(x, y, 0.5)]
+        });
+        for cfa in Cfa::ALL {
+            let m = mosaic_of(&rgb, cfa);
+            let bc = rgb_from_mosaic_bicubic(m.view(), cfa).unwrap();
+            let bl = rgb_from_mosaic_bilinear(m.view(), cfa).unwrap();
+            let (mut bc_err, mut bl_err) = (0f32, 0f32);
+            for y in 3..17 {
+                for x in 3..21 {
+                    for c in 0..3 {
+                        bc_err = bc_err.max((bc.get(x, y)[c] - rgb.get(x, y)[c]).abs());
+                        bl_err = bl_err.max((bl.get(x, y)[c] - rgb.get(x, y)[c]).abs());
+                    }
+                }
+            }
+            assert!(bc_err < 2e-5, "{cfa}: bicubic error {bc_err}");
+            assert!(bl_err > 1e-3, "{cfa}: bilinear error {bl_err}");
         }
     }
 
@@ -763,7 +946,7 @@ mod tests {
     }
 
     #[test]
-    fn parallel_equals_serial() {
+    fn parallel_equals_serial_and_fast_path_equals_mirrored() {
         let rgb = Image::from_fn(37, 53, |x, y| {
             let v = ((x * 7 + y * 13) % 17) as f32 / 17.0;
             [v, 1.0 - v, (x as f32 * 0.1).sin().abs()]
@@ -773,11 +956,64 @@ mod tests {
             for method in DemosaicMethod::all() {
                 let mut a = Image::new(37, 53);
                 let mut b = Image::new(37, 53);
-                demosaic_impl(m.view(), cfa, method, &mut a, true).unwrap();
-                demosaic_impl(m.view(), cfa, method, &mut b, false).unwrap();
-                assert_eq!(a, b, "{cfa} {method}");
+                let mut c = Image::new(37, 53);
+                demosaic_impl(m.view(), cfa, method, &mut a, FAST).unwrap();
+                let serial = Mode {
+                    parallel: false,
+                    mirror_everywhere: false,
+                };
+                demosaic_impl(m.view(), cfa, method, &mut b, serial).unwrap();
+                assert_eq!(a, b, "{cfa} {method}: parallel != serial");
+                let mirrored = Mode {
+                    parallel: false,
+                    mirror_everywhere: true,
+                };
+                demosaic_impl(m.view(), cfa, method, &mut c, mirrored).unwrap();
+                assert_eq!(a, c, "{cfa} {method}: interior fast path != mirrored path");
             }
         }
+    }
+
+    #[test]
+    fn crop_at_any_offset_with_rephased_pattern_matches_the_full_result() {
+        // Demosaicing a crop (pattern re-phased by Cfa::shifted) equals cropping the full result,
+        // away from the crop's border (3 pixels: the largest tap radius). Nearest only at even
+        // offsets: its tiles are aligned to the image origin.
+        let rgb = Image::from_fn(30, 26, |x, y| {
+            let v = ((x * 5 + y * 11) % 13) as f32 / 13.0;
+            [v, (x as f32 * 0.3).cos().abs(), 1.0 - v * 0.5]
+        });
+        for cfa in Cfa::ALL {
+            let m = mosaic_of(&rgb, cfa);
+            for method in DemosaicMethod::all() {
+                let full = rgb_from_mosaic(m.view(), cfa, method).unwrap();
+                for (ox, oy) in [(1, 0), (0, 1), (1, 1), (3, 2), (2, 4)] {
+                    if method == DemosaicMethod::Nearest && (ox % 2 == 1 || oy % 2 == 1) {
+                        continue; // nearest copies from 2x2 tiles aligned to even coordinates
+                    }
+                    let crop = m.view().crop(ox, oy, 20, 18).unwrap();
+                    let part = rgb_from_mosaic(crop, cfa.shifted(ox, oy), method).unwrap();
+                    for y in 3..15 {
+                        for x in 3..17 {
+                            assert_eq!(
+                                part.get(x, y),
+                                full.get(x + ox, y + oy),
+                                "{cfa} {method} +({ox},{oy})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn raw_frames_are_normalised_before_demosaicing() {
+        use crate::raw::Levels;
+        // flat raw 600 with black 100, white 1100 -> 0.5 everywhere
+        let f = RawFrame::from_u16(6, 4, vec![600; 24], Cfa::Gbrg, 12, Levels::uniform(100, 1100)).unwrap();
+        let rgb = rgb_from_raw(&f, DemosaicMethod::HamiltonAdams).unwrap();
+        assert!(rgb.as_slice().iter().all(|p| *p == [0.5; 3]));
     }
 
     #[test]

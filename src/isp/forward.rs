@@ -4,7 +4,8 @@
 //!
 //! 1. **Black level**: `y = (v − black) / (white − black)` per tile position (the frame's levels).
 //! 2. **White balance**: multiply each CFA site by its channel's gain (the profile's gains unless
-//!    [`ForwardIspOptions::wb_gains`] overrides them).
+//!    [`ForwardIspOptions::wb_gains`] overrides them), then clip at 1 (highlight clipping, as
+//!    Infinite-ISP does: otherwise a blown sky turns magenta). Values below 0 are kept.
 //! 3. **Demosaic** with the chosen [`DemosaicMethod`].
 //! 4. **Colour matrix**: `rgb_lin = M · cam_wb` (profile's camera → linear sRGB matrix).
 //! 5. **Gamma**: clip to `[0, 1]`, sRGB transfer function (IEC 61966-2-1), round to `u8`.
@@ -26,8 +27,8 @@
 //!
 //! ## Deviations
 //! No denoising, lens shading, tone mapping or sharpening: this ISP exists to measure the cost
-//! and the losses of the conventional path, not to make pretty pictures. Values are clipped only
-//! once, after the colour matrix.
+//! and the losses of the conventional path, not to make pretty pictures. Values are clipped at 1
+//! after white balance and to `[0, 1]` after the colour matrix.
 
 use rayon::prelude::*;
 
@@ -93,7 +94,9 @@ pub fn linear_rgb_from_raw(
                     Colour::Green => gains[1],
                     Colour::Blue => gains[2],
                 };
-                *v *= g as f32;
+                // highlight clip: a site saturated before white balance stays at 1 after it,
+                // so blown highlights come out white instead of tinted by the gains
+                *v = (*v * g as f32).min(1.0);
             }
         });
     let mut rgb = Image::new(w, frame.height());
@@ -181,6 +184,16 @@ mod tests {
             srgb_from_raw(&f, &identity_profile(), &o).unwrap().get(1, 1)[0],
             137
         );
+    }
+
+    #[test]
+    fn saturated_sites_stay_white_after_white_balance() {
+        // every site at the white level; gains 2 / 1 / 4 would tint it without the highlight clip
+        let f = RawFrame::from_u16(6, 6, vec![1023; 36], Cfa::Grbg, 10, Levels::uniform(64, 1023)).unwrap();
+        let out = srgb_from_raw(&f, &identity_profile(), &ForwardIspOptions::default()).unwrap();
+        assert!(out.as_slice().iter().all(|p| *p == [255, 255, 255]));
+        let lin = linear_rgb_from_raw(&f, &identity_profile(), &ForwardIspOptions::default()).unwrap();
+        assert!(lin.as_slice().iter().all(|p| *p == [1.0; 3]));
     }
 
     #[test]

@@ -23,7 +23,10 @@ use std::path::PathBuf;
 
 pub use demosaic::DemosaicMethod;
 pub use forward::{srgb_from_raw, ForwardIspOptions};
-pub use noise::{add_noise, add_noise_to_raw, estimate_noise, NoiseEstimate, NoiseLevel, NoiseParams};
+pub use noise::{
+    add_noise, add_noise_to_raw, estimate_noise, linear_from_raw, NoiseEstimate, NoiseEstimateOptions,
+    NoiseLevel, NoiseParams,
+};
 pub use profile::CameraProfile;
 pub use reverse::{raw_from_srgb, ReverseIspOptions};
 

@@ -465,6 +465,24 @@ mod tests {
     }
 
     #[test]
+    fn raw_frames_zero_noise_identity_and_metadata_kept() {
+        use crate::raw::{Cfa, Levels};
+        let px: Vec<u8> = (0..64).map(|i| 20 + i as u8 * 3).collect();
+        let f = RawFrame::from_u8(8, 8, px, Cfa::Bggr, Levels::uniform(16, 250))
+            .unwrap()
+            .with_wb_gains([1.5, 1.0, 2.0]);
+        assert_eq!(add_noise_to_raw(&f, NoiseParams::ZERO, 1).unwrap(), f);
+        let n = add_noise_to_raw(&f, NoiseLevel::High.params(), 1).unwrap();
+        assert_ne!(n.to_u16_vec(), f.to_u16_vec());
+        assert_eq!(
+            (n.cfa(), n.bit_depth(), *n.levels(), n.wb_gains),
+            (f.cfa(), 8, *f.levels(), f.wb_gains)
+        );
+        assert!(matches!(n.pixels(), crate::raw::RawPixels::U8(_)));
+        assert!(n.to_u16_vec().iter().all(|&v| v <= 250));
+    }
+
+    #[test]
     fn fit_line_recovers_exact_line() {
         let pts: Vec<(f64, f64, usize)> = (0..5)
             .map(|i| (i as f64 * 0.2, 0.01 * i as f64 * 0.2 + 0.001, 10))

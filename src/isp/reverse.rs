@@ -173,25 +173,6 @@ fn colour_index(c: Colour) -> usize {
     }
 }
 
-/// Keep, at each pixel, the channel the pattern puts there: `dst(x, y) = rgb(x, y)[colour_at(x, y)]`.
-pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa, dst: &mut Image<f32>) -> Result<(), IspError> {
-    if dst.dimensions() != (rgb.width(), rgb.height()) {
-        return Err(IspError::SizeMismatch {
-            src_w: rgb.width(),
-            src_h: rgb.height(),
-            dst_w: dst.width(),
-            dst_h: dst.height(),
-        });
-    }
-    for y in 0..rgb.height() {
-        let src = rgb.row(y);
-        for (x, (d, s)) in dst.row_mut(y).iter_mut().zip(src).enumerate() {
-            *d = s[colour_index(cfa.colour_at(x, y))];
-        }
-    }
-    Ok(())
-}
-
 /// Quantise a linear mosaic (`0` = black, `1` = white) into a raw frame:
 /// `v = round(black + y·(white − black))`, clipped to `[0, white]`.
 pub fn raw_from_linear_mosaic(

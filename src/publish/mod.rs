@@ -1,1 +1,22 @@
 //! iceoryx2 publishing and the `#[repr(C)]` message types subscribers read.
+//!
+//! Services (all `ipc`, i.e. shared memory between processes) are named
+//! `<prefix>/<camera>/<topic>` ([`service::service_name`]):
+//!
+//! * `detections`: [`messages::DetectionsMsg`], one per processed frame, fixed size;
+//! * `gradients` (optional): `[u8]` slices with a [`messages::GradientsHeader`] user header;
+//! * `stats`: [`messages::StatsMsg`], one per stats interval and a final one.
+//!
+//! Every service is created with **safe overflow** (a full subscriber buffer overwrites its oldest
+//! sample): a subscriber that stalls or dies can never block the daemon. The buffer depth is
+//! `publish.subscriber_buffer`; late subscribers get the last samples as history. Stale resources
+//! left by a killed daemon are removed when the next node is created (iceoryx2's dead-node cleanup,
+//! which [`service::create_node`] also triggers explicitly and logs).
+//!
+//! iceoryx2 ports are not `Send`, so each camera's publishers live in their own sink thread
+//! ([`publisher::IceoryxSink`]). `mosaicd listen` ([`service`] helpers) is a subscriber in another
+//! process that only needs [`messages`].
+
+pub mod messages;
+pub mod publisher;
+pub mod service;

@@ -181,7 +181,8 @@ impl Cfa {
     /// The pattern after mirroring the image left-right (`width` is the image width).
     pub fn flipped_horizontally(self, width: usize) -> Cfa {
         let (rx, ry) = self.red_offset();
-        Cfa::from_red_offset((width - 1 - rx) & 1, ry)
+        // Only the parity matters; wrapping keeps width 0 from panicking (2^64 is even).
+        Cfa::from_red_offset(width.wrapping_sub(1).wrapping_sub(rx) & 1, ry)
     }
 
     /// OpenCV's (shifted) name for this physical pattern, as used in `COLOR_<name>2BGR`.
@@ -297,6 +298,21 @@ mod tests {
             let s = cfa.shifted(1, 1);
             let expect = format!("Bayer{}{}", &s.name()[0..1], &s.name()[1..2]);
             assert_eq!(cfa.opencv_code_name(), expect);
+        }
+    }
+
+    #[test]
+    fn horizontal_flip_rephases_and_never_panics() {
+        for cfa in Cfa::ALL {
+            for width in 1..6 {
+                let f = cfa.flipped_horizontally(width);
+                for y in 0..2 {
+                    for x in 0..width {
+                        assert_eq!(f.colour_at(x, y), cfa.colour_at(width - 1 - x, y));
+                    }
+                }
+            }
+            let _ = cfa.flipped_horizontally(0);
         }
     }
 

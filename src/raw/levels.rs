@@ -54,7 +54,10 @@
 //! Images" §III (gamma compression of raw); Dalal & Triggs 2005 and OpenCV `hog.cpp` (sqrt gamma);
 //! Buchsbaum 1980 (grey-world assumption).
 
+use std::str::FromStr;
+
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::{Colour, RawError, RawFrame, RawPixels};
 use crate::image::Image;
@@ -69,7 +72,12 @@ pub const MAX_GAIN: f32 = 16.0;
 pub const GAIN_FRAC_BITS: u32 = 12;
 
 /// Where per-colour gains come from.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// In config files (serde, kebab-case): `"none"`, `"from-file"`, `"grey-world"`, `"auto"` or
+/// `{ fixed = [r, g, b] }`. On the command line (`FromStr`): `none`, `file`,
+/// `grey-world`, `auto` or `R,G,B`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Gains {
     /// No white balance: R, G, B as the sensor saw them.
     None,
@@ -84,7 +92,11 @@ pub enum Gains {
 }
 
 /// Tone compression applied after white balance.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// In config files: `"none"`, `"sqrt"` or `{ gamma = 0.4545 }`; on the command line: `none`,
+/// `sqrt` or `gamma:EXPONENT`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Compression {
     /// Linear output.
     None,
@@ -95,7 +107,8 @@ pub enum Compression {
 }
 
 /// Normalisation options, validated by [`NormaliseOptions::build`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct NormaliseOptions {
     /// White-balance gains.
     pub gains: Gains,
@@ -109,6 +122,62 @@ impl Default for NormaliseOptions {
         Self {
             gains: Gains::None,
             compression: Compression::None,
+        }
+    }
+}
+
+/// Error parsing a [`Gains`] or [`Compression`] from text.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot parse {text:?}: expected {expected}")]
+pub struct ParseOptionError {
+    /// The text given.
+    pub text: String,
+    /// What was expected.
+    pub expected: &'static str,
+}
+
+impl FromStr for Gains {
+    type Err = ParseOptionError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = || ParseOptionError {
+            text: s.to_string(),
+            expected: "none, file, grey-world, auto or R,G,B",
+        };
+        match s.trim().to_ascii_lowercase().as_str() {
+            "none" => Ok(Gains::None),
+            "file" | "from-file" => Ok(Gains::FromFile),
+            "grey-world" | "gray-world" => Ok(Gains::GreyWorld),
+            "auto" => Ok(Gains::Auto),
+            other => {
+                let v: Vec<f32> = other
+                    .split(',')
+                    .map(|t| t.trim().parse::<f32>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| err())?;
+                match v.as_slice() {
+                    [r, g, b] => Ok(Gains::Fixed([*r, *g, *b])),
+                    _ => Err(err()),
+                }
+            }
+        }
+    }
+}
+
+impl FromStr for Compression {
+    type Err = ParseOptionError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = || ParseOptionError {
+            text: s.to_string(),
+            expected: "none, sqrt or gamma:EXPONENT",
+        };
+        match s.trim().to_ascii_lowercase().as_str() {
+            "none" => Ok(Compression::None),
+            "sqrt" => Ok(Compression::Sqrt),
+            other => other
+                .strip_prefix("gamma:")
+                .and_then(|e| e.trim().parse::<f32>().ok())
+                .map(Compression::Gamma)
+                .ok_or_else(err),
         }
     }
 }
@@ -242,18 +311,39 @@ pub fn grey_world_gains(frame: &RawFrame) -> [f32; 3] {
     [gain(0), 1.0, gain(2)]
 }
 
-/// Per tile position: black level and `gain / (white - black)`.
-fn tile_params(frame: &RawFrame, gains: &[f32; 3]) -> ([f32; 4], [f32; 4]) {
-    let lv = frame.levels();
-    let mut black = [0f32; 4];
-    let mut scale = [0f32; 4];
-    for p in 0..4 {
-        let (x, y) = (p & 1, p >> 1);
-        black[p] = lv.black[p] as f32;
-        let g = gains[colour_index(frame.cfa().colour_at(x, y))];
-        scale[p] = g / (lv.white - lv.black[p]) as f32;
+/// Per tile position: black level, `1 / (white - black)` and the gain of its colour.
+#[derive(Debug, Clone, Copy)]
+struct TileParams {
+    black: [f32; 4],
+    inv_range: [f32; 4],
+    gain: [f32; 4],
+    compression: Compression,
+}
+
+impl TileParams {
+    fn new(frame: &RawFrame, gains: &[f32; 3], compression: Compression) -> Self {
+        let lv = frame.levels();
+        let mut t = TileParams {
+            black: [0.0; 4],
+            inv_range: [0.0; 4],
+            gain: [1.0; 4],
+            compression,
+        };
+        for p in 0..4 {
+            let (x, y) = (p & 1, p >> 1);
+            t.black[p] = lv.black[p] as f32;
+            t.inv_range[p] = 1.0 / (lv.white - lv.black[p]) as f32;
+            t.gain[p] = gains[colour_index(frame.cfa().colour_at(x, y))];
+        }
+        t
     }
-    (black, scale)
+
+    /// The normalised value of raw value `v` at tile position `p` (the formula of the module docs).
+    #[inline]
+    fn value(&self, p: usize, v: f32) -> f32 {
+        let l = ((v - self.black[p]) * self.inv_range[p]).clamp(0.0, 1.0);
+        compress((l * self.gain[p]).min(1.0), self.compression)
+    }
 }
 
 #[inline]
@@ -265,28 +355,55 @@ fn compress(w: f32, c: Compression) -> f32 {
     }
 }
 
+/// How rows are mapped: the formula per pixel, or (when compression makes the formula costly) a
+/// lookup table per tile position over every raw value `0..=max_value`. Both give identical
+/// results: the table holds the formula's values, and values above `max_value` (which are above
+/// white) map like `max_value`.
+enum Mapper {
+    Formula(TileParams),
+    Table { lut: Vec<f32>, len: usize },
+}
+
+impl Mapper {
+    fn new(frame: &RawFrame, params: TileParams, use_table: bool) -> Self {
+        if !use_table {
+            return Mapper::Formula(params);
+        }
+        let len = frame.max_value() as usize + 1;
+        let mut lut = Vec::with_capacity(4 * len);
+        for p in 0..4 {
+            lut.extend((0..len).map(|v| params.value(p, v as f32)));
+        }
+        Mapper::Table { lut, len }
+    }
+}
+
 /// Normalise rows `y0..` of `frame` into `out` (whole rows of width `frame.width()`).
-fn normalise_rows(
-    frame: &RawFrame,
-    black: &[f32; 4],
-    scale: &[f32; 4],
-    compression: Compression,
-    y0: usize,
-    out: &mut [f32],
-) {
+fn normalise_rows(frame: &RawFrame, mapper: &Mapper, y0: usize, out: &mut [f32]) {
     let w = frame.width();
     let stride = frame.stride();
     for (dy, row_out) in out.chunks_exact_mut(w).enumerate() {
         let y = y0 + dy;
-        let b = [black[(y & 1) * 2], black[(y & 1) * 2 + 1]];
-        let s = [scale[(y & 1) * 2], scale[(y & 1) * 2 + 1]];
+        let pb = (y & 1) * 2;
         let start = y * stride;
         macro_rules! run {
             ($row:expr) => {
-                for (x, (o, &v)) in row_out.iter_mut().zip($row).enumerate() {
-                    let p = x & 1;
-                    let l = ((v as f32 - b[p]) * s[p]).clamp(0.0, 1.0);
-                    *o = compress(l, compression);
+                match mapper {
+                    Mapper::Formula(t) => {
+                        for (x, (o, &v)) in row_out.iter_mut().zip($row).enumerate() {
+                            *o = t.value(pb + (x & 1), v as f32);
+                        }
+                    }
+                    Mapper::Table { lut, len } => {
+                        let last = len - 1;
+                        let tabs = [
+                            &lut[pb * len..(pb + 1) * len],
+                            &lut[(pb + 1) * len..(pb + 2) * len],
+                        ];
+                        for (x, (o, &v)) in row_out.iter_mut().zip($row).enumerate() {
+                            *o = tabs[x & 1][(v as usize).min(last)];
+                        }
+                    }
                 }
             };
         }
@@ -297,27 +414,26 @@ fn normalise_rows(
     }
 }
 
-fn prepare(
-    frame: &RawFrame,
-    spec: &NormaliseSpec,
-    dst: &mut Image<f32>,
-) -> Result<([f32; 4], [f32; 4]), RawError> {
+fn prepare(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Result<Mapper, RawError> {
     let gains = spec.gains_for(frame)?;
     dst.reshape(frame.width(), frame.height());
-    Ok(tile_params(frame, &gains))
+    let params = TileParams::new(frame, &gains, spec.compression);
+    // A table pays off when compression costs more than a lookup and the frame has more pixels
+    // than the table has entries.
+    let table_len = 4 * (frame.max_value() as usize + 1);
+    let use_table = spec.compression != Compression::None && frame.width() * frame.height() >= table_len;
+    Ok(Mapper::new(frame, params, use_table))
 }
 
 /// Normalise `frame` into `dst` (reshaped to the frame's size), in parallel over strips of
 /// [`STRIP_ROWS`] rows on the current rayon pool.
 pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Result<(), RawError> {
-    let (black, scale) = prepare(frame, spec, dst)?;
+    let mapper = prepare(frame, spec, dst)?;
     let w = frame.width();
     dst.as_mut_slice()
         .par_chunks_mut(w * STRIP_ROWS)
         .enumerate()
-        .for_each(|(i, strip)| {
-            normalise_rows(frame, &black, &scale, spec.compression, i * STRIP_ROWS, strip)
-        });
+        .for_each(|(i, strip)| normalise_rows(frame, &mapper, i * STRIP_ROWS, strip));
     Ok(())
 }
 
@@ -327,8 +443,8 @@ pub fn normalise_into_serial(
     spec: &NormaliseSpec,
     dst: &mut Image<f32>,
 ) -> Result<(), RawError> {
-    let (black, scale) = prepare(frame, spec, dst)?;
-    normalise_rows(frame, &black, &scale, spec.compression, 0, dst.as_mut_slice());
+    let mapper = prepare(frame, spec, dst)?;
+    normalise_rows(frame, &mapper, 0, dst.as_mut_slice());
     Ok(())
 }
 
@@ -518,6 +634,39 @@ mod tests {
     }
 
     #[test]
+    fn options_parse_from_text_and_toml() {
+        assert_eq!("none".parse::<Gains>().unwrap(), Gains::None);
+        assert_eq!("file".parse::<Gains>().unwrap(), Gains::FromFile);
+        assert_eq!("Grey-World".parse::<Gains>().unwrap(), Gains::GreyWorld);
+        assert_eq!("auto".parse::<Gains>().unwrap(), Gains::Auto);
+        assert_eq!(
+            "1.5, 1, 2".parse::<Gains>().unwrap(),
+            Gains::Fixed([1.5, 1.0, 2.0])
+        );
+        assert!("1,2".parse::<Gains>().is_err());
+        assert!("warm".parse::<Gains>().is_err());
+        assert_eq!("sqrt".parse::<Compression>().unwrap(), Compression::Sqrt);
+        assert_eq!(
+            "gamma:0.5".parse::<Compression>().unwrap(),
+            Compression::Gamma(0.5)
+        );
+        assert!("gamma".parse::<Compression>().is_err());
+        let o: NormaliseOptions =
+            toml::from_str("gains = { fixed = [2.0, 1.0, 1.5] }\ncompression = { gamma = 0.45 }").unwrap();
+        assert_eq!(o.gains, Gains::Fixed([2.0, 1.0, 1.5]));
+        assert_eq!(o.compression, Compression::Gamma(0.45));
+        let o: NormaliseOptions = toml::from_str("gains = \"grey-world\"").unwrap();
+        assert_eq!(
+            o,
+            NormaliseOptions {
+                gains: Gains::GreyWorld,
+                ..NormaliseOptions::default()
+            }
+        );
+        assert!(toml::from_str::<NormaliseOptions>("gain = \"none\"").is_err());
+    }
+
+    #[test]
     fn bad_options_are_refused() {
         for g in [
             [0.0, 1.0, 1.0],
@@ -586,6 +735,45 @@ mod tests {
                 assert!(a.as_slice().iter().all(|v| (0.0..=1.0).contains(v)));
             }
         }
+    }
+
+    #[test]
+    fn table_path_equals_formula_path_bit_for_bit() {
+        // Values above the bit depth's range too (RawFrame does not forbid them).
+        let (w, h) = (64, 40);
+        let data: Vec<u16> = (0..w * h).map(|i| (i * 40503 % 1100) as u16).collect();
+        let f16 = RawFrame::from_u16(
+            w,
+            h,
+            data,
+            Cfa::Grbg,
+            10,
+            Levels {
+                black: [30, 31, 32, 33],
+                white: 1000,
+            },
+        )
+        .unwrap();
+        let data8: Vec<u8> = (0..w * h).map(|i| (i * 97 % 256) as u8).collect();
+        let f8 = RawFrame::from_u8(w, h, data8, Cfa::Rggb, Levels::uniform(10, 240)).unwrap();
+        for f in [f16, f8] {
+            for c in [Compression::None, Compression::Sqrt, Compression::Gamma(0.45)] {
+                let params = TileParams::new(&f, &[0.7, 1.0, 2.5], c);
+                let mut a = vec![0f32; w * h];
+                let mut b = vec![0f32; w * h];
+                normalise_rows(&f, &Mapper::new(&f, params, false), 0, &mut a);
+                normalise_rows(&f, &Mapper::new(&f, params, true), 0, &mut b);
+                assert_eq!(a, b, "{c:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn gain_below_one_applies_after_clamping_to_white() {
+        // Above white: l = 1, then gain 0.5 → 0.5 (not (v - black) / range * gain).
+        let f = RawFrame::from_u16(2, 1, vec![1023, 900], Cfa::Rggb, 10, Levels::uniform(0, 900)).unwrap();
+        let img = f32_from_raw(&f, &spec(Gains::Fixed([0.5, 1.0, 1.0]), Compression::None)).unwrap();
+        assert_eq!(img.as_slice(), &[0.5, 1.0]);
     }
 
     #[test]

@@ -26,6 +26,12 @@
 //! to our per-tile-position black levels, the bit depth is the smallest that holds the white level
 //! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
 //! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
+//! Refused with rawloader's or our message: cameras rawloader 0.37 does not know (among them the
+//! Kodak DC40/DC50 with RADC compression, e.g. the shared `RAW_KODAK_DC50.KDC`), floating-point
+//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
+//!
+//! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
+//! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.
 //!
 //! References: Netpbm PGM specification (16-bit samples are big-endian); PNG specification
 //! (16-bit samples are big-endian, the `png`/`image` crates return native values).
@@ -112,7 +118,8 @@ impl RawFormat {
 
     /// Row stride in bytes.
     pub fn stride(&self) -> usize {
-        self.stride_bytes.unwrap_or(self.width * self.container.bytes())
+        self.stride_bytes
+            .unwrap_or(self.width.saturating_mul(self.container.bytes()))
     }
 
     /// Exact file size this format describes (`height * stride`).
@@ -260,6 +267,12 @@ fn mosaic_frame(
     origin: &Path,
 ) -> Result<RawFrame, RawError> {
     let bit_depth = fmt.bit_depth.unwrap_or(file_bits);
+    if !(8..=16).contains(&bit_depth) {
+        return Err(RawError::BitDepth {
+            bit_depth,
+            container_bits: 16,
+        });
+    }
     let pixels = match pixels {
         RawPixels::U8(v) if bit_depth > 8 => RawPixels::U16(v.into_iter().map(u16::from).collect()),
         RawPixels::U16(v) => {
@@ -401,18 +414,84 @@ pub fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawE
     mosaic_frame(w, h, pixels, bits_for(maxval as u32), fmt, path)
 }
 
-/// Write a frame as a 16-bit grey PNG (values as stored, not scaled; the pattern, bit depth and
-/// levels are not recorded in the file).
+/// Keyword of the PNG `tEXt` chunk in which [`write_png16`] records the pattern, bit depth and
+/// levels, so that our own mosaic PNGs load without flags.
+pub const PNG_TEXT_KEY: &str = "mosaicd-mosaic";
+
+/// What a mosaic PNG written by [`write_png16`] says about itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PngMosaicMeta {
+    /// Pattern at (0, 0).
+    pub cfa: Cfa,
+    /// Significant bits.
+    pub bit_depth: u8,
+    /// Levels.
+    pub levels: Levels,
+}
+
+impl PngMosaicMeta {
+    /// The text stored in the chunk: `cfa=RGGB bit_depth=14 black=600,600,600,600 white=15520`.
+    pub fn to_text(&self) -> String {
+        let b = self.levels.black;
+        format!(
+            "cfa={} bit_depth={} black={},{},{},{} white={}",
+            self.cfa, self.bit_depth, b[0], b[1], b[2], b[3], self.levels.white
+        )
+    }
+
+    /// Parse [`PngMosaicMeta::to_text`]'s format; every field is required.
+    pub fn parse(text: &str) -> Option<Self> {
+        let (mut cfa, mut bits, mut black, mut white) = (None, None, None, None);
+        for field in text.split_whitespace() {
+            let (k, v) = field.split_once('=')?;
+            match k {
+                "cfa" => cfa = v.parse::<Cfa>().ok(),
+                "bit_depth" => bits = v.parse::<u8>().ok(),
+                "black" => {
+                    let b: Vec<u16> = v.split(',').map(|t| t.parse().ok()).collect::<Option<_>>()?;
+                    black = <[u16; 4]>::try_from(b).ok();
+                }
+                "white" => white = v.parse::<u16>().ok(),
+                _ => return None,
+            }
+        }
+        Some(Self {
+            cfa: cfa?,
+            bit_depth: bits?,
+            levels: Levels {
+                black: black?,
+                white: white?,
+            },
+        })
+    }
+}
+
+/// Write a frame as a 16-bit grey PNG: values as stored (not scaled), with the pattern, bit depth
+/// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`load_input`] reads.
 pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let (w, h) = (frame.width(), frame.height());
-    let data = frame.to_u16_vec();
-    let buf = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w as u32, h as u32, data)
-        .ok_or_else(|| format_err(path, format!("frame {w}x{h} too large for PNG")))?;
-    buf.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| match e {
-            image::ImageError::IoError(io) => io_err(path, io),
-            other => format_err(path, format!("cannot write PNG: {other}")),
-        })
+    let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
+        return Err(format_err(path, format!("frame {w}x{h} too large for PNG")));
+    };
+    let meta = PngMosaicMeta {
+        cfa: frame.cfa(),
+        bit_depth: frame.bit_depth(),
+        levels: *frame.levels(),
+    };
+    let png_err = |e: png::EncodingError| match e {
+        png::EncodingError::IoError(io) => io_err(path, io),
+        other => format_err(path, format!("cannot write PNG: {other}")),
+    };
+    let file = std::fs::File::create(path).map_err(|e| io_err(path, e))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w32, h32);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Sixteen);
+    enc.add_text_chunk(PNG_TEXT_KEY.to_string(), meta.to_text())
+        .map_err(png_err)?;
+    let mut writer = enc.write_header().map_err(png_err)?;
+    let bytes: Vec<u8> = frame.to_u16_vec().iter().flat_map(|v| v.to_be_bytes()).collect();
+    writer.write_image_data(&bytes).map_err(png_err)?;
+    writer.finish().map_err(png_err)
 }
 
 /// Write a frame as a binary PGM (`P5`) with maxval `2^bit_depth - 1` (big-endian 16-bit samples
@@ -618,14 +697,33 @@ pub fn headerless_format(path: &Path, opts: &InputOptions) -> Result<RawFormat, 
     })
 }
 
-/// Read a PNG header's colour type without decoding the pixels.
-fn png_is_single_channel(path: &Path) -> Result<bool, RawError> {
+/// Read a PNG's header without decoding the pixels: whether it is 1-channel grey, and our
+/// [`PNG_TEXT_KEY`] description when it has one (a malformed description is an error).
+fn png_header(path: &Path) -> Result<(bool, Option<PngMosaicMeta>), RawError> {
     let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
     let decoder = png::Decoder::new(std::io::BufReader::new(file));
     let reader = decoder
         .read_info()
         .map_err(|e| format_err(path, format!("cannot read PNG header: {e}")))?;
-    Ok(matches!(reader.info().color_type, png::ColorType::Grayscale))
+    let info = reader.info();
+    let grey = matches!(info.color_type, png::ColorType::Grayscale);
+    let meta =
+        match info
+            .uncompressed_latin1_text
+            .iter()
+            .find(|t| t.keyword == PNG_TEXT_KEY)
+        {
+            None => None,
+            Some(t) => Some(PngMosaicMeta::parse(&t.text).ok_or_else(|| {
+                format_err(path, format!("malformed {PNG_TEXT_KEY} text chunk {:?}", t.text))
+            })?),
+        };
+    Ok((grey, meta))
+}
+
+/// Read the mosaic description [`write_png16`] stores in a PNG, if any.
+pub fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
+    Ok(png_header(path)?.1)
 }
 
 /// Load any supported input, choosing the loader by options, extension and content:
@@ -658,24 +756,41 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
             frame: load_pgm_mosaic(path, &mosaic_fmt("a PGM mosaic")?)?,
             rgb: None,
         }),
-        "png" if png_is_single_channel(path)? => Ok(LoadedInput {
-            frame: load_png_mosaic(path, &mosaic_fmt("a grey PNG mosaic")?)?,
-            rgb: None,
-        }),
-        "png" | "jpg" | "jpeg" => {
-            let rgb = load_rgb8(path)?;
-            let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
-            frame.meta = meta_for(path);
-            Ok(LoadedInput {
-                frame,
-                rgb: Some(rgb),
-            })
-        }
+        "png" => match png_header(path)? {
+            (true, meta) => {
+                // Flags override what the file says about itself.
+                let fmt = match meta {
+                    Some(m) => MosaicFormat {
+                        cfa: opts.cfa.unwrap_or(m.cfa),
+                        bit_depth: Some(opts.bit_depth.unwrap_or(m.bit_depth)),
+                        black: opts.black.unwrap_or(m.levels.black),
+                        white: Some(opts.white.unwrap_or(m.levels.white)),
+                    },
+                    None => mosaic_fmt("a grey PNG mosaic")?,
+                };
+                Ok(LoadedInput {
+                    frame: load_png_mosaic(path, &fmt)?,
+                    rgb: None,
+                })
+            }
+            (false, _) => rgb_input(path, opts),
+        },
+        "jpg" | "jpeg" => rgb_input(path, opts),
         _ => Ok(LoadedInput {
             frame: load_camera_raw(path)?,
             rgb: None,
         }),
     }
+}
+
+fn rgb_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    let rgb = load_rgb8(path)?;
+    let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
+    frame.meta = meta_for(path);
+    Ok(LoadedInput {
+        frame,
+        rgb: Some(rgb),
+    })
 }
 
 /// A path for error messages when there is no file.
@@ -765,6 +880,57 @@ mod tests {
             frame_from_bytes(&b16[..10], &f16, &origin()),
             Err(RawError::Format { .. })
         ));
+    }
+
+    /// Round trip with a pinned seed: random sizes, depths, endians and padding.
+    #[test]
+    fn random_headerless_round_trips() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261122);
+        for _ in 0..200 {
+            let (w, h) = (rng.random_range(1..20usize), rng.random_range(1..12usize));
+            let container = if rng.random_bool(0.5) {
+                Container::U8
+            } else {
+                Container::U16
+            };
+            let bits: u8 = if container == Container::U8 {
+                8
+            } else {
+                rng.random_range(8..=16)
+            };
+            let endian = if rng.random_bool(0.5) {
+                Endian::Little
+            } else {
+                Endian::Big
+            };
+            let bpp = container.bytes();
+            let pad = rng.random_range(0..3usize) * bpp;
+            let max = ((1u32 << bits) - 1) as u16;
+            let vals: Vec<u16> = (0..w * h).map(|_| rng.random_range(0..=max)).collect();
+            let mut bytes = Vec::new();
+            for row in vals.chunks(w) {
+                for &v in row {
+                    match (container, endian) {
+                        (Container::U8, _) => bytes.push(v as u8),
+                        (Container::U16, Endian::Little) => bytes.extend_from_slice(&v.to_le_bytes()),
+                        (Container::U16, Endian::Big) => bytes.extend_from_slice(&v.to_be_bytes()),
+                    }
+                }
+                bytes.extend(std::iter::repeat_n(0xAAu8, pad));
+            }
+            let cfa = Cfa::ALL[rng.random_range(0..4usize)];
+            let mut fmt = RawFormat::new(w, h, bits, cfa, container, endian, Levels::uniform(0, max));
+            fmt.stride_bytes = Some(w * bpp + pad);
+            let f = frame_from_bytes(&bytes, &fmt, &origin()).unwrap();
+            assert_eq!(f.to_u16_vec(), vals);
+            assert_eq!((f.width(), f.height(), f.cfa(), f.bit_depth()), (w, h, cfa, bits));
+            // One byte short is always a size mismatch.
+            assert!(matches!(
+                frame_from_bytes(&bytes[..bytes.len() - 1], &fmt, &origin()),
+                Err(RawError::SizeMismatch { .. })
+            ));
+        }
     }
 
     #[test]
@@ -896,6 +1062,18 @@ mod tests {
         let g = load_png_mosaic(&p, &fmt).unwrap();
         assert_eq!(g.to_u16_vec(), f.to_u16_vec());
         assert_eq!((g.width(), g.height(), g.cfa()), (2, 3, Cfa::Gbrg));
+        // Impossible bit depths are errors, not panics.
+        for bits in [0u8, 7, 17, 40] {
+            let bad = MosaicFormat {
+                bit_depth: Some(bits),
+                white: None,
+                ..fmt
+            };
+            assert!(
+                matches!(load_png_mosaic(&p, &bad), Err(RawError::BitDepth { .. })),
+                "{bits}"
+            );
+        }
         // Declaring too few bits is caught.
         let small = MosaicFormat {
             bit_depth: Some(10),
@@ -906,9 +1084,41 @@ mod tests {
             load_png_mosaic(&p, &small),
             Err(RawError::ValueOutOfRange { .. })
         ));
-        // Through the dispatcher: pattern required.
-        let opts = InputOptions::default();
-        assert!(matches!(load_input(&p, &opts), Err(RawError::Format { .. })));
+        // Through the dispatcher, our own PNG describes itself: no flags needed.
+        assert_eq!(
+            png_mosaic_meta(&p).unwrap(),
+            Some(PngMosaicMeta {
+                cfa: Cfa::Gbrg,
+                bit_depth: 14,
+                levels: Levels::uniform(600, 15520)
+            })
+        );
+        let l = load_input(&p, &InputOptions::default()).unwrap();
+        assert_eq!(l.frame.to_u16_vec(), f.to_u16_vec());
+        assert_eq!((l.frame.cfa(), l.frame.bit_depth()), (Cfa::Gbrg, 14));
+        assert_eq!(*l.frame.levels(), Levels::uniform(600, 15520));
+        // Flags override the description.
+        let l = load_input(
+            &p,
+            &InputOptions {
+                cfa: Some(Cfa::Rggb),
+                white: Some(16000),
+                ..InputOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(l.frame.cfa(), Cfa::Rggb);
+        assert_eq!(*l.frame.levels(), Levels::uniform(600, 16000));
+        // A grey PNG without the description needs its pattern.
+        let plain = dir.path().join("plain.png");
+        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(2, 1, vec![1, 2])
+            .unwrap()
+            .save(&plain)
+            .unwrap();
+        assert!(matches!(
+            load_input(&plain, &InputOptions::default()),
+            Err(RawError::Format { .. })
+        ));
         let opts = InputOptions {
             cfa: Some(Cfa::Gbrg),
             bit_depth: Some(14),
@@ -920,6 +1130,29 @@ mod tests {
         assert!(l.rgb.is_none());
         assert_eq!(l.frame.to_u16_vec(), f.to_u16_vec());
         assert_eq!(*l.frame.levels(), Levels::uniform(600, 15520));
+    }
+
+    #[test]
+    fn png_description_round_trips_and_rejects_garbage() {
+        let m = PngMosaicMeta {
+            cfa: Cfa::Bggr,
+            bit_depth: 12,
+            levels: Levels {
+                black: [1, 2, 3, 4],
+                white: 4000,
+            },
+        };
+        assert_eq!(m.to_text(), "cfa=BGGR bit_depth=12 black=1,2,3,4 white=4000");
+        assert_eq!(PngMosaicMeta::parse(&m.to_text()), Some(m));
+        for bad in [
+            "",
+            "cfa=BGGR bit_depth=12 black=1,2,3 white=4000",
+            "cfa=XYZW bit_depth=12 black=1,2,3,4 white=4000",
+            "cfa=BGGR bit_depth=12 black=1,2,3,4",
+            "cfa=BGGR bit_depth=12 black=1,2,3,4 white=4000 extra=1",
+        ] {
+            assert_eq!(PngMosaicMeta::parse(bad), None, "{bad:?}");
+        }
     }
 
     #[test]
@@ -941,6 +1174,24 @@ mod tests {
         assert_eq!(l.frame.cfa(), Cfa::Grbg);
         // GRBG row 0: G R G R; row 1: B G B G
         assert_eq!(l.frame.to_u16_vec(), vec![10, 1, 10, 3, 100, 11, 100, 11]);
+        // JPEG: lossy, so only the shape and the kept RGB are checked; grey JPEG is refused.
+        let j = dir.path().join("c.jpg");
+        img.save(&j).unwrap();
+        let l = load_input(&j, &InputOptions::default()).unwrap();
+        assert_eq!(
+            (l.frame.width(), l.frame.height(), l.frame.cfa()),
+            (4, 2, Cfa::Rggb)
+        );
+        let rgb = l.rgb.expect("rgb kept");
+        assert_eq!(l.frame.value(0, 0), rgb.get(0, 0)[0] as u16);
+        let g = dir.path().join("g.jpg");
+        image::GrayImage::from_pixel(4, 2, image::Luma([9]))
+            .save(&g)
+            .unwrap();
+        assert!(matches!(
+            load_input(&g, &InputOptions::default()),
+            Err(RawError::Format { .. })
+        ));
     }
 
     #[test]

@@ -1,1 +1,118 @@
 //! MCAP recording: channels, schemas, chunking, rotation, clean finalisation.
+//!
+//! [`McapRecorder`] writes raw frames losslessly at full bit depth (`mosaicd.RawFrame`), an 8-bit
+//! `foxglove.RawImage` preview (`bayer_*8`, optionally decimated) so Foxglove Studio shows the
+//! stream, detections as `foxglove.ImageAnnotations` (boxes as LINE_LOOP, scores as text) plus our
+//! own `mosaicd.Detections` JSON, and stats. The schemas are documented in [`schema`]; reading a
+//! recording back is in [`read`] (and frames are replayed by [`crate::capture::mcap_source`]).
+//!
+//! Chunks are zstd-compressed (`chunk_size` bounds their uncompressed size); a flush cadence
+//! ([`FlushPolicy`], in frames and/or recorded nanoseconds) closes the open chunk so that a crash
+//! loses at most one flush interval; rotation ([`RotatePolicy`]) by size or recorded time makes
+//! `name-0001.mcap`, `name-0002.mcap`, ... A write error (disk full) is returned once as
+//! [`RecordError::Write`]; the recorder then stops (every later call returns
+//! [`RecordError::Stopped`] at once) so the caller can count it and go on detecting.
+//!
+//! Output is deterministic: every log time is the frame's capture timestamp, no wall clock is
+//! written, and zstd runs single-threaded.
+//!
+//! ```
+//! use mosaicd::raw::{Cfa, Levels, RawFrame};
+//! use mosaicd::record::{McapRecorder, RecorderOptions};
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("rec.mcap");
+//! let mut rec = McapRecorder::create(&path, RecorderOptions::default()).unwrap();
+//! let f = RawFrame::from_u16(4, 2, vec![100; 8], Cfa::Rggb, 12, Levels::uniform(64, 4095)).unwrap();
+//! rec.write_frame(&f).unwrap();
+//! rec.write_detections(0, 0, 4, 2, &[]).unwrap();
+//! let summary = rec.finish().unwrap();
+//! assert_eq!(summary.frames, 1);
+//! let info = mosaicd::record::read::RecordingInfo::read(&path).unwrap();
+//! assert_eq!(info.count("/camera/raw"), 1);
+//! ```
+
+pub mod preview;
+pub mod read;
+pub mod recipe;
+pub mod recorder;
+pub mod schema;
+
+use std::path::PathBuf;
+
+pub use recorder::{
+    Compression, FlushPolicy, McapRecorder, PreviewOptions, RecordSink, RecorderOptions, RecordingSummary,
+    RotatePolicy, Topics,
+};
+
+/// Errors from recording and reading recordings.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    /// Invalid recorder options.
+    #[error("invalid recorder option {name} = {value}: {why}")]
+    Option {
+        /// Option name.
+        name: &'static str,
+        /// Offending value.
+        value: String,
+        /// Allowed values.
+        why: &'static str,
+    },
+    /// The output file could not be created.
+    #[error("cannot create recording {path}: {source}")]
+    Create {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Writing failed (disk full, I/O error); the recorder has stopped.
+    #[error("recording to {path} failed, recording stopped: {}", read::mcap_detail(.source))]
+    Write {
+        /// File (or `<writer>`).
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: Box<mcap::McapError>,
+    },
+    /// The recorder stopped after an earlier write error (reported once as [`RecordError::Write`]).
+    #[error("recorder stopped after an earlier error: {first}")]
+    Stopped {
+        /// The first error, as text.
+        first: String,
+    },
+    /// The recorder was already finished.
+    #[error("recorder already finished")]
+    Finished,
+    /// Reading a recording failed.
+    #[error("cannot read recording {path}: {}", read::mcap_detail(.source))]
+    Read {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: Box<mcap::McapError>,
+    },
+    /// I/O error opening a recording.
+    #[error("cannot open recording {path}: {source}")]
+    Open {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A message in a recording does not decode.
+    #[error("{path}: message {sequence} on {topic}: {source}")]
+    Decode {
+        /// File.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// MCAP message sequence.
+        sequence: u32,
+        /// Cause.
+        #[source]
+        source: Box<schema::SchemaError>,
+    },
+}

@@ -10,6 +10,8 @@ Writes under --out/hog/:
   scene_scores.npy   (K,3) f64     hog.detect(scene, hitThreshold=-1e9, winStride=(8,8), padding=(0,0))
                                    rows = (x, y, score) with the default people detector
   scene2_grey.npy / scene2_scores.npy   same for an INRIA negative photo (neg_inria), grey
+  multi_<tag>.npy    (K,5) f64     hog.detectMultiScale(img, winStride=(8,8), padding=(0,0), scale=1.05)
+                                   rows = (x, y, w, h, weight), for Kodak 12/15 (colour, grey) and neg 11a
 Inputs are read from $MOSAICD_DATA (default ../shared/data); missing data is an error.
 """
 import argparse
@@ -76,6 +78,17 @@ def main() -> int:
         rows = np.column_stack([locs.astype(np.float64), weights.astype(np.float64)])
         np.save(out / f"{tag}_grey.npy", g)
         np.save(out / f"{tag}_scores.npy", rows)
+    # Full multi-scale detection (default detectMultiScale arguments except explicit padding 0).
+    multi = [("kodim12", need("kodak/kodim12.png"), False), ("kodim12_grey", need("kodak/kodim12.png"), True),
+             ("neg11a", neg_dir / neg, True), ("kodim15", need("kodak/kodim15.png"), False)]
+    for tag, p, as_grey in multi:
+        img = cv2.imread(str(p))
+        if as_grey:
+            img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        rects, weights = hog.detectMultiScale(img, hitThreshold=0, winStride=(8, 8), padding=(0, 0), scale=1.05)
+        rects = np.asarray(rects, dtype=np.float64).reshape(-1, 4)
+        weights = np.asarray(weights, dtype=np.float64).reshape(-1, 1)
+        np.save(out / f"multi_{tag}.npy", np.hstack([rects, weights]) if len(rects) else np.zeros((0, 5)))
     print(f"gen_hog: {len(grey)} grey + {len(bgr)} colour windows, scenes {[s[0] for s in scenes]} -> {out}",
           file=sys.stderr)
     return 0

@@ -1,0 +1,376 @@
+//! [`McapSource`]: replay the raw-frame channel of a mosaicd recording as a [`Source`].
+//!
+//! Frames come back exactly as recorded (pixels, pattern, bit depth, levels, gains, sensor
+//! sequence, capture timestamp, source name), with `meta.sequence` renumbered densely from 0 for
+//! this source. Options: as fast as possible or at the recorded rate (times a speed factor, on an
+//! injected [`Clock`]), looped (timestamps keep increasing across loops: each pass is shifted by
+//! the recording's span plus one frame interval), and starting `start_offset_ns` after the first
+//! frame. `SourceKind::Replay`: the daemon back-pressures it and never drops.
+//!
+//! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
+//! used, the data section, the summary) and record lengths limited to the file size.
+//! * A **truncated** file (a recording cut by a crash or a full disk) yields every message of its
+//!   complete chunks, then [`CaptureError::Truncated`].
+//! * A **corrupt** file is refused: a bad magic, footer or summary fails [`McapSource::open`]; damage
+//!   inside the data yields [`CaptureError::Corrupt`] when reached and no frame from the damaged
+//!   chunk. Nothing panics.
+//!
+//! ```
+//! use mosaicd::capture::{McapSource, McapSourceOptions, Source};
+//! use mosaicd::raw::{Cfa, FrameMeta, Levels, RawFrame};
+//! use mosaicd::record::{McapRecorder, RecorderOptions};
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("r.mcap");
+//! let mut rec = McapRecorder::create(&path, RecorderOptions::default()).unwrap();
+//! for i in 0..3u64 {
+//!     let f = RawFrame::from_u8(4, 4, vec![i as u8; 16], Cfa::Rggb, Levels::uniform(0, 255)).unwrap()
+//!         .with_meta(FrameMeta { sequence: i, timestamp_ns: 1000 * i, ..Default::default() });
+//!     rec.write_frame(&f).unwrap();
+//! }
+//! rec.finish().unwrap();
+//! let mut src = McapSource::open(&path, McapSourceOptions::default()).unwrap();
+//! let mut n = 0;
+//! while let Some(f) = src.next_frame().unwrap() {
+//!     assert_eq!(f.value(0, 0) as u64, n);
+//!     n += 1;
+//! }
+//! assert_eq!(n, 3);
+//! ```
+
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind};
+use crate::raw::RawFrame;
+use crate::record::read::{read_summary, strict_reader_options};
+use crate::record::schema::{decode_raw_frame, RAW_FRAME_SCHEMA};
+
+/// Frame interval assumed when looping a one-frame recording (30 fps), ns.
+const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;
+/// Read buffer in front of the file (bytes).
+const READ_BUFFER: usize = 1 << 20;
+
+/// How fast to replay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pacing {
+    /// No waiting: as fast as the consumer takes frames.
+    AsFastAsPossible,
+    /// At the recorded rate multiplied by `speed` (2.0 = twice as fast).
+    Recorded {
+        /// Speed factor (> 0).
+        speed: f64,
+    },
+}
+
+/// Replay options.
+#[derive(Debug, Clone)]
+pub struct McapSourceOptions {
+    /// The raw-frame topic; `None` = the first channel with schema `mosaicd.RawFrame`.
+    pub topic: Option<String>,
+    /// Pacing.
+    pub pacing: Pacing,
+    /// Start again at the end.
+    pub looped: bool,
+    /// Skip frames earlier than the first frame's timestamp plus this (ns).
+    pub start_offset_ns: u64,
+    /// The clock used for pacing.
+    pub clock: Arc<dyn Clock>,
+}
+
+impl Default for McapSourceOptions {
+    fn default() -> Self {
+        Self {
+            topic: None,
+            pacing: Pacing::AsFastAsPossible,
+            looped: false,
+            start_offset_ns: 0,
+            clock: Arc::new(MonotonicClock::new()),
+        }
+    }
+}
+
+type Reader = mcap::io::MessageReader<BufReader<File>>;
+
+/// Replays the raw frames of a recording (see the [module overview](self)).
+pub struct McapSource {
+    path: PathBuf,
+    opts: McapSourceOptions,
+    reader: Reader,
+    /// The topic locked onto (given, from the summary, or from the first raw message).
+    topic: Option<String>,
+    finished: bool,
+    /// Frames delivered in total.
+    delivered: u64,
+    /// First frame timestamp of the recording (for the start offset).
+    first_ts: Option<u64>,
+    /// First / last recorded timestamp of the current pass, and the last interval seen.
+    pass_first: Option<u64>,
+    pass_last: u64,
+    last_interval: u64,
+    pass_frames: u64,
+    /// Added to recorded timestamps (grows each loop).
+    loop_offset: u64,
+    /// Pacing anchor: (clock time, output timestamp) of the first paced frame.
+    anchor: Option<(u64, u64)>,
+}
+
+impl std::fmt::Debug for McapSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapSource")
+            .field("path", &self.path)
+            .field("topic", &self.topic)
+            .field("delivered", &self.delivered)
+            .finish_non_exhaustive()
+    }
+}
+
+fn open_reader(path: &Path) -> Result<Reader, CaptureError> {
+    let io = |source| CaptureError::Io {
+        context: format!("cannot open recording {}", path.display()),
+        source,
+    };
+    let file = File::open(path).map_err(io)?;
+    Ok(mcap::io::MessageReader::new_with_options(
+        BufReader::with_capacity(READ_BUFFER, file),
+        strict_reader_options(),
+    ))
+}
+
+impl McapSource {
+    /// Open a recording. Fails on a missing file, a file that is not MCAP, a damaged footer or
+    /// summary, or (when the summary is present) a missing raw-frame channel. A file without a
+    /// summary (truncated, unfinished) opens and is read up to the damage.
+    pub fn open(path: impl AsRef<Path>, opts: McapSourceOptions) -> Result<Self, CaptureError> {
+        let path = path.as_ref().to_path_buf();
+        if let Pacing::Recorded { speed } = opts.pacing {
+            if !(speed > 0.0 && speed.is_finite()) {
+                return Err(CaptureError::Option {
+                    name: "pacing.speed",
+                    value: speed.to_string(),
+                    why: "a finite number > 0",
+                });
+            }
+        }
+        let corrupt = |e: mcap::McapError| CaptureError::Corrupt {
+            path: path.clone(),
+            frames: 0,
+            source: Damage::Mcap(e),
+        };
+        let io = |source| CaptureError::Io {
+            context: format!("cannot open recording {}", path.display()),
+            source,
+        };
+        let mut file = File::open(&path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        let mut magic = [0u8; 8];
+        let head = file.read(&mut magic).map_err(io)?;
+        if head < magic.len() || magic != mcap::MAGIC {
+            return Err(corrupt(mcap::McapError::BadMagic));
+        }
+        // A finished file ends with the magic: then its footer and summary must be sound.
+        let mut topic = opts.topic.clone();
+        let mut tail = [0u8; 8];
+        let finished_file = len >= 16 && {
+            use std::io::{Seek, SeekFrom};
+            file.seek(SeekFrom::End(-8)).map_err(io)?;
+            file.read_exact(&mut tail).map_err(io)?;
+            tail == mcap::MAGIC
+        };
+        if finished_file {
+            if let Some(summary) = read_summary(&mut file).map_err(corrupt)? {
+                let raw: Vec<&str> = summary
+                    .channels
+                    .values()
+                    .filter(|c| c.schema.as_ref().is_some_and(|s| s.name == RAW_FRAME_SCHEMA))
+                    .map(|c| c.topic.as_str())
+                    .collect();
+                let ok = match &topic {
+                    Some(t) => raw.contains(&t.as_str()),
+                    None => !raw.is_empty(),
+                };
+                if !ok && !summary.channels.is_empty() {
+                    let mut found: Vec<&str> = summary.channels.values().map(|c| c.topic.as_str()).collect();
+                    found.sort();
+                    return Err(CaptureError::NoRawChannel {
+                        path,
+                        wanted: topic.unwrap_or_else(|| format!("(schema {RAW_FRAME_SCHEMA})")),
+                        found: found.join(", "),
+                    });
+                }
+                if topic.is_none() {
+                    let mut raw = raw;
+                    raw.sort();
+                    topic = raw.first().map(|s| s.to_string());
+                }
+            }
+        } else {
+            tracing::warn!(path = %path.display(), "recording has no footer (truncated or unfinished); reading what is complete");
+        }
+        let reader = open_reader(&path)?;
+        Ok(Self {
+            path,
+            opts,
+            reader,
+            topic,
+            finished: false,
+            delivered: 0,
+            first_ts: None,
+            pass_first: None,
+            pass_last: 0,
+            last_interval: 0,
+            pass_frames: 0,
+            loop_offset: 0,
+            anchor: None,
+        })
+    }
+
+    /// The raw-frame topic being replayed (known after open when the file has a summary).
+    pub fn topic(&self) -> Option<&str> {
+        self.topic.as_deref()
+    }
+
+    /// Frames delivered so far.
+    pub fn frames_delivered(&self) -> u64 {
+        self.delivered
+    }
+
+    fn classify(&self, e: mcap::McapError) -> CaptureError {
+        let truncated = match &e {
+            mcap::McapError::UnexpectedEof => true,
+            mcap::McapError::Io(io) => io.kind() == std::io::ErrorKind::UnexpectedEof,
+            _ => false,
+        };
+        if truncated {
+            CaptureError::Truncated {
+                path: self.path.clone(),
+                frames: self.delivered,
+                source: e,
+            }
+        } else {
+            CaptureError::Corrupt {
+                path: self.path.clone(),
+                frames: self.delivered,
+                source: Damage::Mcap(e),
+            }
+        }
+    }
+
+    fn wants(&mut self, m: &mcap::Message<'_>) -> bool {
+        match &self.topic {
+            Some(t) => &m.channel.topic == t,
+            None => {
+                let raw = m
+                    .channel
+                    .schema
+                    .as_ref()
+                    .is_some_and(|s| s.name == RAW_FRAME_SCHEMA);
+                if raw {
+                    self.topic = Some(m.channel.topic.clone());
+                }
+                raw
+            }
+        }
+    }
+
+    fn pace(&mut self, ts: u64) {
+        let Pacing::Recorded { speed } = self.opts.pacing else {
+            return;
+        };
+        match self.anchor {
+            None => self.anchor = Some((self.opts.clock.now_ns(), ts)),
+            Some((wall0, ts0)) => {
+                let dt = (ts.saturating_sub(ts0) as f64 / speed) as u64;
+                self.opts.clock.sleep_until_ns(wall0.saturating_add(dt));
+            }
+        }
+    }
+}
+
+impl Source for McapSource {
+    fn next_frame(&mut self) -> Result<Option<RawFrame>, CaptureError> {
+        if self.finished {
+            return Ok(None);
+        }
+        loop {
+            let m = match self.reader.next() {
+                Some(Ok(m)) => m,
+                Some(Err(e)) => {
+                    self.finished = true;
+                    return Err(self.classify(e));
+                }
+                None => {
+                    if self.opts.looped && self.pass_frames > 0 {
+                        let first = self.pass_first.unwrap_or(0);
+                        let interval = if self.last_interval > 0 {
+                            self.last_interval
+                        } else {
+                            SINGLE_FRAME_LOOP_INTERVAL_NS
+                        };
+                        self.loop_offset += self.pass_last - first + interval;
+                        self.pass_first = None;
+                        self.pass_frames = 0;
+                        self.reader = open_reader(&self.path)?;
+                        continue;
+                    }
+                    self.finished = true;
+                    if self.delivered == 0 {
+                        return Err(CaptureError::NoRawChannel {
+                            path: self.path.clone(),
+                            wanted: self
+                                .topic
+                                .clone()
+                                .unwrap_or_else(|| format!("(schema {RAW_FRAME_SCHEMA})")),
+                            found: "no raw frames in the file".into(),
+                        });
+                    }
+                    return Ok(None);
+                }
+            };
+            if !self.wants(&m) {
+                continue;
+            }
+            let mut frame = match decode_raw_frame(&m.data) {
+                Ok(f) => f,
+                Err(e) => {
+                    self.finished = true;
+                    return Err(CaptureError::Corrupt {
+                        path: self.path.clone(),
+                        frames: self.delivered,
+                        source: Damage::Message(e),
+                    });
+                }
+            };
+            let ts = m.log_time;
+            let first = *self.first_ts.get_or_insert(ts);
+            if ts < first.saturating_add(self.opts.start_offset_ns) {
+                continue;
+            }
+            match self.pass_first {
+                None => self.pass_first = Some(ts),
+                Some(_) => self.last_interval = ts.saturating_sub(self.pass_last),
+            }
+            self.pass_last = ts;
+            self.pass_frames += 1;
+            let out_ts = ts + self.loop_offset;
+            frame.meta.timestamp_ns = out_ts;
+            frame.meta.sequence = self.delivered;
+            self.delivered += 1;
+            self.pace(out_ts);
+            return Ok(Some(frame));
+        }
+    }
+
+    fn kind(&self) -> SourceKind {
+        SourceKind::Replay
+    }
+
+    fn describe(&self) -> String {
+        format!("mcap:{}", self.path.display())
+    }
+
+    fn is_finished(&self) -> bool {
+        self.finished
+    }
+}

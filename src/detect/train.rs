@@ -1,0 +1,517 @@
+//! Training a HOG + linear SVM people detector (Dalal & Triggs 2005): positives, random negative
+//! windows, SVM, hard-negative mining rounds; plus the window-level evaluation (DET: miss rate at a
+//! false-positives-per-window rate) on a held-out split.
+//!
+//! ```
+//! use mosaicd::detect::train::photo_prefix;
+//! assert_eq!(photo_prefix("crop001001a.png"), "crop001001");
+//! assert_eq!(photo_prefix("person_017b.png"), "person_017");
+//! ```
+//!
+//! # Data and domains
+//! Positives: `pedestrian/inria_pos_96x160` (the 64x128 window at (16, 16)); the validation split
+//! holds out whole photos (file prefix without the trailing letter, which also groups the
+//! mirrors). Negatives: person-free photos (`neg_inria/`, `neg/`, Kodak without 04 05 12 14 15 18),
+//! split by a seeded shuffle. Every image is brought into the model's input domain: colour (RGB),
+//! grey (OpenCV's RGB→grey), or mosaic. **Deviation:** the mosaic domain samples the sRGB image
+//! through the CFA (RGGB) without the reverse ISP (linearisation, white balance, noise) — the
+//! reverse ISP of `isp/reverse.rs` was not on main when this was written.
+//!
+//! Descriptors are read from the block grid of the whole image (positives: window (2, 2) of the
+//! 96x160 crop), exactly as the detector sees windows, so training and detection agree at borders.
+
+use std::path::{Path, PathBuf};
+
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+
+use super::detector::{Detector, DetectorOptions};
+use super::model::{Domain, LinearModel};
+use super::pyramid::{resize_bilinear, resize_mosaic};
+use super::svm::{train_linear_svm, SvmOptions};
+use crate::features::hog::{block_grid, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE};
+use crate::image::Image;
+use crate::raw::{Cfa, Colour};
+
+/// Kodak images that show people (never negatives).
+pub const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
+/// Hard-negative candidates kept per image and round (highest scores).
+const HARD_PER_IMAGE: usize = 30;
+/// Offset of the 64x128 window inside the 96x160 INRIA crops, in cells.
+const POS_WINDOW_CELL: usize = 16 / CELL_SIZE;
+
+/// Errors of training.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    /// A file could not be listed or decoded.
+    #[error("training data {path}: {what}")]
+    Data {
+        /// File or directory.
+        path: PathBuf,
+        /// What failed.
+        what: String,
+    },
+    /// Detector failure.
+    #[error(transparent)]
+    Detect(#[from] super::DetectError),
+    /// HOG failure.
+    #[error(transparent)]
+    Hog(#[from] crate::features::hog::HogError),
+}
+
+/// Training options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrainOptions {
+    /// Input domain of the model.
+    pub domain: Domain,
+    /// CFA used to sample mosaics.
+    pub cfa: Cfa,
+    /// Seed of every random choice (split, negatives, SVM order).
+    pub seed: u64,
+    /// SVM cost.
+    pub c: f64,
+    /// Random negative windows per training negative image.
+    pub neg_per_image: usize,
+    /// Hard-negative mining rounds.
+    pub mining_rounds: usize,
+    /// Cap on hard negatives added per round.
+    pub max_hard_per_round: usize,
+    /// Fraction of photos (positives) and negative images held out for validation.
+    pub val_fraction: f64,
+    /// Use at most this many training negative images (0 = all) — a speed knob.
+    pub max_neg_images: usize,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        Self {
+            domain: Domain::Colour,
+            cfa: Cfa::Rggb,
+            seed: 1,
+            c: 0.01,
+            neg_per_image: 10,
+            mining_rounds: 1,
+            max_hard_per_round: 5000,
+            val_fraction: 0.2,
+            max_neg_images: 0,
+        }
+    }
+}
+
+/// Files of a train/validation split.
+#[derive(Debug, Clone, Default)]
+pub struct Split {
+    /// Training positives.
+    pub train_pos: Vec<PathBuf>,
+    /// Validation positives (photos disjoint from training).
+    pub val_pos: Vec<PathBuf>,
+    /// Training negative images.
+    pub train_neg: Vec<PathBuf>,
+    /// Validation negative images.
+    pub val_neg: Vec<PathBuf>,
+}
+
+/// Photo prefix of an INRIA crop file name: the stem without its trailing letter.
+pub fn photo_prefix(name: &str) -> &str {
+    let stem = name.rsplit_once('.').map_or(name, |(s, _)| s);
+    stem.trim_end_matches(|c: char| c.is_ascii_alphabetic())
+}
+
+fn list(dir: &Path) -> Result<Vec<PathBuf>, TrainError> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| TrainError::Data {
+            path: dir.into(),
+            what: e.to_string(),
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("png" | "jpg" | "jpeg" | "PNG" | "JPG")
+            )
+        })
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// The seeded split of the shared data (`data_root`: the directory holding `pedestrian/`, `kodak/`).
+pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Split, TrainError> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let pos = list(&data_root.join("pedestrian/inria_pos_96x160"))?;
+    let mut prefixes: Vec<String> = pos
+        .iter()
+        .filter_map(|p| p.file_name()?.to_str().map(|n| photo_prefix(n).to_string()))
+        .collect();
+    prefixes.dedup();
+    prefixes.shuffle(&mut rng);
+    let n_val = (prefixes.len() as f64 * val_fraction).round() as usize;
+    let val: std::collections::HashSet<&str> = prefixes[..n_val].iter().map(|s| s.as_str()).collect();
+    let mut s = Split::default();
+    for p in pos {
+        let n = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if val.contains(photo_prefix(n)) {
+            s.val_pos.push(p);
+        } else {
+            s.train_pos.push(p);
+        }
+    }
+    let mut neg = list(&data_root.join("pedestrian/neg_inria"))?;
+    neg.extend(list(&data_root.join("pedestrian/neg"))?);
+    for k in 1..=24u32 {
+        if !KODAK_WITH_PEOPLE.contains(&k) {
+            neg.push(data_root.join(format!("kodak/kodim{k:02}.png")));
+        }
+    }
+    neg.shuffle(&mut rng);
+    let n_val = (neg.len() as f64 * val_fraction).round() as usize;
+    s.val_neg = neg[..n_val].to_vec();
+    s.train_neg = neg[n_val..].to_vec();
+    Ok(s)
+}
+
+/// An image in a model's input domain.
+#[derive(Debug, Clone)]
+pub enum DomainImage {
+    /// RGB.
+    Colour(Image<[u8; 3]>),
+    /// Grey.
+    Grey(Image<u8>),
+    /// Mosaic in 8-bit units.
+    Mosaic(Image<f32>),
+}
+
+impl DomainImage {
+    /// From an RGB image (mosaics are cropped to even size and sampled through `cfa`).
+    pub fn from_rgb(img: &Image<[u8; 3]>, domain: Domain, cfa: Cfa) -> Self {
+        match domain {
+            Domain::Colour => DomainImage::Colour(img.clone()),
+            Domain::Grey => DomainImage::Grey(img.map(|p| {
+                ((p[0] as u32 * 4899 + p[1] as u32 * 9617 + p[2] as u32 * 1868 + (1 << 13)) >> 14) as u8
+            })),
+            Domain::Mosaic => {
+                let (w, h) = (img.width() & !1, img.height() & !1);
+                DomainImage::Mosaic(Image::from_fn(w, h, |x, y| {
+                    let p = img.get(x, y);
+                    match cfa.colour_at(x, y) {
+                        Colour::Red => p[0] as f32,
+                        Colour::Green => p[1] as f32,
+                        Colour::Blue => p[2] as f32,
+                    }
+                }))
+            }
+        }
+    }
+    /// HOG input view.
+    pub fn input(&self) -> HogInput<'_> {
+        match self {
+            DomainImage::Colour(c) => HogInput::Rgb8(c.view()),
+            DomainImage::Grey(g) => HogInput::GreyU8(g.view()),
+            DomainImage::Mosaic(m) => HogInput::Mosaic(m.view()),
+        }
+    }
+    /// (width, height).
+    pub fn dimensions(&self) -> (usize, usize) {
+        self.input().dimensions()
+    }
+    /// Resized copy (mosaic: CFA-preserving; sizes rounded to even).
+    pub fn resized(&self, w: usize, h: usize) -> Self {
+        let mut d = Image::new(0, 0);
+        match self {
+            DomainImage::Colour(c) => {
+                let planes: Vec<Image<f32>> = (0..3)
+                    .map(|k| {
+                        let mut o = Image::new(0, 0);
+                        resize_bilinear(c.map(|p| p[k] as f32).view(), w, h, &mut o).expect("non-empty");
+                        o
+                    })
+                    .collect();
+                DomainImage::Colour(Image::from_fn(w, h, |x, y| {
+                    [0, 1, 2].map(|k| planes[k].get(x, y).round().clamp(0.0, 255.0) as u8)
+                }))
+            }
+            DomainImage::Grey(g) => {
+                resize_bilinear(g.map(|p| p as f32).view(), w, h, &mut d).expect("non-empty");
+                DomainImage::Grey(d.map(|v| v.round().clamp(0.0, 255.0) as u8))
+            }
+            DomainImage::Mosaic(m) => {
+                resize_mosaic(m.view(), w & !1, h & !1, &mut d).expect("even, non-empty");
+                DomainImage::Mosaic(d)
+            }
+        }
+    }
+}
+
+/// Load an RGB image.
+pub fn load_rgb(path: &Path) -> Result<Image<[u8; 3]>, TrainError> {
+    let img = image::open(path)
+        .map_err(|e| TrainError::Data {
+            path: path.into(),
+            what: e.to_string(),
+        })?
+        .to_rgb8();
+    Image::from_vec(
+        img.width() as usize,
+        img.height() as usize,
+        img.pixels().map(|p| p.0).collect(),
+    )
+    .map_err(|e| TrainError::Data {
+        path: path.into(),
+        what: e.to_string(),
+    })
+}
+
+/// Descriptor of the 64x128 window of a 96x160 INRIA crop.
+pub fn positive_descriptor(spec: &HogSpec, img: &DomainImage) -> Result<Vec<f32>, TrainError> {
+    let mut g = BlockGrid::empty();
+    block_grid(spec, &img.input(), Exec::Parallel, &mut g)?;
+    Ok(g.window_descriptor(spec, POS_WINDOW_CELL, POS_WINDOW_CELL)?)
+}
+
+/// `n` random windows at random scales of a negative image.
+pub fn random_negatives(
+    spec: &HogSpec,
+    img: &DomainImage,
+    n: usize,
+    rng: &mut impl Rng,
+) -> Result<Vec<Vec<f32>>, TrainError> {
+    let (w, h) = img.dimensions();
+    let max_s = (w as f64 / spec.win_width() as f64).min(h as f64 / spec.win_height() as f64);
+    let mut out = Vec::new();
+    if max_s < 1.0 {
+        return Ok(out);
+    }
+    let mut g = BlockGrid::empty();
+    // Two scales per image, half the windows each.
+    for part in [n / 2, n - n / 2] {
+        let s = rng.random_range(1.0..=max_s);
+        let (lw, lh) = (
+            ((w as f64 / s).round() as usize).max(spec.win_width()),
+            ((h as f64 / s).round() as usize).max(spec.win_height()),
+        );
+        let lvl = if (lw, lh) == (w, h) {
+            img.clone()
+        } else {
+            img.resized(lw, lh)
+        };
+        block_grid(spec, &lvl.input(), Exec::Parallel, &mut g)?;
+        let (nwx, nwy) = g.windows(spec);
+        if nwx == 0 || nwy == 0 {
+            continue;
+        }
+        for _ in 0..part {
+            let (wx, wy) = (rng.random_range(0..nwx), rng.random_range(0..nwy));
+            out.push(g.window_descriptor(spec, wx, wy)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Window-level result on the validation split.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct WindowEval {
+    /// Validation positives.
+    pub positives: usize,
+    /// Negative windows scored (all windows at all levels of the validation negatives).
+    pub negative_windows: usize,
+    /// (FPPW, miss rate) at FPPW 1e-2, 1e-3, 1e-4.
+    pub miss_rate_at: Vec<(f64, f64)>,
+}
+
+/// Miss rate at a given FPPW from positive and negative scores: the threshold lets through
+/// `floor(fppw · N)` negatives (ties counted as false positives).
+pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64 {
+    if pos.is_empty() {
+        return f64::NAN;
+    }
+    let k = (fppw * neg_sorted_desc.len() as f64).floor() as usize;
+    // Threshold strictly above the (k+1)-th highest negative.
+    let thr = neg_sorted_desc.get(k).copied().unwrap_or(f32::NEG_INFINITY);
+    pos.iter().filter(|&&s| s <= thr).count() as f64 / pos.len() as f64
+}
+
+/// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol).
+pub fn evaluate_windows(
+    model: &LinearModel,
+    split: &Split,
+    domain: Domain,
+    cfa: Cfa,
+    progress: &mut dyn FnMut(&str),
+) -> Result<WindowEval, TrainError> {
+    let det = Detector::new(model.clone(), &DetectorOptions::default())?;
+    let spec = det.hog_spec().clone();
+    let mut pos = Vec::new();
+    for p in &split.val_pos {
+        let img = DomainImage::from_rgb(&load_rgb(p)?, domain, cfa);
+        let d = positive_descriptor(&spec, &img)?;
+        pos.push(d.iter().zip(&model.weights).map(|(a, b)| a * b).sum::<f32>() + model.bias);
+    }
+    let mut neg = Vec::new();
+    for (i, p) in split.val_neg.iter().enumerate() {
+        let img = DomainImage::from_rgb(&load_rgb(p)?, domain, cfa);
+        det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
+        if i % 10 == 0 {
+            progress(&format!(
+                "eval: negatives {}/{} ({} windows)",
+                i + 1,
+                split.val_neg.len(),
+                neg.len()
+            ));
+        }
+    }
+    neg.sort_by(|a, b| b.total_cmp(a));
+    let miss_rate_at = [1e-2, 1e-3, 1e-4]
+        .iter()
+        .map(|&f| (f, miss_rate_at_fppw(&pos, &neg, f)))
+        .collect();
+    Ok(WindowEval {
+        positives: pos.len(),
+        negative_windows: neg.len(),
+        miss_rate_at,
+    })
+}
+
+/// Train a model; `progress` receives one line per step.
+pub fn train(
+    data_root: &Path,
+    o: &TrainOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(LinearModel, Split), TrainError> {
+    let split = split_data(data_root, o.seed, o.val_fraction)?;
+    let spec = HogSpec::new(&HogOptions::default())?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x5eed);
+    let mut x: Vec<Vec<f32>> = Vec::new();
+    let mut y: Vec<i8> = Vec::new();
+    for (i, p) in split.train_pos.iter().enumerate() {
+        let img = DomainImage::from_rgb(&load_rgb(p)?, o.domain, o.cfa);
+        x.push(positive_descriptor(&spec, &img)?);
+        y.push(1);
+        if i % 200 == 0 {
+            progress(&format!("positives {}/{}", i + 1, split.train_pos.len()));
+        }
+    }
+    let negs: Vec<PathBuf> = if o.max_neg_images > 0 {
+        split.train_neg.iter().take(o.max_neg_images).cloned().collect()
+    } else {
+        split.train_neg.clone()
+    };
+    let mut neg_imgs = Vec::new();
+    for (i, p) in negs.iter().enumerate() {
+        let img = DomainImage::from_rgb(&load_rgb(p)?, o.domain, o.cfa);
+        for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
+            x.push(d);
+            y.push(-1);
+        }
+        neg_imgs.push(img);
+        if i % 50 == 0 {
+            progress(&format!(
+                "random negatives: image {}/{} ({} windows)",
+                i + 1,
+                negs.len(),
+                y.iter().filter(|&&v| v < 0).count()
+            ));
+        }
+    }
+    let svm = SvmOptions {
+        c: o.c,
+        seed: o.seed,
+        ..Default::default()
+    };
+    progress(&format!(
+        "svm: {} positives, {} negatives",
+        split.train_pos.len(),
+        y.len() - split.train_pos.len()
+    ));
+    let (mut w, mut b) = train_linear_svm(&x, &y, &svm);
+    for round in 1..=o.mining_rounds {
+        let model = model_from(w.clone(), b, o, &split, x.len());
+        let det = Detector::new(model, &DetectorOptions::default())?;
+        // Bounded memory: per image at most HARD_PER_IMAGE (highest scores), overall at most
+        // `max_hard_per_round`.
+        let keep_top = |v: &mut Vec<(f32, Vec<f32>)>, k: usize| {
+            v.sort_by(|a, b| b.0.total_cmp(&a.0));
+            v.truncate(k);
+        };
+        let mut hard: Vec<(f32, Vec<f32>)> = Vec::new();
+        for (i, img) in neg_imgs.iter().enumerate() {
+            let mut local: Vec<(f32, Vec<f32>)> = Vec::new();
+            det.for_each_window(&img.input(), |_, grid, wx, wy, s| {
+                if s >= 0.0 {
+                    if let Ok(d) = grid.window_descriptor(&spec, wx, wy) {
+                        local.push((s, d));
+                        if local.len() >= 4 * HARD_PER_IMAGE {
+                            keep_top(&mut local, HARD_PER_IMAGE);
+                        }
+                    }
+                }
+            })?;
+            keep_top(&mut local, HARD_PER_IMAGE);
+            hard.extend(local);
+            if hard.len() >= 2 * o.max_hard_per_round {
+                keep_top(&mut hard, o.max_hard_per_round);
+            }
+            if i % 50 == 0 {
+                progress(&format!(
+                    "mining round {round}: image {}/{} ({} hard)",
+                    i + 1,
+                    neg_imgs.len(),
+                    hard.len()
+                ));
+            }
+        }
+        // Keep the hardest (highest-scoring) ones, deterministic order.
+        hard.sort_by(|a, b| b.0.total_cmp(&a.0));
+        hard.truncate(o.max_hard_per_round);
+        progress(&format!(
+            "mining round {round}: {} hard negatives added",
+            hard.len()
+        ));
+        if hard.is_empty() {
+            break;
+        }
+        for (_, d) in hard {
+            x.push(d);
+            y.push(-1);
+        }
+        let r = train_linear_svm(&x, &y, &svm);
+        w = r.0;
+        b = r.1;
+    }
+    Ok((model_from(w, b, o, &split, x.len()), split))
+}
+
+fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) -> LinearModel {
+    let mut m = LinearModel::from_opencv_vector(&w, o.domain, "mosaicd train").expect("3780 weights");
+    m.bias = b;
+    m.provenance = serde_json::json!({
+        "trainer": "mosaicd train (dual coordinate descent, hinge loss, L2)",
+        "seed": o.seed, "c": o.c, "domain": o.domain, "cfa": o.cfa.name(),
+        "neg_per_image": o.neg_per_image, "mining_rounds": o.mining_rounds,
+        "max_hard_per_round": o.max_hard_per_round, "val_fraction": o.val_fraction,
+        "max_neg_images": o.max_neg_images,
+        "train_positives": split.train_pos.len(), "train_negative_images": split.train_neg.len(),
+        "training_vectors": n,
+        "mosaic_note": "mosaic positives/negatives are sRGB sampled through the CFA (no reverse ISP)",
+    });
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn miss_rate_by_hand() {
+        let neg = [5.0, 4.0, 3.0, 2.0, 1.0, 0.0, -1.0, -2.0, -3.0, -4.0];
+        let pos = [4.5, 3.5, 2.5, 0.5];
+        // FPPW 0.1 → 1 false positive allowed → threshold at 4.0: positives > 4.0: one.
+        assert_eq!(miss_rate_at_fppw(&pos, &neg, 0.1), 0.75);
+        assert_eq!(miss_rate_at_fppw(&pos, &neg, 0.3), 0.25);
+    }
+
+    #[test]
+    fn prefixes_group_mirrors() {
+        assert_eq!(photo_prefix("crop001001a.png"), photo_prefix("crop001001b.png"));
+        assert_ne!(photo_prefix("crop001001a.png"), photo_prefix("crop001002a.png"));
+    }
+}

@@ -1,0 +1,373 @@
+//! The daemon: pipelines for every configured camera under a tokio runtime that handles signals,
+//! timers, sd_notify and shutdown.
+//!
+//! * **Start-up**: build the compute pool (`daemon.threads`), open every source and sink (an error
+//!   here names the camera and the key; nothing runs half-started), then `READY=1`.
+//! * **Running**: every `daemon.stats_interval_ms` each pipeline publishes a stats snapshot, the
+//!   daemon sends `STATUS=` (fps, drops, latency) and pets the watchdog (`WATCHDOG=1`) **only if
+//!   frames progressed** since the last pet (a stuck pipeline lets systemd restart the service).
+//! * **Shutdown** (SIGTERM/SIGINT, or every source ended): capture stops, queued and in-flight frames
+//!   are drained, final stats are published, sinks finish (MCAP summary + index), iceoryx2 ports and
+//!   nodes are dropped (shared memory released); a drain longer than `daemon.shutdown_timeout_ms`
+//!   is an error.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::clock::{Clock, MonotonicClock, ReplayClock};
+use super::engine::{Pipeline, PipelineReport, PipelineSpec, SinkError, SinkFactory};
+use super::pool::BufferPool;
+use super::sinks::JsonlSink;
+use super::sources::{open_source, SourceOpenError};
+use super::stage::{Stage, StageSpec};
+use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
+use super::stats::StatsSnapshot;
+use crate::capture::SourceKind;
+use crate::config::{CameraConfig, Config};
+
+/// How often the daemon checks whether every pipeline has finished.
+const FINISH_POLL: Duration = Duration::from_millis(10);
+
+/// Errors that stop the daemon.
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    /// A source could not be opened.
+    #[error(transparent)]
+    Source(#[from] SourceOpenError),
+    /// A sink could not be started.
+    #[error("camera {camera:?}: {source}")]
+    Sink {
+        /// Camera.
+        camera: String,
+        /// Cause.
+        #[source]
+        source: SinkError,
+    },
+    /// The compute pool or runtime could not be built.
+    #[error("cannot start {what}: {message}")]
+    Start {
+        /// What.
+        what: &'static str,
+        /// Cause.
+        message: String,
+    },
+    /// The detector model could not be loaded.
+    #[error("detector: {message}")]
+    Model {
+        /// What went wrong, naming the config key.
+        message: String,
+    },
+    /// The stage refused its parameters.
+    #[error("compute: {0}")]
+    Stage(#[from] super::stage::StageError),
+    /// The drain took longer than the stop timeout.
+    #[error("shutdown did not finish within daemon.shutdown_timeout_ms = {timeout_ms} ms")]
+    ShutdownTimeout {
+        /// The timeout.
+        timeout_ms: u64,
+    },
+}
+
+/// Builds extra sinks for a camera (publishers, recorders) — supplied by the caller so this module
+/// does not depend on every sink kind.
+pub type SinkBuilder<'a> = &'a dyn Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError>;
+
+/// Options of one run besides the config.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Write each camera's results as JSON lines here (`{camera}` substituted).
+    pub results_out: Option<PathBuf>,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// Per camera.
+    pub cameras: Vec<CameraSummary>,
+    /// Wall time, seconds.
+    pub elapsed_s: f64,
+    /// Stopped by a signal.
+    pub interrupted: bool,
+}
+
+/// One camera's summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct CameraSummary {
+    /// Name.
+    pub camera: String,
+    /// Counters.
+    pub stats: StatsSnapshot,
+    /// Processed frames per second of wall time.
+    pub throughput_fps: f64,
+    /// The source's last error.
+    pub source_error: Option<String>,
+    /// Sink errors.
+    pub sink_errors: Vec<String>,
+}
+
+impl RunSummary {
+    /// Human-readable lines.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for c in &self.cameras {
+            let s = &c.stats;
+            out.push(format!(
+                "camera {}: {} frames processed of {} captured, {} detections, {:.1} frames/s, latency p50 {:.2} ms p99 {:.2} ms",
+                c.camera,
+                s.processed,
+                s.captured,
+                s.detections,
+                c.throughput_fps,
+                s.latency_p50_us / 1e3,
+                s.latency_p99_us / 1e3
+            ));
+            out.push(format!(
+                "  dropped: queue_full {} driver {}; failed: source {} compute {} sink {}",
+                s.dropped_queue_full, s.dropped_driver, s.failed_source, s.failed_compute, s.failed_sink
+            ));
+            if let Some(e) = &c.source_error {
+                out.push(format!("  source error: {e}"));
+            }
+            for e in &c.sink_errors {
+                out.push(format!("  sink error: {e}"));
+            }
+        }
+        out.push(format!(
+            "elapsed {:.2} s{}",
+            self.elapsed_s,
+            if self.interrupted {
+                " (stopped by signal)"
+            } else {
+                ""
+            }
+        ));
+        out
+    }
+}
+
+/// The pipeline stage spec of a config.
+pub fn stage_spec(cfg: &Config) -> StageSpec {
+    StageSpec {
+        orientation_bins: cfg.compute.orientation_bins,
+        strip_rows: cfg.compute.strip_rows,
+        detect: cfg.compute.detect,
+    }
+}
+
+/// Path of the `opencv-default` model inside the shared data directory.
+const OPENCV_DEFAULT_MODEL: &str = "opencv_hog/default_people_detector_64x128.npy";
+
+/// Load the detector a config asks for (once; shared by every camera and task).
+pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError> {
+    let c = &cfg.compute;
+    if !c.detect {
+        return Ok(None);
+    }
+    let path = if c.model == "opencv-default" {
+        crate::data::data_path(OPENCV_DEFAULT_MODEL).map_err(|e| DaemonError::Model {
+            message: format!("compute.model = \"opencv-default\": {e}"),
+        })?
+    } else {
+        PathBuf::from(&c.model)
+    };
+    let model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
+        message: format!("compute.model = {:?}: {e}", c.model),
+    })?;
+    let opts = DetectorOptions {
+        scale_step: c.scale_step,
+        max_levels: c.max_levels,
+        upsample: c.upsample,
+        hit_threshold: c.hit_threshold,
+        ..DetectorOptions::default()
+    };
+    let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
+        message: format!("compute: {e}"),
+    })?;
+    Ok(Some(Arc::new(det)))
+}
+
+/// Run the daemon until every source ends or a signal arrives.
+pub fn run(
+    cfg: &Config,
+    opts: &RunOptions,
+    sink_builder: SinkBuilder<'_>,
+) -> Result<RunSummary, DaemonError> {
+    let started = Instant::now();
+    let pool = Arc::new(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(cfg.daemon.threads)
+            .thread_name(|i| format!("mosaicd-compute-{i}"))
+            .build()
+            .map_err(|e| DaemonError::Start {
+                what: "compute pool",
+                message: e.to_string(),
+            })?,
+    );
+    let stage = Stage::new(stage_spec(cfg), load_detector(cfg)?)?;
+    let mut pipelines = Vec::new();
+    for cam in &cfg.cameras {
+        let frame_pool = BufferPool::new(cfg.daemon.queue_depth + cfg.daemon.max_in_flight + 2);
+        let source = open_source(cam, &frame_pool)?;
+        tracing::info!(camera = %cam.name, "source: {}", source.describe());
+        let clock: Arc<dyn Clock> = match source.kind() {
+            SourceKind::Live => Arc::new(MonotonicClock),
+            SourceKind::Replay => Arc::new(ReplayClock::default()),
+        };
+        let mut sinks = sink_builder(cam)?;
+        if let Some(p) = &opts.results_out {
+            let path = PathBuf::from(p.to_string_lossy().replace("{camera}", &cam.name));
+            sinks.push(JsonlSink::factory(&cam.name, path));
+        }
+        let spec = PipelineSpec {
+            camera: cam.name.clone(),
+            queue_depth: cfg.daemon.queue_depth,
+            max_in_flight: cfg.daemon.max_in_flight,
+            stage: stage.clone(),
+            keep_frames: cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0),
+        };
+        let p = Pipeline::start(spec, source, pool.clone(), clock, sinks, frame_pool).map_err(|e| {
+            DaemonError::Sink {
+                camera: cam.name.clone(),
+                source: e,
+            }
+        })?;
+        pipelines.push(p);
+    }
+
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| DaemonError::Start {
+            what: "tokio runtime",
+            message: e.to_string(),
+        })?;
+    let stats_every = Duration::from_millis(cfg.daemon.stats_interval_ms);
+    let timeout = Duration::from_millis(cfg.daemon.shutdown_timeout_ms);
+    let (reports, interrupted) = rt.block_on(supervise(pipelines, stats_every, timeout))?;
+    let elapsed = started.elapsed().as_secs_f64();
+    Ok(RunSummary {
+        cameras: reports
+            .into_iter()
+            .map(|r| CameraSummary {
+                throughput_fps: r.stats.processed as f64 / r.elapsed.as_secs_f64().max(1e-9),
+                camera: r.camera,
+                stats: r.stats,
+                source_error: r.source_error,
+                sink_errors: r.sink_errors,
+            })
+            .collect(),
+        elapsed_s: elapsed,
+        interrupted,
+    })
+}
+
+fn notify(states: &[sd_notify::NotifyState]) {
+    // No-op outside systemd (no NOTIFY_SOCKET); an error here must never stop the daemon.
+    if let Err(e) = sd_notify::notify(states) {
+        tracing::debug!("sd_notify: {e}");
+    }
+}
+
+fn status_line(pipelines: &[Pipeline], fps: f64) -> String {
+    let mut parts = Vec::new();
+    for p in pipelines {
+        let s = p.stats();
+        parts.push(format!(
+            "{}: {:.1} fps, {} frames, dropped {}, failed {}, p50 {:.1} ms, p99 {:.1} ms",
+            p.camera(),
+            fps,
+            s.processed,
+            s.dropped_queue_full + s.dropped_driver,
+            s.failed_source + s.failed_compute,
+            s.latency_p50_us / 1e3,
+            s.latency_p99_us / 1e3
+        ));
+    }
+    parts.join("; ")
+}
+
+async fn supervise(
+    pipelines: Vec<Pipeline>,
+    stats_every: Duration,
+    timeout: Duration,
+) -> Result<(Vec<PipelineReport>, bool), DaemonError> {
+    use tokio::signal::unix::{signal, SignalKind};
+    let sig = |k| {
+        signal(k).map_err(|e| DaemonError::Start {
+            what: "signal handlers",
+            message: e.to_string(),
+        })
+    };
+    let mut term = sig(SignalKind::terminate())?;
+    let mut int = sig(SignalKind::interrupt())?;
+    let watchdog = sd_notify::watchdog_enabled();
+    notify(&[
+        sd_notify::NotifyState::Ready,
+        sd_notify::NotifyState::Status("running"),
+    ]);
+    tracing::info!(cameras = pipelines.len(), "ready");
+
+    let mut stats_tick = tokio::time::interval(stats_every);
+    stats_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    // Pet at half the watchdog period, but only when frames progressed.
+    let mut dog_tick = tokio::time::interval(watchdog.map(|d| d / 2).unwrap_or(Duration::from_secs(3600)));
+    let mut finish_tick = tokio::time::interval(FINISH_POLL);
+    let processed = |ps: &[Pipeline]| {
+        ps.iter()
+            .map(|p| p.stats().processed + p.stats().failed_compute)
+            .sum::<u64>()
+    };
+    let mut last_dog = 0u64;
+    let mut last_stats = (Instant::now(), 0u64);
+    let mut interrupted = false;
+    loop {
+        tokio::select! {
+            _ = term.recv() => { tracing::info!("SIGTERM: draining"); interrupted = true; break; }
+            _ = int.recv() => { tracing::info!("SIGINT: draining"); interrupted = true; break; }
+            _ = stats_tick.tick() => {
+                for p in &pipelines { p.publish_stats(); }
+                let n = processed(&pipelines);
+                let fps = (n - last_stats.1) as f64 / last_stats.0.elapsed().as_secs_f64().max(1e-9);
+                last_stats = (Instant::now(), n);
+                let line = status_line(&pipelines, fps);
+                tracing::info!("{line}");
+                notify(&[sd_notify::NotifyState::Status(&line)]);
+            }
+            _ = dog_tick.tick(), if watchdog.is_some() => {
+                let n = processed(&pipelines);
+                if n > last_dog || pipelines.iter().all(|p| p.is_finished()) {
+                    notify(&[sd_notify::NotifyState::Watchdog]);
+                    last_dog = n;
+                } else {
+                    tracing::warn!("no frame progress since the last watchdog period: not petting the watchdog");
+                }
+            }
+            _ = finish_tick.tick() => {
+                if pipelines.iter().all(|p| p.is_finished()) { break; }
+            }
+        }
+    }
+    notify(&[
+        sd_notify::NotifyState::Stopping,
+        sd_notify::NotifyState::Status("draining"),
+    ]);
+    for p in &pipelines {
+        p.stop();
+    }
+    let drain =
+        tokio::task::spawn_blocking(move || pipelines.into_iter().map(Pipeline::join).collect::<Vec<_>>());
+    // A second signal during the drain does not cut it short: the timeout bounds it.
+    match tokio::time::timeout(timeout, drain).await {
+        Ok(Ok(reports)) => Ok((reports, interrupted)),
+        Ok(Err(e)) => Err(DaemonError::Start {
+            what: "drain",
+            message: e.to_string(),
+        }),
+        Err(_) => Err(DaemonError::ShutdownTimeout {
+            timeout_ms: timeout.as_millis() as u64,
+        }),
+    }
+}

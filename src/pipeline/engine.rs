@@ -1,0 +1,639 @@
+//! One camera's pipeline: capture thread → bounded queue → dispatcher → rayon pool → reorder
+//! buffer → sinks, with every frame accounted for.
+//!
+//! ```text
+//!  capture thread ──push──▶ FrameQueue ──pop──▶ dispatcher ──spawn──▶ compute pool (shared)
+//!   (source.next_frame)     (drop-oldest live,   (index, size check,        │ result (any order)
+//!                            backpressure replay)  max_in_flight permits)     ▼
+//!                                                         orderer thread: reorder buffer, stamps
+//!                                                         publish time + latency, stats ──▶ sink threads
+//! ```
+//!
+//! * The dispatcher gives each frame it takes from the queue a dense `index`; a permit from a pool
+//!   of `max_in_flight` tokens is held from dispatch until the frame leaves the reorder buffer, so at
+//!   most `max_in_flight` frames are computing or waiting to be emitted.
+//! * The orderer emits strictly in `index` order and hands an `Arc<FrameResult>` to every sink's
+//!   thread (sinks own ports that are not `Send`, e.g. iceoryx2 publishers, so each is built inside
+//!   its own thread by a [`SinkFactory`]).
+//! * Pixel buffers go back to the frame pool once computed, gradient maps once every sink dropped
+//!   the result.
+//! * Shutdown: [`Pipeline::stop`] ends capture; everything already queued or in flight is still
+//!   computed and emitted ("drained"); then the final stats go to the sinks, which finish (an MCAP
+//!   writer writes its summary and index).
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
+
+use super::clock::{monotonic_ns, Clock};
+use super::pool::BufferPool;
+use super::queue::{FrameQueue, Push};
+use super::stage::{GradientMaps, Stage, StageError, StageOutput};
+use super::stats::{Stats, StatsSnapshot};
+use crate::capture::{Source, SourceKind};
+use crate::publish::messages::StatsMsg;
+use crate::raw::{FrameMeta, RawFrame, RawPixels};
+
+/// Events a sink thread receives.
+#[derive(Debug, Clone)]
+pub enum SinkEvent {
+    /// A processed frame, in index order.
+    Frame(Arc<FrameResult>),
+    /// A periodic stats snapshot.
+    Stats(StatsMsg),
+}
+
+/// Errors from sinks (publishers, recorders).
+#[derive(Debug, thiserror::Error)]
+pub enum SinkError {
+    /// The sink could not be created.
+    #[error("sink {sink}: cannot start: {message}")]
+    Start {
+        /// Sink name.
+        sink: String,
+        /// Cause.
+        message: String,
+    },
+    /// Writing failed.
+    #[error("sink {sink}: {message}")]
+    Write {
+        /// Sink name.
+        sink: String,
+        /// Cause.
+        message: String,
+    },
+}
+
+/// A consumer of results, living on its own thread.
+pub trait Sink {
+    /// Short name for logs and errors.
+    fn name(&self) -> String;
+    /// One processed frame (called in index order).
+    fn frame(&mut self, result: &FrameResult) -> Result<(), SinkError>;
+    /// A stats snapshot (periodic, and the final one with `is_final = 1`).
+    fn stats(&mut self, stats: &StatsMsg) -> Result<(), SinkError>;
+    /// Flush and close (MCAP: summary and index).
+    fn finish(&mut self) -> Result<(), SinkError>;
+}
+
+/// Builds a sink inside its own thread (ports that are not `Send` are created there).
+pub type SinkFactory = Box<dyn FnOnce() -> Result<Box<dyn Sink>, SinkError> + Send>;
+
+/// Gradient maps that return to their pool when the last sink lets go.
+#[derive(Debug)]
+pub struct PooledMaps {
+    maps: Option<GradientMaps>,
+    pool: Option<BufferPool<GradientMaps>>,
+}
+
+impl PooledMaps {
+    /// The maps.
+    pub fn get(&self) -> &GradientMaps {
+        self.maps.as_ref().expect("present until drop")
+    }
+}
+
+impl Drop for PooledMaps {
+    fn drop(&mut self) {
+        if let (Some(m), Some(p)) = (self.maps.take(), self.pool.as_ref()) {
+            p.give(m);
+        }
+    }
+}
+
+/// The result of one processed frame, as the sinks see it.
+#[derive(Debug)]
+pub struct FrameResult {
+    /// Camera name.
+    pub camera: Arc<str>,
+    /// Dense index in emission order.
+    pub index: u64,
+    /// Source metadata.
+    pub meta: FrameMeta,
+    /// Frame width.
+    pub width: usize,
+    /// Frame height.
+    pub height: usize,
+    /// Detections and frame statistics.
+    pub output: StageOutput,
+    /// Gradient maps.
+    pub maps: PooledMaps,
+    /// The frame itself, when the pipeline keeps frames for the sinks.
+    pub frame: Option<Arc<RawFrame>>,
+    /// Injected-clock publication time, ns.
+    pub publish_timestamp_ns: u64,
+    /// Wall-clock latency from pipeline entry (live: capture) to emission, ns.
+    pub latency_ns: u64,
+}
+
+/// Parameters of one pipeline.
+#[derive(Debug, Clone)]
+pub struct PipelineSpec {
+    /// Camera name.
+    pub camera: String,
+    /// Capture queue depth.
+    pub queue_depth: usize,
+    /// Frames computing or awaiting emission at once.
+    pub max_in_flight: usize,
+    /// The compute stage.
+    pub stage: Stage,
+    /// Hand every frame to the sinks too ([`FrameResult::frame`], for recording raw frames); its
+    /// pixel buffer is then not recycled.
+    pub keep_frames: bool,
+}
+
+/// What a finished pipeline reports.
+#[derive(Debug, Clone)]
+pub struct PipelineReport {
+    /// Camera name.
+    pub camera: String,
+    /// Final counters.
+    pub stats: StatsSnapshot,
+    /// The last source error, if the source ended with one (truncated recording, lost device).
+    pub source_error: Option<String>,
+    /// Sink errors.
+    pub sink_errors: Vec<String>,
+    /// Wall time from start to the end of the drain.
+    pub elapsed: Duration,
+}
+
+struct Item {
+    frame: RawFrame,
+    entered_ns: u64,
+}
+
+enum Event {
+    Done(u64, Box<Computed>),
+    DispatchFinished(u64),
+    Stats,
+}
+
+struct Computed {
+    frame: Option<Arc<RawFrame>>,
+    meta: FrameMeta,
+    width: usize,
+    height: usize,
+    entered_ns: u64,
+    result: Result<(StageOutput, GradientMaps), StageError>,
+}
+
+/// A running pipeline.
+pub struct Pipeline {
+    camera: String,
+    stop: Arc<AtomicBool>,
+    stats: Arc<Stats>,
+    events: Sender<Event>,
+    source_error: Arc<Mutex<Option<String>>>,
+    threads: Vec<JoinHandle<()>>,
+    orderer: Option<JoinHandle<Vec<String>>>,
+    queue: Arc<FrameQueue<Item>>,
+    maps_pool: BufferPool<GradientMaps>,
+    frame_pool: BufferPool<RawPixels>,
+    started: Instant,
+}
+
+impl Pipeline {
+    /// Start the threads. Sinks are built first (each in its own thread); if one fails to start,
+    /// nothing else is started and the error is returned.
+    pub fn start(
+        spec: PipelineSpec,
+        mut source: Box<dyn Source>,
+        compute_pool: Arc<rayon::ThreadPool>,
+        clock: Arc<dyn Clock>,
+        sinks: Vec<SinkFactory>,
+        frame_pool: BufferPool<RawPixels>,
+    ) -> Result<Self, SinkError> {
+        let camera: Arc<str> = Arc::from(spec.camera.as_str());
+        // Sink threads.
+        let mut sink_txs = Vec::new();
+        let mut sink_joins = Vec::new();
+        for factory in sinks {
+            let (tx, rx) = bounded::<SinkEvent>(256);
+            let (ready_tx, ready_rx) = bounded::<Result<(), SinkError>>(1);
+            let join = std::thread::Builder::new()
+                .name(format!("mosaicd-sink-{}", spec.camera))
+                .spawn(move || sink_thread(factory, rx, ready_tx))
+                .map_err(|e| SinkError::Start {
+                    sink: "thread".into(),
+                    message: e.to_string(),
+                })?;
+            match ready_rx.recv() {
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => {
+                    drop(tx);
+                    let _ = join.join();
+                    return Err(e);
+                }
+                Err(_) => {
+                    return Err(SinkError::Start {
+                        sink: "thread".into(),
+                        message: "sink thread exited during start-up".into(),
+                    })
+                }
+            }
+            sink_txs.push(tx);
+            sink_joins.push(join);
+        }
+
+        let stop = Arc::new(AtomicBool::new(false));
+        let stats = Arc::new(Stats::default());
+        let source_error = Arc::new(Mutex::new(None));
+        let kind = source.kind();
+        let queue = Arc::new(FrameQueue::<Item>::new(spec.queue_depth, kind));
+        let maps_pool = BufferPool::<GradientMaps>::new(spec.max_in_flight + 2);
+        let (ev_tx, ev_rx) = unbounded::<Event>();
+        let (permit_tx, permit_rx) = bounded::<()>(spec.max_in_flight);
+        for _ in 0..spec.max_in_flight {
+            permit_tx.send(()).expect("capacity max_in_flight");
+        }
+
+        // Capture thread.
+        let capture = {
+            let (stop, stats, queue, err, fpool) = (
+                stop.clone(),
+                stats.clone(),
+                queue.clone(),
+                source_error.clone(),
+                frame_pool.clone(),
+            );
+            std::thread::Builder::new()
+                .name(format!("mosaicd-capture-{}", spec.camera))
+                .spawn(move || {
+                    capture_loop(&mut *source, kind, &stop, &stats, &queue, &err, &fpool);
+                    queue.close();
+                })
+                .expect("spawn capture thread")
+        };
+
+        // Dispatcher thread.
+        let dispatcher = {
+            let keep = spec.keep_frames;
+            let (queue, ev_tx, stage, pool, mpool, fpool) = (
+                queue.clone(),
+                ev_tx.clone(),
+                Arc::new(spec.stage.clone()),
+                compute_pool.clone(),
+                maps_pool.clone(),
+                frame_pool.clone(),
+            );
+            std::thread::Builder::new()
+                .name(format!("mosaicd-dispatch-{}", spec.camera))
+                .spawn(move || {
+                    let mut index = 0u64;
+                    let mut size: Option<(usize, usize)> = None;
+                    while let Some(mut item) = queue.pop() {
+                        if kind == SourceKind::Replay {
+                            item.entered_ns = monotonic_ns();
+                        }
+                        if permit_rx.recv().is_err() {
+                            break;
+                        }
+                        let expected = *size.get_or_insert((item.frame.width(), item.frame.height()));
+                        let (ev_tx, mpool, fpool, stage) = (ev_tx.clone(), mpool.clone(), fpool.clone(), stage.clone());
+                        let i = index;
+                        index += 1;
+                        pool.spawn(move || {
+                            let computed = compute_one(item, expected, &stage, &mpool, &fpool, keep);
+                            let _ = ev_tx.send(Event::Done(i, Box::new(computed)));
+                        });
+                    }
+                    let _ = ev_tx.send(Event::DispatchFinished(index));
+                })
+                .expect("spawn dispatcher thread")
+        };
+
+        // Orderer thread.
+        let orderer = {
+            let (stats, camera, mpool) = (stats.clone(), camera.clone(), maps_pool.clone());
+            std::thread::Builder::new()
+                .name(format!("mosaicd-order-{}", spec.camera))
+                .spawn(move || {
+                    order_loop(ev_rx, permit_tx, &stats, &*clock, camera, mpool, &sink_txs, kind);
+                    drop(sink_txs);
+                    let mut errors = Vec::new();
+                    for j in sink_joins {
+                        match j.join() {
+                            Ok(errs) => errors.extend(errs),
+                            Err(_) => errors.push("a sink thread panicked".into()),
+                        }
+                    }
+                    errors
+                })
+                .expect("spawn orderer thread")
+        };
+
+        Ok(Self {
+            camera: spec.camera,
+            stop,
+            stats,
+            events: ev_tx,
+            source_error,
+            threads: vec![capture, dispatcher],
+            orderer: Some(orderer),
+            queue,
+            maps_pool,
+            frame_pool,
+            started: Instant::now(),
+        })
+    }
+
+    /// Stop capturing; queued and in-flight frames are still processed.
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Release);
+    }
+
+    /// Ask the orderer to send a stats snapshot to the sinks.
+    pub fn publish_stats(&self) {
+        let _ = self.events.send(Event::Stats);
+    }
+
+    /// Live counters.
+    pub fn stats(&self) -> StatsSnapshot {
+        self.stats.snapshot()
+    }
+
+    /// The camera name.
+    pub fn camera(&self) -> &str {
+        &self.camera
+    }
+
+    /// True once every frame has been emitted and the sinks have finished.
+    pub fn is_finished(&self) -> bool {
+        self.orderer.as_ref().is_none_or(|j| j.is_finished())
+    }
+
+    /// Frames queued now.
+    pub fn queued(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Gradient-map and pixel-buffer allocations so far (steady state: constant).
+    pub fn allocations(&self) -> (u64, u64) {
+        (self.maps_pool.allocations(), self.frame_pool.allocations())
+    }
+
+    /// Wait for the drain to finish (call [`Pipeline::stop`] first for a live source).
+    pub fn join(mut self) -> PipelineReport {
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+        let sink_errors = match self.orderer.take().map(|j| j.join()) {
+            Some(Ok(e)) => e,
+            _ => vec!["the orderer thread panicked".into()],
+        };
+        PipelineReport {
+            camera: self.camera.clone(),
+            stats: self.stats.snapshot(),
+            source_error: self
+                .source_error
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone(),
+            sink_errors,
+            elapsed: self.started.elapsed(),
+        }
+    }
+}
+
+/// Back-off after a source error on a live source (device hiccup) before asking again.
+const SOURCE_ERROR_BACKOFF: Duration = Duration::from_millis(20);
+
+fn capture_loop(
+    source: &mut dyn Source,
+    kind: SourceKind,
+    stop: &AtomicBool,
+    stats: &Stats,
+    queue: &FrameQueue<Item>,
+    err: &Mutex<Option<String>>,
+    frame_pool: &BufferPool<RawPixels>,
+) {
+    let mut last_sensor_seq: Option<u64> = None;
+    while !stop.load(Ordering::Acquire) {
+        match source.next_frame() {
+            Ok(Some(frame)) => {
+                Stats::inc(&stats.captured);
+                if let (Some(prev), Some(cur)) = (last_sensor_seq, frame.meta.sensor_sequence) {
+                    if cur > prev + 1 {
+                        stats.dropped_driver.fetch_add(cur - prev - 1, Ordering::Relaxed);
+                    }
+                }
+                if frame.meta.sensor_sequence.is_some() {
+                    last_sensor_seq = frame.meta.sensor_sequence;
+                }
+                // Live: the driver's capture timestamp (same monotonic clock). Replay: stamped
+                // again when the dispatcher takes the frame, so backpressure waiting inside the
+                // reader is not counted as latency.
+                let entered_ns = match kind {
+                    SourceKind::Live => frame.meta.timestamp_ns.min(monotonic_ns()),
+                    SourceKind::Replay => 0,
+                };
+                match queue.push(Item { frame, entered_ns }) {
+                    Push::Queued => {}
+                    Push::DroppedOldest(old) => {
+                        Stats::inc(&stats.dropped_queue_full);
+                        tracing::debug!(sequence = old.frame.meta.sequence, "dropped oldest queued frame");
+                        frame_pool.give(old.frame.into_pixels());
+                    }
+                    Push::Closed(_) => break,
+                }
+            }
+            Ok(None) => break,
+            Err(e) => {
+                Stats::inc(&stats.failed_source);
+                tracing::warn!(source = %source.describe(), "source error: {e}");
+                *err.lock().unwrap_or_else(|e| e.into_inner()) = Some(e.to_string());
+                if source.is_finished() || kind == SourceKind::Replay && source.is_finished() {
+                    break;
+                }
+                std::thread::sleep(SOURCE_ERROR_BACKOFF);
+            }
+        }
+        if source.is_finished() {
+            break;
+        }
+    }
+}
+
+fn compute_one(
+    item: Item,
+    expected: (usize, usize),
+    stage: &Stage,
+    mpool: &BufferPool<GradientMaps>,
+    fpool: &BufferPool<RawPixels>,
+    keep_frame: bool,
+) -> Computed {
+    let Item { frame, entered_ns } = item;
+    let (width, height) = (frame.width(), frame.height());
+    let result = if (width, height) != expected {
+        Err(StageError::FrameSize {
+            sequence: frame.meta.sequence,
+            width,
+            height,
+            expected_width: expected.0,
+            expected_height: expected.1,
+        })
+    } else {
+        let mut maps = mpool.take(GradientMaps::default);
+        match stage.compute(&frame, &mut maps) {
+            Ok(out) => Ok((out, maps)),
+            Err(e) => {
+                mpool.give(maps);
+                Err(e)
+            }
+        }
+    };
+    let meta = frame.meta.clone();
+    let frame = if keep_frame {
+        Some(Arc::new(frame))
+    } else {
+        fpool.give(frame.into_pixels());
+        None
+    };
+    Computed {
+        frame,
+        meta,
+        width,
+        height,
+        entered_ns,
+        result,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn order_loop(
+    events: Receiver<Event>,
+    permits: Sender<()>,
+    stats: &Stats,
+    clock: &dyn Clock,
+    camera: Arc<str>,
+    mpool: BufferPool<GradientMaps>,
+    sinks: &[Sender<SinkEvent>],
+    _kind: SourceKind,
+) {
+    let mut pending: BTreeMap<u64, Box<Computed>> = BTreeMap::new();
+    let mut next = 0u64;
+    let mut total: Option<u64> = None;
+    let mut last_tick = (Instant::now(), 0u64);
+    let send_all = |ev: SinkEvent| {
+        for s in sinks {
+            let _ = s.send(ev.clone());
+        }
+    };
+    let stats_msg = |last_tick: &mut (Instant, u64), is_final: bool| {
+        let snap = stats.snapshot();
+        let dt = last_tick.0.elapsed().as_secs_f64();
+        let fps = if dt > 0.0 {
+            (snap.processed - last_tick.1) as f64 / dt
+        } else {
+            0.0
+        };
+        *last_tick = (Instant::now(), snap.processed);
+        snap.to_msg(clock.now_ns(), fps as f32, is_final)
+    };
+    loop {
+        if total == Some(next) {
+            break;
+        }
+        let ev = match events.recv() {
+            Ok(ev) => ev,
+            Err(_) => break,
+        };
+        match ev {
+            Event::Done(i, c) => {
+                pending.insert(i, c);
+            }
+            Event::DispatchFinished(n) => total = Some(n),
+            Event::Stats => {
+                let msg = stats_msg(&mut last_tick, false);
+                send_all(SinkEvent::Stats(msg));
+            }
+        }
+        while let Some(c) = pending.remove(&next) {
+            let index = next;
+            next += 1;
+            let _ = permits.send(());
+            let c = *c;
+            clock.observe(c.meta.timestamp_ns);
+            match c.result {
+                Ok((output, maps)) => {
+                    let latency_ns = monotonic_ns().saturating_sub(c.entered_ns);
+                    stats.record_latency_ns(latency_ns);
+                    Stats::inc(&stats.processed);
+                    stats
+                        .detections
+                        .fetch_add(output.detections.len() as u64, Ordering::Relaxed);
+                    let over = output
+                        .detections
+                        .len()
+                        .saturating_sub(crate::publish::messages::MAX_BOXES);
+                    stats.box_overflow.fetch_add(over as u64, Ordering::Relaxed);
+                    let result = Arc::new(FrameResult {
+                        camera: camera.clone(),
+                        index,
+                        meta: c.meta,
+                        width: c.width,
+                        height: c.height,
+                        output,
+                        maps: PooledMaps {
+                            maps: Some(maps),
+                            pool: Some(mpool.clone()),
+                        },
+                        frame: c.frame,
+                        publish_timestamp_ns: clock.now_ns(),
+                        latency_ns,
+                    });
+                    send_all(SinkEvent::Frame(result));
+                }
+                Err(e) => {
+                    Stats::inc(&stats.failed_compute);
+                    tracing::warn!(camera = %camera, "frame failed: {e}");
+                }
+            }
+        }
+    }
+    let msg = stats_msg(&mut last_tick, true);
+    send_all(SinkEvent::Stats(msg));
+}
+
+fn sink_thread(
+    factory: SinkFactory,
+    rx: Receiver<SinkEvent>,
+    ready: Sender<Result<(), SinkError>>,
+) -> Vec<String> {
+    let mut sink = match factory() {
+        Ok(s) => {
+            let _ = ready.send(Ok(()));
+            s
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return Vec::new();
+        }
+    };
+    let mut errors = Vec::new();
+    let mut failed = false;
+    for ev in rx {
+        if failed {
+            continue; // keep draining so the pipeline never blocks on a dead sink
+        }
+        let r = match &ev {
+            SinkEvent::Frame(f) => sink.frame(f),
+            SinkEvent::Stats(s) => sink.stats(s),
+        };
+        if let Err(e) = r {
+            tracing::error!("{e}; this sink stops, the pipeline continues");
+            errors.push(e.to_string());
+            failed = true;
+        }
+    }
+    if !failed {
+        if let Err(e) = sink.finish() {
+            errors.push(e.to_string());
+        }
+    }
+    errors
+}

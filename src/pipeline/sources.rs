@@ -1,0 +1,122 @@
+//! Opening the configured source of a camera.
+//!
+//! `synthetic` is built here; `mcap` and `v4l2` are `crate::capture`'s [`McapSource`] (as fast as
+//! possible or at the recorded rate, looped) and [`V4l2Source`]. Errors name the camera and say
+//! what is wrong (missing file or device, a recording or device that refuses to open).
+
+use std::path::PathBuf;
+
+use super::pool::BufferPool;
+use super::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::capture::v4l2::{V4l2Options, V4l2Source};
+use crate::capture::{McapSource, McapSourceOptions, Pacing, Source};
+use crate::config::{CameraConfig, ConfigError, SourceType};
+use crate::raw::RawPixels;
+
+/// Errors opening a source.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceOpenError {
+    /// The recording does not exist.
+    #[error("camera {camera:?}: recording {path} not found (config key `path`; build the default one with `make recording`)")]
+    RecordingMissing {
+        /// Camera name.
+        camera: String,
+        /// Path.
+        path: PathBuf,
+    },
+    /// The device does not exist.
+    #[error(
+        "camera {camera:?}: device {path} does not exist (is the camera plugged in? config key `device`)"
+    )]
+    DeviceMissing {
+        /// Camera name.
+        camera: String,
+        /// Path.
+        path: PathBuf,
+    },
+    /// The source kind is not available in this build.
+    #[error("camera {camera:?}: source {kind:?} is not available in this build")]
+    Unsupported {
+        /// Camera name.
+        camera: String,
+        /// The kind.
+        kind: SourceType,
+    },
+    /// The source refused to open.
+    #[error("camera {camera:?}: {message}")]
+    Open {
+        /// Camera name.
+        camera: String,
+        /// Cause.
+        message: String,
+    },
+    /// Config problem found late.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}
+
+/// Open the source a camera config describes. `replay_overrides` (realtime, loop) already applied.
+pub fn open_source(
+    cam: &CameraConfig,
+    frame_pool: &BufferPool<RawPixels>,
+) -> Result<Box<dyn Source>, SourceOpenError> {
+    match cam.source {
+        SourceType::Synthetic => Ok(Box::new(SyntheticSource::with_pool(
+            SyntheticSpec {
+                width: cam.width,
+                height: cam.height,
+                bit_depth: cam.bit_depth,
+                cfa: cam.cfa()?,
+                frames: cam.frames,
+                fps: cam.fps,
+                live: cam.live,
+                wrong_size_at: None,
+                name: cam.name.clone(),
+            },
+            frame_pool.clone(),
+        ))),
+        SourceType::Mcap => {
+            let path = cam.path.clone().unwrap_or_default();
+            if !path.exists() {
+                return Err(SourceOpenError::RecordingMissing {
+                    camera: cam.name.clone(),
+                    path,
+                });
+            }
+            let opts = McapSourceOptions {
+                pacing: if cam.realtime {
+                    Pacing::Recorded { speed: 1.0 }
+                } else {
+                    Pacing::AsFastAsPossible
+                },
+                looped: cam.looped,
+                ..McapSourceOptions::default()
+            };
+            let src = McapSource::open(&path, opts).map_err(|e| SourceOpenError::Open {
+                camera: cam.name.clone(),
+                message: format!("recording {}: {e}", path.display()),
+            })?;
+            Ok(Box::new(src))
+        }
+        SourceType::V4l2 => {
+            let path = cam.device.clone().unwrap_or_default();
+            if !path.exists() {
+                return Err(SourceOpenError::DeviceMissing {
+                    camera: cam.name.clone(),
+                    path,
+                });
+            }
+            let opts = V4l2Options {
+                width: Some(cam.width as u32),
+                height: Some(cam.height as u32),
+                fps: Some(cam.fps.round() as u32),
+                ..V4l2Options::default()
+            };
+            let src = V4l2Source::open(&path, opts).map_err(|e| SourceOpenError::Open {
+                camera: cam.name.clone(),
+                message: format!("device {}: {e}", path.display()),
+            })?;
+            Ok(Box::new(src))
+        }
+    }
+}

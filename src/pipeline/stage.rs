@@ -1,0 +1,324 @@
+//! The per-frame compute stage: raw mosaic → gradient magnitude and orientation bin → detections.
+//!
+//! * **Gradients**: the shared fused kernel [`crate::features::gradient::mag_bin`] (central
+//!   difference with same-colour taps on the mosaic, `u16` magnitude `round(√(gx²+gy²) / 2^s)` and
+//!   `u8` orientation bin over 0..180°, reflect-101 borders), into pooled buffers, on the calling
+//!   rayon pool.
+//! * **Detection** (optional): the mosaic is normalised into a pooled `f32` buffer in 8-bit units
+//!   (`(v − black) · 255 / (white − black)`, clamped at 0 — the same formula as
+//!   [`crate::features::hog::mosaic_from_raw`], tested equal) and handed to the multi-scale HOG +
+//!   linear SVM [`Detector`]. A frame smaller than the detection window gives no detections (not an
+//!   error).
+//! * **mean_magnitude**: `Σ mag · 2^s / (white − max black) / (w·h)`, a cheap liveness signal in
+//!   normalised units. The sum is an exact integer, so it is identical for any thread count.
+//!
+//! ```
+//! use mosaicd::pipeline::stage::{GradientMaps, Stage, StageSpec};
+//! use mosaicd::raw::{Cfa, Levels, RawFrame};
+//! let f = RawFrame::from_u16(8, 8, vec![100; 64], Cfa::Rggb, 12, Levels::uniform(0, 4095)).unwrap();
+//! let stage = Stage::new(StageSpec { detect: false, ..StageSpec::default() }, None).unwrap();
+//! let mut maps = GradientMaps::default();
+//! let out = stage.compute(&f, &mut maps).unwrap();
+//! assert_eq!(out.mean_magnitude, 0.0); // a flat mosaic has no gradient
+//! assert!(out.detections.is_empty());
+//! ```
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::detect::types::Detection;
+use crate::detect::Detector;
+use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
+use crate::image::{Image, ImageViewMut};
+use crate::raw::{RawFrame, RawView};
+
+/// Full scale of the normalised mosaic the detector reads (8-bit units, as OpenCV's HOG).
+const UNIT_RANGE: f32 = 255.0;
+
+/// Errors of the compute stage.
+#[derive(Debug, thiserror::Error)]
+pub enum StageError {
+    /// The frame's size differs from the stream's.
+    #[error("frame {sequence} is {width}x{height} but the stream is {expected_width}x{expected_height}")]
+    FrameSize {
+        /// The frame's sequence number.
+        sequence: u64,
+        /// Its width.
+        width: usize,
+        /// Its height.
+        height: usize,
+        /// The stream's width.
+        expected_width: usize,
+        /// The stream's height.
+        expected_height: usize,
+    },
+    /// Invalid spec.
+    #[error("invalid stage spec: {field} = {value} (allowed {allowed})")]
+    Spec {
+        /// Field.
+        field: &'static str,
+        /// Value.
+        value: usize,
+        /// Allowed range.
+        allowed: &'static str,
+    },
+    /// The gradient kernel refused the frame.
+    #[error("gradients: {0}")]
+    Gradient(#[from] crate::features::gradient::GradientError),
+    /// The detector refused the frame.
+    #[error("detection: {0}")]
+    Detect(#[from] crate::detect::DetectError),
+    /// An internal buffer did not match the frame.
+    #[error("buffer: {0}")]
+    Buffer(#[from] crate::image::ImageError),
+}
+
+/// Stage parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StageSpec {
+    /// Orientation bins over 0..180° (Dalal–Triggs: 9).
+    pub orientation_bins: usize,
+    /// Rows per parallel strip for the normalisation (even).
+    pub strip_rows: usize,
+    /// Run detection.
+    pub detect: bool,
+}
+
+impl Default for StageSpec {
+    fn default() -> Self {
+        Self {
+            orientation_bins: 9,
+            strip_rows: 64,
+            detect: true,
+        }
+    }
+}
+
+impl StageSpec {
+    /// Check the parameters.
+    pub fn validate(&self) -> Result<(), StageError> {
+        if !(1..=36).contains(&self.orientation_bins) {
+            return Err(StageError::Spec {
+                field: "orientation_bins",
+                value: self.orientation_bins,
+                allowed: "1..=36",
+            });
+        }
+        if self.strip_rows < 2 || !self.strip_rows.is_multiple_of(2) {
+            return Err(StageError::Spec {
+                field: "strip_rows",
+                value: self.strip_rows,
+                allowed: "even, >= 2",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The validated stage: gradient kernel spec and the detector, shared by every task.
+#[derive(Debug, Clone)]
+pub struct Stage {
+    spec: StageSpec,
+    gradient: MagBinSpec,
+    detector: Option<Arc<Detector>>,
+}
+
+impl Stage {
+    /// Validate and build. `detector` is used when `spec.detect` is set; without one, detection
+    /// publishes empty lists.
+    pub fn new(spec: StageSpec, detector: Option<Arc<Detector>>) -> Result<Self, StageError> {
+        spec.validate()?;
+        let gradient = MagBinSpec::new(MagBinOptions {
+            operator: Operator::Central,
+            border: Border::Reflect101,
+            bins: spec.orientation_bins,
+            range: AngleRange::Unsigned,
+            serial: false,
+        })?;
+        Ok(Self {
+            spec,
+            gradient,
+            detector: if spec.detect { detector } else { None },
+        })
+    }
+
+    /// The parameters.
+    pub fn spec(&self) -> &StageSpec {
+        &self.spec
+    }
+
+    /// Run on `frame` into `maps` (on the current rayon pool).
+    pub fn compute(&self, frame: &RawFrame, maps: &mut GradientMaps) -> Result<StageOutput, StageError> {
+        let (w, h) = (frame.width(), frame.height());
+        maps.reset(w, h);
+        maps.orientation_bins = self.spec.orientation_bins;
+        maps.mag_shift = self.gradient.mag_shift(frame.bit_depth());
+        {
+            let mut mag = ImageViewMut::new(&mut maps.magnitude, w, h, w)?;
+            let mut bin = ImageViewMut::new(&mut maps.bins, w, h, w)?;
+            mag_bin(frame.view(), frame.bit_depth(), &self.gradient, &mut mag, &mut bin)?;
+        }
+        let sum: u64 = maps
+            .magnitude
+            .par_chunks(self.spec.strip_rows * w)
+            .map(|c| c.iter().map(|&m| m as u64).sum::<u64>())
+            .sum();
+        let range = (frame.levels().white as f64 - frame.levels().max_black() as f64).max(1.0);
+        let mean = sum as f64 * f64::from(1u32 << maps.mag_shift) / range / (w * h) as f64;
+        let detections = match &self.detector {
+            Some(det) => {
+                let (ww, wh) = (det.hog_spec().win_width(), det.hog_spec().win_height());
+                if w < ww || h < wh {
+                    Vec::new()
+                } else {
+                    normalise_into(frame, self.spec.strip_rows, &mut maps.mosaic);
+                    let img = std::mem::take(&mut maps.mosaic);
+                    let image = Image::from_vec(w, h, img)?;
+                    let r = det.detect(&crate::features::hog::HogInput::Mosaic(image.view()));
+                    maps.mosaic = image.into_vec();
+                    let (mut d, _) = r?;
+                    d.sort_by(|a, b| b.score.total_cmp(&a.score));
+                    d
+                }
+            }
+            None => Vec::new(),
+        };
+        Ok(StageOutput {
+            detections,
+            mean_magnitude: mean as f32,
+        })
+    }
+}
+
+/// `(v − black(x, y)) · 255 / (white − black(x, y))`, clamped at 0, into a reused buffer.
+pub fn normalise_into(frame: &RawFrame, strip_rows: usize, dst: &mut Vec<f32>) {
+    let (w, h) = (frame.width(), frame.height());
+    dst.resize(w * h, 0.0);
+    let levels = *frame.levels();
+    let mut scale = [0.0f32; 4];
+    for (i, s) in scale.iter_mut().enumerate() {
+        *s = UNIT_RANGE / levels.white.saturating_sub(levels.black[i]).max(1) as f32;
+    }
+    let view = frame.view();
+    dst.par_chunks_mut(strip_rows * w).enumerate().for_each(|(s, chunk)| {
+        for (r, row) in chunk.chunks_mut(w).enumerate() {
+            let y = s * strip_rows + r;
+            for (x, o) in row.iter_mut().enumerate() {
+                let v = match view {
+                    RawView::U8(v) => v.row(y)[x] as f32,
+                    RawView::U16(v) => v.row(y)[x] as f32,
+                };
+                let i = (y & 1) * 2 + (x & 1);
+                *o = ((v - levels.black[i] as f32) * scale[i]).max(0.0);
+            }
+        }
+    });
+}
+
+/// Gradient maps of one frame (reused between frames through the buffer pool).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GradientMaps {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Magnitude `round(√(gx² + gy²) / 2^mag_shift)` in raw units, row-major.
+    pub magnitude: Vec<u16>,
+    /// Orientation bin, row-major.
+    pub bins: Vec<u8>,
+    /// Right shift applied to the magnitude.
+    pub mag_shift: u32,
+    /// Number of orientation bins over 0..180°.
+    pub orientation_bins: usize,
+    /// Scratch: the normalised mosaic the detector reads.
+    pub mosaic: Vec<f32>,
+}
+
+impl GradientMaps {
+    /// Resize for a frame, reusing capacity (no allocation when the size does not grow).
+    pub fn reset(&mut self, width: usize, height: usize) {
+        self.width = width;
+        self.height = height;
+        self.magnitude.resize(width * height, 0);
+        self.bins.resize(width * height, 0);
+    }
+}
+
+/// What the stage produced for one frame (besides the maps).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageOutput {
+    /// Detections, highest score first.
+    pub detections: Vec<Detection>,
+    /// Mean gradient magnitude over the frame, normalised units.
+    pub mean_magnitude: f32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raw::{Cfa, Levels};
+
+    fn stage() -> Stage {
+        Stage::new(
+            StageSpec {
+                detect: false,
+                strip_rows: 4,
+                ..StageSpec::default()
+            },
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn horizontal_ramp_hand_computed() {
+        // I(x, y) = 10 x: every central difference I(x+1) - I(x-1) is 20.
+        let px: Vec<u16> = (0..16 * 12).map(|i| (i % 16) as u16 * 10).collect();
+        let f = RawFrame::from_u16(16, 12, px, Cfa::Rggb, 12, Levels::uniform(0, 4000)).unwrap();
+        let mut maps = GradientMaps::default();
+        let out = stage().compute(&f, &mut maps).unwrap();
+        assert_eq!(maps.magnitude[5 * 16 + 5], 20);
+        assert_eq!(maps.bins[5 * 16 + 5], 0);
+        assert_eq!(maps.mag_shift, 0);
+        // reflect-101: the border columns have zero x-difference
+        assert_eq!(maps.magnitude[5 * 16], 0);
+        let expect = 20.0 * 14.0 * 12.0 / 4000.0 / (16.0 * 12.0);
+        assert!((out.mean_magnitude - expect).abs() < 1e-6, "{}", out.mean_magnitude);
+    }
+
+    #[test]
+    fn normalisation_equals_the_hog_modules_formula() {
+        let px: Vec<u16> = (0..32 * 20u32).map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095).collect();
+        let f = RawFrame::from_u16(32, 20, px, Cfa::Gbrg, 12, Levels { black: [60, 64, 62, 66], white: 4000 }).unwrap();
+        let want = crate::features::hog::mosaic_from_raw(&f);
+        let mut got = Vec::new();
+        normalise_into(&f, 4, &mut got);
+        assert_eq!(got, want.as_slice());
+    }
+
+    #[test]
+    fn parallel_equals_serial_for_any_pool() {
+        let px: Vec<u16> = (0..64 * 50u32).map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095).collect();
+        let f = RawFrame::from_u16(64, 50, px, Cfa::Grbg, 12, Levels::uniform(64, 4095)).unwrap();
+        let serial = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let mut m1 = GradientMaps::default();
+        let o1 = serial.install(|| stage().compute(&f, &mut m1)).unwrap();
+        for threads in [2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut m = GradientMaps::default();
+            let o = pool.install(|| stage().compute(&f, &mut m)).unwrap();
+            assert_eq!(m, m1);
+            assert_eq!(o.mean_magnitude.to_bits(), o1.mean_magnitude.to_bits());
+        }
+    }
+
+    #[test]
+    fn bad_spec_is_an_error() {
+        let spec = StageSpec {
+            strip_rows: 3,
+            ..StageSpec::default()
+        };
+        assert!(Stage::new(spec, None).is_err());
+    }
+}

@@ -1,0 +1,698 @@
+//! [`McapRecorder`]: the MCAP writer (see the [module overview](super)).
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use serde::Serialize;
+
+use super::preview::preview_from_raw;
+use super::schema::{self, DetectionsMessage, FoxgloveTime, RawImageMessage};
+use super::RecordError;
+use crate::detect::Detection;
+use crate::raw::RawFrame;
+
+/// Default uncompressed chunk size target (bytes): a few 1080p frames per chunk at most.
+pub const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
+/// Default flush cadence in frames (a crash loses at most this many frames).
+pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
+/// Write buffer in front of the file (bytes).
+const FILE_BUFFER: usize = 1 << 20;
+
+/// Where an MCAP recording goes: a file, or any seekable writer (tests inject failing ones).
+pub trait RecordSink: Write + Seek + Send {}
+impl<T: Write + Seek + Send> RecordSink for T {}
+
+/// Chunk compression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Compression {
+    /// zstd (default).
+    #[default]
+    Zstd,
+    /// lz4.
+    Lz4,
+    /// Uncompressed chunks.
+    None,
+}
+
+/// When to close the open chunk and flush it to the file. A crash loses at most what was
+/// written since the last flush. Time is recorded time (frame timestamps), not wall-clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FlushPolicy {
+    /// Flush after this many frames.
+    pub every_frames: Option<u32>,
+    /// Flush when this much recorded time (ns) passed since the last flush.
+    pub every_ns: Option<u64>,
+}
+
+impl Default for FlushPolicy {
+    fn default() -> Self {
+        Self {
+            every_frames: Some(DEFAULT_FLUSH_FRAMES),
+            every_ns: None,
+        }
+    }
+}
+
+/// When to start a new file. Both limits are checked before each frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RotatePolicy {
+    /// Start a new file once the current one holds at least this many bytes (flushed chunks).
+    pub bytes: Option<u64>,
+    /// Start a new file once a frame is this much recorded time (ns) after the file's first frame.
+    pub duration_ns: Option<u64>,
+}
+
+impl RotatePolicy {
+    /// True when rotation is configured.
+    pub fn enabled(&self) -> bool {
+        self.bytes.is_some() || self.duration_ns.is_some()
+    }
+}
+
+/// The 8-bit preview channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PreviewOptions {
+    /// Keep one 2x2 tile in `decimation` per axis (1 = full size).
+    pub decimation: u32,
+}
+
+/// Recorder options.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecorderOptions {
+    /// Camera name: topics are `/<camera>/raw`, `/<camera>/preview`, ...
+    pub camera: String,
+    /// Chunk compression.
+    pub compression: Compression,
+    /// Compression level (0 = the library default).
+    pub compression_level: u32,
+    /// Target uncompressed chunk size in bytes.
+    pub chunk_size: u64,
+    /// Flush cadence.
+    pub flush: FlushPolicy,
+    /// Rotation.
+    pub rotate: RotatePolicy,
+    /// Record the lossless raw channel.
+    pub raw: bool,
+    /// Record the 8-bit Foxglove preview.
+    pub preview: Option<PreviewOptions>,
+}
+
+impl Default for RecorderOptions {
+    fn default() -> Self {
+        Self {
+            camera: "camera".into(),
+            compression: Compression::Zstd,
+            compression_level: 0,
+            chunk_size: DEFAULT_CHUNK_SIZE,
+            flush: FlushPolicy::default(),
+            rotate: RotatePolicy::default(),
+            raw: true,
+            preview: Some(PreviewOptions { decimation: 2 }),
+        }
+    }
+}
+
+impl RecorderOptions {
+    /// Check every option; errors name the option.
+    pub fn validate(&self) -> Result<(), RecordError> {
+        let bad = |name, value: String, why| Err(RecordError::Option { name, value, why });
+        if self.camera.is_empty() || self.camera.contains(['/', ' ']) {
+            return bad(
+                "camera",
+                self.camera.clone(),
+                "a non-empty name without '/' or spaces",
+            );
+        }
+        if self.chunk_size == 0 || self.chunk_size > super::read::MAX_RECORD_BYTES / 4 {
+            return bad("chunk_size", self.chunk_size.to_string(), "1 byte ..= 64 MiB");
+        }
+        if self.flush.every_frames == Some(0) {
+            return bad("flush.every_frames", "0".into(), "at least 1 frame, or unset");
+        }
+        if self.flush.every_ns == Some(0) {
+            return bad("flush.every_ns", "0".into(), "at least 1 ns, or unset");
+        }
+        if self.rotate.bytes == Some(0) {
+            return bad("rotate.bytes", "0".into(), "at least 1 byte, or unset");
+        }
+        if self.rotate.duration_ns == Some(0) {
+            return bad("rotate.duration_ns", "0".into(), "at least 1 ns, or unset");
+        }
+        if let Some(p) = self.preview {
+            if p.decimation == 0 {
+                return bad("preview.decimation", "0".into(), "at least 1");
+            }
+        }
+        if self.compression_level > 22 {
+            return bad("compression_level", self.compression_level.to_string(), "0..=22");
+        }
+        Ok(())
+    }
+}
+
+/// Topic names for one camera.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topics {
+    /// `/<camera>/raw` (`mosaicd.RawFrame`).
+    pub raw: String,
+    /// `/<camera>/preview` (`foxglove.RawImage`).
+    pub preview: String,
+    /// `/<camera>/annotations` (`foxglove.ImageAnnotations`).
+    pub annotations: String,
+    /// `/<camera>/detections` (`mosaicd.Detections`).
+    pub detections: String,
+    /// `/<camera>/stats` (`mosaicd.Stats`).
+    pub stats: String,
+}
+
+impl Topics {
+    /// The topics of camera `camera`.
+    pub fn new(camera: &str) -> Self {
+        Self {
+            raw: format!("/{camera}/raw"),
+            preview: format!("/{camera}/preview"),
+            annotations: format!("/{camera}/annotations"),
+            detections: format!("/{camera}/detections"),
+            stats: format!("/{camera}/stats"),
+        }
+    }
+}
+
+/// What a finished recording holds.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RecordingSummary {
+    /// Files written, in order (one unless rotating).
+    pub files: Vec<PathBuf>,
+    /// Frames written to the raw (or preview) channel.
+    pub frames: u64,
+    /// Detection messages written.
+    pub detections: u64,
+    /// Stats messages written.
+    pub stats: u64,
+}
+
+/// Counts bytes that reached the sink (for size rotation).
+struct Counted {
+    inner: Box<dyn RecordSink>,
+    pos: u64,
+    len: Arc<AtomicU64>,
+}
+
+impl Write for Counted {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.pos += n as u64;
+        self.len.fetch_max(self.pos, Ordering::Relaxed);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+impl Seek for Counted {
+    fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+        self.pos = self.inner.seek(to)?;
+        Ok(self.pos)
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct ChannelIds {
+    raw: Option<u16>,
+    preview: Option<u16>,
+    annotations: u16,
+    detections: u16,
+    stats: u16,
+}
+
+struct Segment {
+    writer: mcap::Writer<Counted>,
+    ids: ChannelIds,
+    path: PathBuf,
+    first_log_ns: Option<u64>,
+    /// Bytes that reached the sink.
+    len: Arc<AtomicU64>,
+}
+
+enum State {
+    /// No segment open yet (next write opens one).
+    Idle,
+    /// Writing.
+    Open(Box<Segment>),
+    /// A write failed; everything is refused.
+    Failed(String),
+    /// `finish` was called.
+    Finished,
+}
+
+/// Where segments come from.
+enum Target {
+    /// A path; with rotation, `stem-NNNN.ext`.
+    Path(PathBuf),
+    /// One caller-provided sink (no rotation).
+    Sink(Option<Box<dyn RecordSink>>),
+}
+
+/// Writes mosaicd recordings (see the [module overview](super)).
+pub struct McapRecorder {
+    opts: RecorderOptions,
+    topics: Topics,
+    target: Target,
+    state: State,
+    segment_index: u32,
+    files: Vec<PathBuf>,
+    /// Per-channel message sequence (raw, preview, annotations, detections, stats).
+    seq: [u32; 5],
+    frames: u64,
+    detections: u64,
+    stats: u64,
+    frames_since_flush: u32,
+    last_flush_ns: Option<u64>,
+    buf: Vec<u8>,
+}
+
+impl std::fmt::Debug for McapRecorder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapRecorder")
+            .field("topics", &self.topics)
+            .field("files", &self.files)
+            .field("frames", &self.frames)
+            .finish_non_exhaustive()
+    }
+}
+
+impl McapRecorder {
+    /// Record into `path` (with rotation: `stem-0001.mcap`, `stem-0002.mcap`, ... next to it).
+    /// The first file is created at once, so a bad path fails here.
+    pub fn create(path: impl AsRef<Path>, opts: RecorderOptions) -> Result<Self, RecordError> {
+        opts.validate()?;
+        let mut r = Self::new(opts, Target::Path(path.as_ref().to_path_buf()));
+        r.open_segment()?;
+        Ok(r)
+    }
+
+    /// Record into one caller-provided sink (no rotation: options with rotation are refused).
+    pub fn from_writer(sink: Box<dyn RecordSink>, opts: RecorderOptions) -> Result<Self, RecordError> {
+        opts.validate()?;
+        if opts.rotate.enabled() {
+            return Err(RecordError::Option {
+                name: "rotate",
+                value: format!("{:?}", opts.rotate),
+                why: "rotation needs a file path (McapRecorder::create)",
+            });
+        }
+        let mut r = Self::new(opts, Target::Sink(Some(sink)));
+        r.open_segment()?;
+        Ok(r)
+    }
+
+    fn new(opts: RecorderOptions, target: Target) -> Self {
+        Self {
+            topics: Topics::new(&opts.camera),
+            opts,
+            target,
+            state: State::Idle,
+            segment_index: 0,
+            files: Vec::new(),
+            seq: [0; 5],
+            frames: 0,
+            detections: 0,
+            stats: 0,
+            frames_since_flush: 0,
+            last_flush_ns: None,
+            buf: Vec::new(),
+        }
+    }
+
+    /// The topics this recorder writes.
+    pub fn topics(&self) -> &Topics {
+        &self.topics
+    }
+
+    /// Files written so far (the current one last).
+    pub fn files(&self) -> &[PathBuf] {
+        &self.files
+    }
+
+    /// True after a write error stopped the recorder.
+    pub fn is_failed(&self) -> bool {
+        matches!(self.state, State::Failed(_))
+    }
+
+    fn segment_path(&self, base: &Path) -> PathBuf {
+        if !self.opts.rotate.enabled() {
+            return base.to_path_buf();
+        }
+        let stem = base
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let ext = base
+            .extension()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "mcap".into());
+        base.with_file_name(format!("{stem}-{:04}.{ext}", self.segment_index))
+    }
+
+    fn open_segment(&mut self) -> Result<(), RecordError> {
+        self.segment_index += 1;
+        let (sink, path): (Box<dyn RecordSink>, PathBuf) = match &mut self.target {
+            Target::Path(base) => {
+                let base = base.clone();
+                let path = self.segment_path(&base);
+                let file = File::create(&path).map_err(|source| RecordError::Create {
+                    path: path.clone(),
+                    source,
+                })?;
+                (Box::new(BufWriter::with_capacity(FILE_BUFFER, file)), path)
+            }
+            Target::Sink(s) => match s.take() {
+                Some(s) => (s, PathBuf::from("<writer>")),
+                None => return Err(RecordError::Finished),
+            },
+        };
+        let compression = match self.opts.compression {
+            Compression::Zstd => Some(mcap::Compression::Zstd),
+            Compression::Lz4 => Some(mcap::Compression::Lz4),
+            Compression::None => None,
+        };
+        let len = Arc::new(AtomicU64::new(0));
+        let counted = Counted {
+            inner: sink,
+            pos: 0,
+            len: len.clone(),
+        };
+        let fail = |path: &Path, source| RecordError::Write {
+            path: path.to_path_buf(),
+            source: Box::new(source),
+        };
+        let mut writer = mcap::WriteOptions::new()
+            .compression(compression)
+            .compression_level(self.opts.compression_level)
+            // Single-threaded zstd: identical bytes run after run.
+            .compression_threads(0)
+            .chunk_size(Some(self.opts.chunk_size))
+            .profile("")
+            .library(concat!("mosaicd/", env!("CARGO_PKG_VERSION")))
+            .create(counted)
+            .map_err(|e| fail(&path, e))?;
+        let ids = Self::add_channels(&mut writer, &self.topics, &self.opts).map_err(|e| fail(&path, e))?;
+        self.files.push(path.clone());
+        self.state = State::Open(Box::new(Segment {
+            writer,
+            ids,
+            path,
+            first_log_ns: None,
+            len,
+        }));
+        Ok(())
+    }
+
+    fn add_channels(
+        w: &mut mcap::Writer<Counted>,
+        topics: &Topics,
+        opts: &RecorderOptions,
+    ) -> mcap::McapResult<ChannelIds> {
+        let none = BTreeMap::new();
+        let raw = if opts.raw {
+            let s = w.add_schema(
+                schema::RAW_FRAME_SCHEMA,
+                schema::RAW_FRAME_SCHEMA_ENCODING,
+                schema::RAW_FRAME_SCHEMA_TEXT.as_bytes(),
+            )?;
+            Some(w.add_channel(s, &topics.raw, schema::RAW_FRAME_ENCODING, &none)?)
+        } else {
+            None
+        };
+        let preview = match opts.preview {
+            Some(p) => {
+                let s = w.add_schema(
+                    schema::RAW_IMAGE_SCHEMA,
+                    "jsonschema",
+                    schema::raw_image_json_schema().as_bytes(),
+                )?;
+                let mut meta = BTreeMap::new();
+                meta.insert("decimation".to_string(), p.decimation.to_string());
+                Some(w.add_channel(s, &topics.preview, "json", &meta)?)
+            }
+            None => None,
+        };
+        let s = w.add_schema(
+            schema::IMAGE_ANNOTATIONS_SCHEMA,
+            "jsonschema",
+            schema::image_annotations_json_schema().as_bytes(),
+        )?;
+        let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
+        let s = w.add_schema(
+            schema::DETECTIONS_SCHEMA,
+            "jsonschema",
+            schema::DETECTIONS_JSON_SCHEMA.as_bytes(),
+        )?;
+        let detections = w.add_channel(s, &topics.detections, "json", &none)?;
+        let s = w.add_schema(
+            schema::STATS_SCHEMA,
+            "jsonschema",
+            schema::STATS_JSON_SCHEMA.as_bytes(),
+        )?;
+        let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+        Ok(ChannelIds {
+            raw,
+            preview,
+            annotations,
+            detections,
+            stats,
+        })
+    }
+
+    /// The open segment, opening one if needed; refuses after failure or finish.
+    fn segment(&mut self) -> Result<&mut Segment, RecordError> {
+        match &self.state {
+            State::Failed(first) => {
+                return Err(RecordError::Stopped { first: first.clone() });
+            }
+            State::Finished => return Err(RecordError::Finished),
+            State::Idle => self.open_segment_or_fail()?,
+            State::Open(_) => {}
+        }
+        match &mut self.state {
+            State::Open(s) => Ok(s),
+            _ => unreachable!("opened above"),
+        }
+    }
+
+    fn open_segment_or_fail(&mut self) -> Result<(), RecordError> {
+        self.open_segment().inspect_err(|e| {
+            self.state = State::Failed(e.to_string());
+        })
+    }
+
+    /// Mark failed, drop the writer (its summary attempt may fail too; ignored) and build the error.
+    fn fail(&mut self, source: mcap::McapError) -> RecordError {
+        let path = match &self.state {
+            State::Open(s) => s.path.clone(),
+            _ => PathBuf::from("<writer>"),
+        };
+        let err = RecordError::Write {
+            path,
+            source: Box::new(source),
+        };
+        self.state = State::Failed(err.to_string());
+        err
+    }
+
+    fn write_message(
+        &mut self,
+        slot: usize,
+        channel: u16,
+        log_ns: u64,
+        data: &[u8],
+    ) -> Result<(), RecordError> {
+        let sequence = self.seq[slot];
+        let seg = self.segment()?;
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence,
+            log_time: log_ns,
+            publish_time: log_ns,
+        };
+        match seg.writer.write_to_known_channel(&header, data) {
+            Ok(()) => {
+                self.seq[slot] = sequence.wrapping_add(1);
+                Ok(())
+            }
+            Err(e) => Err(self.fail(e)),
+        }
+    }
+
+    /// Rotate before a frame at `log_ns` when the current file is over a limit.
+    fn maybe_rotate(&mut self, log_ns: u64) -> Result<(), RecordError> {
+        let rot = self.opts.rotate;
+        if !rot.enabled() {
+            return Ok(());
+        }
+        let State::Open(seg) = &mut self.state else {
+            return Ok(());
+        };
+        let Some(first) = seg.first_log_ns else {
+            return Ok(());
+        };
+        let over_bytes = rot.bytes.is_some_and(|b| seg.len.load(Ordering::Relaxed) >= b);
+        let over_time = rot.duration_ns.is_some_and(|d| log_ns.saturating_sub(first) >= d);
+        if over_bytes || over_time {
+            self.close_segment()?;
+            self.open_segment_or_fail()?;
+        }
+        Ok(())
+    }
+
+    /// Finish the open file: summary, index, footer, then flush the buffered sink so a late write
+    /// error (disk full) is reported rather than lost in a drop.
+    fn close_segment(&mut self) -> Result<(), RecordError> {
+        let State::Open(mut seg) = std::mem::replace(&mut self.state, State::Idle) else {
+            return Ok(());
+        };
+        let fail = |state: &mut State, path: PathBuf, source| {
+            let err = RecordError::Write {
+                path,
+                source: Box::new(source),
+            };
+            *state = State::Failed(err.to_string());
+            err
+        };
+        if let Err(e) = seg.writer.finish() {
+            return Err(fail(&mut self.state, seg.path, e));
+        }
+        let mut sink = seg.writer.into_inner();
+        if let Err(e) = sink.flush() {
+            return Err(fail(&mut self.state, seg.path, e.into()));
+        }
+        Ok(())
+    }
+
+    /// Record one frame: the lossless raw message and the preview. Log time = capture timestamp.
+    pub fn write_frame(&mut self, frame: &RawFrame) -> Result<(), RecordError> {
+        let t = frame.meta.timestamp_ns;
+        self.segment()?;
+        self.maybe_rotate(t)?;
+        let ids = self.segment()?.ids;
+        if let Some(ch) = ids.raw {
+            let mut buf = std::mem::take(&mut self.buf);
+            schema::encode_raw_frame(frame, &mut buf);
+            let r = self.write_message(0, ch, t, &buf);
+            self.buf = buf;
+            r?;
+        }
+        if let (Some(ch), Some(p)) = (ids.preview, self.opts.preview) {
+            if let Some(pv) = preview_from_raw(frame, p.decimation as usize) {
+                let msg = RawImageMessage {
+                    timestamp: FoxgloveTime::from_ns(t),
+                    frame_id: self.opts.camera.clone(),
+                    width: pv.width as u32,
+                    height: pv.height as u32,
+                    encoding: frame.cfa().foxglove_encoding(false).to_string(),
+                    step: pv.width as u32,
+                    data: schema::base64_encode(&pv.data),
+                };
+                let json = serde_json::to_vec(&msg).expect("preview serialises");
+                self.write_message(1, ch, t, &json)?;
+            }
+        }
+        if let State::Open(seg) = &mut self.state {
+            seg.first_log_ns.get_or_insert(t);
+        }
+        self.frames += 1;
+        self.frames_since_flush += 1;
+        let last = *self.last_flush_ns.get_or_insert(t);
+        let f = self.opts.flush;
+        let due = f.every_frames.is_some_and(|n| self.frames_since_flush >= n)
+            || f.every_ns.is_some_and(|d| t.saturating_sub(last) >= d);
+        if due {
+            self.flush()?;
+            self.last_flush_ns = Some(t);
+        }
+        Ok(())
+    }
+
+    /// Record the detections of one frame: `mosaicd.Detections` (full-frame coordinates) and
+    /// `foxglove.ImageAnnotations` (preview coordinates when a preview is recorded).
+    pub fn write_detections(
+        &mut self,
+        sequence: u64,
+        timestamp_ns: u64,
+        frame_width: u32,
+        frame_height: u32,
+        detections: &[Detection],
+    ) -> Result<(), RecordError> {
+        let ids = self.segment()?.ids;
+        let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
+        let ann = schema::annotations_from_detections(timestamp_ns, detections, scale);
+        let json = serde_json::to_vec(&ann).expect("annotations serialise");
+        self.write_message(2, ids.annotations, timestamp_ns, &json)?;
+        let msg = DetectionsMessage {
+            sequence,
+            timestamp_ns,
+            frame_width,
+            frame_height,
+            detections: detections.to_vec(),
+        };
+        let json = serde_json::to_vec(&msg).expect("detections serialise");
+        self.write_message(3, ids.detections, timestamp_ns, &json)?;
+        self.detections += 1;
+        Ok(())
+    }
+
+    /// Record a stats message (any serialisable value, e.g. `serde_json::Value` or a struct).
+    pub fn write_stats<T: Serialize + ?Sized>(
+        &mut self,
+        timestamp_ns: u64,
+        stats: &T,
+    ) -> Result<(), RecordError> {
+        let ids = self.segment()?.ids;
+        let json = serde_json::to_vec(stats).map_err(|e| RecordError::Option {
+            name: "stats",
+            value: e.to_string(),
+            why: "a value that serialises to JSON",
+        })?;
+        self.write_message(4, ids.stats, timestamp_ns, &json)?;
+        self.stats += 1;
+        Ok(())
+    }
+
+    /// Close the open chunk and push it to the file (what a crash can lose ends here).
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.frames_since_flush = 0;
+        let r = match &mut self.state {
+            State::Open(seg) => seg.writer.flush(),
+            State::Failed(first) => return Err(RecordError::Stopped { first: first.clone() }),
+            _ => return Ok(()),
+        };
+        r.map_err(|e| self.fail(e))
+    }
+
+    /// Write the summary and index and close the file. Idempotent on success.
+    pub fn finish(&mut self) -> Result<RecordingSummary, RecordError> {
+        match &self.state {
+            State::Failed(first) => return Err(RecordError::Stopped { first: first.clone() }),
+            State::Finished => return Ok(self.summary()),
+            _ => {}
+        }
+        self.close_segment()?;
+        self.state = State::Finished;
+        Ok(self.summary())
+    }
+
+    fn summary(&self) -> RecordingSummary {
+        RecordingSummary {
+            files: self.files.clone(),
+            frames: self.frames,
+            detections: self.detections,
+            stats: self.stats,
+        }
+    }
+}

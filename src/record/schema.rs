@@ -1,0 +1,660 @@
+//! Message schemas of mosaicd recordings, and their encoders / decoders.
+//!
+//! A recording holds up to five channels per camera (`<camera>` defaults to `camera`):
+//!
+//! | topic | schema name | schema encoding | message encoding | content |
+//! |---|---|---|---|---|
+//! | `/<camera>/raw` | `mosaicd.RawFrame` | `mosaicd.rawframe` | `mosaicd.rawframe.v1` | lossless raw frame, full bit depth |
+//! | `/<camera>/preview` | `foxglove.RawImage` | `jsonschema` | `json` | 8-bit `bayer_*8` preview, maybe decimated |
+//! | `/<camera>/annotations` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | boxes (LINE_LOOP) + scores (texts), preview coordinates |
+//! | `/<camera>/detections` | `mosaicd.Detections` | `jsonschema` | `json` | boxes in full-frame coordinates |
+//! | `/<camera>/stats` | `mosaicd.Stats` | `jsonschema` | `json` | free-form pipeline statistics |
+//!
+//! ## `mosaicd.RawFrame` (message encoding `mosaicd.rawframe.v1`)
+//!
+//! ```text
+//! offset  size  content
+//! 0       4     magic "MRF1"
+//! 4       4     H = header length in bytes, u32 little-endian
+//! 8       H     header: UTF-8 JSON object (RawFrameHeader, below)
+//! 8+H     N     pixels, row-major, contiguous (no row padding):
+//!               container_bits 8:  width*height bytes
+//!               container_bits 16: width*height u16 little-endian, LSB-aligned values
+//! ```
+//!
+//! The header is `{"sequence", "sensor_sequence" (null or integer), "timestamp_ns", "source",
+//! "width", "height", "cfa" (physical name "RGGB" | "BGGR" | "GRBG" | "GBRG", R at (0,0) for RGGB),
+//! "bit_depth" (8..=16), "container_bits" (8 | 16), "black" ([4] per 2x2 tile position
+//! `(y&1)*2 + (x&1)`), "white", "wb_gains" (null or [R, G, B])}`. Nothing in it depends on the
+//! wall clock: `timestamp_ns` is the frame's capture timestamp, which is also the MCAP log time.
+//!
+//! ```
+//! use mosaicd::raw::{Cfa, Levels, RawFrame};
+//! use mosaicd::record::schema::{decode_raw_frame, encode_raw_frame};
+//! let f = RawFrame::from_u16(2, 2, vec![1, 2, 3, 4095], Cfa::Grbg, 12, Levels::uniform(64, 4095)).unwrap();
+//! let mut buf = Vec::new();
+//! encode_raw_frame(&f, &mut buf);
+//! assert_eq!(&buf[..4], b"MRF1");
+//! assert_eq!(decode_raw_frame(&buf).unwrap(), f);
+//! ```
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::detect::Detection;
+use crate::raw::{Cfa, FrameMeta, Levels, RawError, RawFrame, RawPixels, RawView};
+
+/// Magic bytes opening every `mosaicd.RawFrame` message.
+pub const RAW_FRAME_MAGIC: &[u8; 4] = b"MRF1";
+/// Schema name of the raw-frame channel.
+pub const RAW_FRAME_SCHEMA: &str = "mosaicd.RawFrame";
+/// Schema encoding of the raw-frame channel (the schema data is this module's layout text).
+pub const RAW_FRAME_SCHEMA_ENCODING: &str = "mosaicd.rawframe";
+/// Message encoding of the raw-frame channel.
+pub const RAW_FRAME_ENCODING: &str = "mosaicd.rawframe.v1";
+/// Schema name of the Foxglove preview channel.
+pub const RAW_IMAGE_SCHEMA: &str = "foxglove.RawImage";
+/// Schema name of the Foxglove annotations channel.
+pub const IMAGE_ANNOTATIONS_SCHEMA: &str = "foxglove.ImageAnnotations";
+/// Schema name of our detections channel.
+pub const DETECTIONS_SCHEMA: &str = "mosaicd.Detections";
+/// Schema name of our stats channel.
+pub const STATS_SCHEMA: &str = "mosaicd.Stats";
+/// Foxglove `PointsAnnotationType::LINE_LOOP`.
+pub const POINTS_LINE_LOOP: u8 = 2;
+
+/// The layout text stored as the `mosaicd.RawFrame` schema data.
+pub const RAW_FRAME_SCHEMA_TEXT: &str = "mosaicd.RawFrame v1: magic \"MRF1\" (4 bytes); u32 LE header length H; \
+H bytes UTF-8 JSON header {sequence:u64, sensor_sequence:u64|null, timestamp_ns:u64, source:string, width:u32, \
+height:u32, cfa:\"RGGB\"|\"BGGR\"|\"GRBG\"|\"GBRG\" (physical, RGGB = red at (0,0)), bit_depth:8..16, \
+container_bits:8|16, black:[u16;4] (index (y&1)*2+(x&1)), white:u16, wb_gains:[f32;3]|null}; then width*height \
+pixels row-major without padding, u8 (container 8) or u16 little-endian LSB-aligned (container 16).";
+
+/// JSON schema of `mosaicd.Detections`.
+pub const DETECTIONS_JSON_SCHEMA: &str = r#"{"title":"mosaicd.Detections","description":"Person detections of one frame, full-frame pixel coordinates","type":"object","properties":{"sequence":{"type":"integer","minimum":0},"timestamp_ns":{"type":"integer","minimum":0},"frame_width":{"type":"integer","minimum":0},"frame_height":{"type":"integer","minimum":0},"detections":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"width":{"type":"number"},"height":{"type":"number"},"score":{"type":"number"}}}}}}"#;
+
+/// JSON schema of `mosaicd.Stats` (free-form object).
+pub const STATS_JSON_SCHEMA: &str = r#"{"title":"mosaicd.Stats","description":"Pipeline statistics (counters, latency); free-form object","type":"object"}"#;
+
+const TIME_SCHEMA: &str = r#"{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}}"#;
+const POINT2_SCHEMA: &str = r#"{"title":"foxglove.Point2","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}}"#;
+const COLOR_SCHEMA: &str = r#"{"title":"foxglove.Color","type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},"b":{"type":"number"},"a":{"type":"number"}}}"#;
+
+/// JSON schema of `foxglove.RawImage` (same properties as the published Foxglove schema).
+pub fn raw_image_json_schema() -> String {
+    format!(
+        r#"{{"title":"foxglove.RawImage","description":"A raw image","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"frame_id":{{"type":"string"}},"width":{{"type":"integer","minimum":0}},"height":{{"type":"integer","minimum":0}},"encoding":{{"type":"string"}},"step":{{"type":"integer","minimum":0}},"data":{{"type":"string","contentEncoding":"base64"}}}}}}"#
+    )
+}
+
+/// JSON schema of `foxglove.ImageAnnotations` (same properties as the published Foxglove schema).
+pub fn image_annotations_json_schema() -> String {
+    let circle = format!(
+        r#"{{"title":"foxglove.CircleAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"position":{POINT2_SCHEMA},"diameter":{{"type":"number"}},"thickness":{{"type":"number"}},"fill_color":{COLOR_SCHEMA},"outline_color":{COLOR_SCHEMA}}}}}"#
+    );
+    let points = format!(
+        r#"{{"title":"foxglove.PointsAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"type":{{"title":"foxglove.PointsAnnotationType","oneOf":[{{"title":"UNKNOWN","const":0}},{{"title":"POINTS","const":1}},{{"title":"LINE_LOOP","const":2}},{{"title":"LINE_STRIP","const":3}},{{"title":"LINE_LIST","const":4}}]}},"points":{{"type":"array","items":{POINT2_SCHEMA}}},"outline_color":{COLOR_SCHEMA},"outline_colors":{{"type":"array","items":{COLOR_SCHEMA}}},"fill_color":{COLOR_SCHEMA},"thickness":{{"type":"number"}}}}}}"#
+    );
+    let text = format!(
+        r#"{{"title":"foxglove.TextAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"position":{POINT2_SCHEMA},"text":{{"type":"string"}},"font_size":{{"type":"number"}},"text_color":{COLOR_SCHEMA},"background_color":{COLOR_SCHEMA}}}}}"#
+    );
+    format!(
+        r#"{{"title":"foxglove.ImageAnnotations","description":"Array of annotations for a 2D image","type":"object","properties":{{"circles":{{"type":"array","items":{circle}}},"points":{{"type":"array","items":{points}}},"texts":{{"type":"array","items":{text}}}}}}}"#
+    )
+}
+
+/// Errors decoding messages of our schemas.
+#[derive(Debug, thiserror::Error)]
+pub enum SchemaError {
+    /// The message does not start with [`RAW_FRAME_MAGIC`].
+    #[error("not a mosaicd.RawFrame message: magic {found:?}, expected \"MRF1\"")]
+    BadMagic {
+        /// The first bytes found.
+        found: Vec<u8>,
+    },
+    /// The message is shorter than its header says.
+    #[error("mosaicd.RawFrame message is {len} bytes, its header needs {needed}")]
+    Short {
+        /// Bytes present.
+        len: usize,
+        /// Bytes needed.
+        needed: usize,
+    },
+    /// The JSON header (or a JSON message) does not parse.
+    #[error("bad JSON in {what}: {source}")]
+    Json {
+        /// Which message.
+        what: &'static str,
+        /// Cause.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// An unknown CFA name.
+    #[error("unknown CFA pattern {0:?} (expected RGGB, BGGR, GRBG or GBRG)")]
+    Cfa(String),
+    /// A container size other than 8 or 16 bits.
+    #[error("container_bits {0} is not 8 or 16")]
+    Container(u8),
+    /// The header values do not make a valid frame.
+    #[error("invalid frame in recording: {0}")]
+    Frame(#[from] RawError),
+}
+
+/// The JSON header of a `mosaicd.RawFrame` message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RawFrameHeader {
+    /// Our dense sequence number.
+    pub sequence: u64,
+    /// The driver's sequence number, if any.
+    pub sensor_sequence: Option<u64>,
+    /// Capture timestamp (ns), equal to the MCAP log time.
+    pub timestamp_ns: u64,
+    /// Where the frame came from.
+    pub source: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Physical pattern name.
+    pub cfa: String,
+    /// Significant bits.
+    pub bit_depth: u8,
+    /// 8 or 16.
+    pub container_bits: u8,
+    /// Black level per tile position.
+    pub black: [u16; 4],
+    /// White level.
+    pub white: u16,
+    /// White-balance gains.
+    pub wb_gains: Option<[f32; 3]>,
+}
+
+/// Append the `mosaicd.RawFrame` encoding of `frame` to `out` (cleared first).
+pub fn encode_raw_frame(frame: &RawFrame, out: &mut Vec<u8>) {
+    out.clear();
+    let container_bits = match frame.pixels() {
+        RawPixels::U8(_) => 8,
+        RawPixels::U16(_) => 16,
+    };
+    let header = RawFrameHeader {
+        sequence: frame.meta.sequence,
+        sensor_sequence: frame.meta.sensor_sequence,
+        timestamp_ns: frame.meta.timestamp_ns,
+        source: frame.meta.source.to_string(),
+        width: frame.width() as u32,
+        height: frame.height() as u32,
+        cfa: frame.cfa().name().to_string(),
+        bit_depth: frame.bit_depth(),
+        container_bits,
+        black: frame.levels().black,
+        white: frame.levels().white,
+        wb_gains: frame.wb_gains,
+    };
+    let json = serde_json::to_vec(&header).expect("header serialises");
+    let (w, h) = (frame.width(), frame.height());
+    out.reserve(8 + json.len() + w * h * (container_bits as usize / 8));
+    out.extend_from_slice(RAW_FRAME_MAGIC);
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(&json);
+    match frame.view() {
+        RawView::U8(v) => {
+            for y in 0..h {
+                out.extend_from_slice(v.row(y));
+            }
+        }
+        RawView::U16(v) => {
+            for y in 0..h {
+                for &p in v.row(y) {
+                    out.extend_from_slice(&p.to_le_bytes());
+                }
+            }
+        }
+    }
+}
+
+/// Parse only the JSON header of a `mosaicd.RawFrame` message; returns it and the pixel bytes.
+pub fn decode_raw_frame_header(data: &[u8]) -> Result<(RawFrameHeader, &[u8]), SchemaError> {
+    if data.len() < 8 || &data[..4] != RAW_FRAME_MAGIC {
+        return Err(SchemaError::BadMagic {
+            found: data[..data.len().min(4)].to_vec(),
+        });
+    }
+    let hlen = u32::from_le_bytes([data[4], data[5], data[6], data[7]]) as usize;
+    let end = 8usize.saturating_add(hlen);
+    if data.len() < end {
+        return Err(SchemaError::Short {
+            len: data.len(),
+            needed: end,
+        });
+    }
+    let header: RawFrameHeader =
+        serde_json::from_slice(&data[8..end]).map_err(|source| SchemaError::Json {
+            what: "mosaicd.RawFrame header",
+            source,
+        })?;
+    Ok((header, &data[end..]))
+}
+
+/// Decode a `mosaicd.RawFrame` message into a contiguous [`RawFrame`] with its metadata.
+pub fn decode_raw_frame(data: &[u8]) -> Result<RawFrame, SchemaError> {
+    let (h, px) = decode_raw_frame_header(data)?;
+    let cfa: Cfa = h.cfa.parse().map_err(|_| SchemaError::Cfa(h.cfa.clone()))?;
+    let n = (h.width as usize).saturating_mul(h.height as usize);
+    let bytes = match h.container_bits {
+        8 => 1,
+        16 => 2,
+        other => return Err(SchemaError::Container(other)),
+    };
+    let needed = n.saturating_mul(bytes);
+    if px.len() != needed {
+        return Err(SchemaError::Short {
+            len: data.len(),
+            needed: data.len() - px.len() + needed,
+        });
+    }
+    let pixels = if bytes == 1 {
+        RawPixels::U8(px.to_vec())
+    } else {
+        RawPixels::U16(
+            px.chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                .collect(),
+        )
+    };
+    let levels = Levels {
+        black: h.black,
+        white: h.white,
+    };
+    let mut f = RawFrame::new(
+        h.width as usize,
+        h.height as usize,
+        h.width as usize,
+        pixels,
+        cfa,
+        h.bit_depth,
+        levels,
+    )?;
+    f.wb_gains = h.wb_gains;
+    f.meta = FrameMeta {
+        sequence: h.sequence,
+        sensor_sequence: h.sensor_sequence,
+        timestamp_ns: h.timestamp_ns,
+        source: Arc::from(h.source.as_str()),
+    };
+    Ok(f)
+}
+
+/// A `mosaicd.Detections` message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectionsMessage {
+    /// Frame sequence number.
+    pub sequence: u64,
+    /// Frame capture timestamp (ns).
+    pub timestamp_ns: u64,
+    /// Frame width.
+    pub frame_width: u32,
+    /// Frame height.
+    pub frame_height: u32,
+    /// Boxes in full-frame pixel coordinates.
+    pub detections: Vec<Detection>,
+}
+
+/// Foxglove `time`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FoxgloveTime {
+    /// Seconds.
+    pub sec: u64,
+    /// Nanoseconds, 0..1e9.
+    pub nsec: u32,
+}
+
+impl FoxgloveTime {
+    /// Split nanoseconds.
+    pub fn from_ns(ns: u64) -> Self {
+        Self {
+            sec: ns / 1_000_000_000,
+            nsec: (ns % 1_000_000_000) as u32,
+        }
+    }
+}
+
+/// Foxglove `Point2`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Point2 {
+    /// x (pixels).
+    pub x: f64,
+    /// y (pixels).
+    pub y: f64,
+}
+
+/// Foxglove `Color` (components 0..1).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Color {
+    /// Red.
+    pub r: f64,
+    /// Green.
+    pub g: f64,
+    /// Blue.
+    pub b: f64,
+    /// Alpha.
+    pub a: f64,
+}
+
+/// Foxglove `PointsAnnotation`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointsAnnotation {
+    /// Timestamp.
+    pub timestamp: FoxgloveTime,
+    /// Type (2 = LINE_LOOP).
+    #[serde(rename = "type")]
+    pub kind: u8,
+    /// Points.
+    pub points: Vec<Point2>,
+    /// Outline colour.
+    pub outline_color: Color,
+    /// Per-point colours (empty).
+    pub outline_colors: Vec<Color>,
+    /// Fill colour.
+    pub fill_color: Color,
+    /// Stroke thickness (pixels).
+    pub thickness: f64,
+}
+
+/// Foxglove `TextAnnotation`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextAnnotation {
+    /// Timestamp.
+    pub timestamp: FoxgloveTime,
+    /// Bottom-left origin of the text.
+    pub position: Point2,
+    /// Text.
+    pub text: String,
+    /// Font size (pixels).
+    pub font_size: f64,
+    /// Text colour.
+    pub text_color: Color,
+    /// Background colour.
+    pub background_color: Color,
+}
+
+/// Foxglove `ImageAnnotations` (no circles from us, but the field is present).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImageAnnotations {
+    /// Circles (always empty here).
+    pub circles: Vec<serde_json::Value>,
+    /// Boxes as LINE_LOOPs.
+    pub points: Vec<PointsAnnotation>,
+    /// Scores.
+    pub texts: Vec<TextAnnotation>,
+}
+
+/// Box outline colour in annotations (opaque green).
+const BOX_COLOUR: Color = Color {
+    r: 0.0,
+    g: 1.0,
+    b: 0.0,
+    a: 1.0,
+};
+/// Transparent fill.
+const NO_FILL: Color = Color {
+    r: 0.0,
+    g: 0.0,
+    b: 0.0,
+    a: 0.0,
+};
+/// Score label background (half-transparent black).
+const LABEL_BACKGROUND: Color = Color {
+    r: 0.0,
+    g: 0.0,
+    b: 0.0,
+    a: 0.5,
+};
+/// Box stroke thickness, pixels.
+const BOX_THICKNESS: f64 = 2.0;
+/// Score label font size, pixels.
+const LABEL_FONT_SIZE: f64 = 12.0;
+
+/// Annotations for detections, with coordinates divided by `scale` (the preview decimation, so the
+/// boxes sit on the preview image; 1 for full-frame coordinates).
+pub fn annotations_from_detections(timestamp_ns: u64, dets: &[Detection], scale: f64) -> ImageAnnotations {
+    let t = FoxgloveTime::from_ns(timestamp_ns);
+    let s = if scale > 0.0 { 1.0 / scale } else { 1.0 };
+    let mut points = Vec::with_capacity(dets.len());
+    let mut texts = Vec::with_capacity(dets.len());
+    for d in dets {
+        let (x0, y0) = (d.x as f64 * s, d.y as f64 * s);
+        let (x1, y1) = ((d.x + d.width) as f64 * s, (d.y + d.height) as f64 * s);
+        points.push(PointsAnnotation {
+            timestamp: t,
+            kind: POINTS_LINE_LOOP,
+            points: vec![
+                Point2 { x: x0, y: y0 },
+                Point2 { x: x1, y: y0 },
+                Point2 { x: x1, y: y1 },
+                Point2 { x: x0, y: y1 },
+            ],
+            outline_color: BOX_COLOUR,
+            outline_colors: Vec::new(),
+            fill_color: NO_FILL,
+            thickness: BOX_THICKNESS,
+        });
+        texts.push(TextAnnotation {
+            timestamp: t,
+            position: Point2 { x: x0, y: y0 },
+            text: format!("{:.2}", d.score),
+            font_size: LABEL_FONT_SIZE,
+            text_color: BOX_COLOUR,
+            background_color: LABEL_BACKGROUND,
+        });
+    }
+    ImageAnnotations {
+        circles: Vec::new(),
+        points,
+        texts,
+    }
+}
+
+/// Foxglove `RawImage` (JSON: `data` is base64).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RawImageMessage {
+    /// Timestamp.
+    pub timestamp: FoxgloveTime,
+    /// Frame id.
+    pub frame_id: String,
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// `bayer_rggb8` etc.
+    pub encoding: String,
+    /// Bytes per row.
+    pub step: u32,
+    /// Base64 pixel data.
+    pub data: String,
+}
+
+const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+/// Standard base64 with padding (RFC 4648), as Foxglove's JSON `contentEncoding: base64` expects.
+pub fn base64_encode(data: &[u8]) -> String {
+    let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
+    for c in data.chunks(3) {
+        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        out.push(B64[(n >> 18) as usize & 63] as char);
+        out.push(B64[(n >> 12) as usize & 63] as char);
+        out.push(if c.len() > 1 {
+            B64[(n >> 6) as usize & 63] as char
+        } else {
+            '='
+        });
+        out.push(if c.len() > 2 {
+            B64[n as usize & 63] as char
+        } else {
+            '='
+        });
+    }
+    out
+}
+
+/// Decode standard padded base64; `None` on a malformed string.
+pub fn base64_decode(s: &str) -> Option<Vec<u8>> {
+    let s = s.as_bytes();
+    if !s.len().is_multiple_of(4) {
+        return None;
+    }
+    let val = |c: u8| -> Option<u32> { B64.iter().position(|&b| b == c).map(|p| p as u32) };
+    let mut out = Vec::with_capacity(s.len() / 4 * 3);
+    for q in s.chunks(4) {
+        let pad = q.iter().rev().take_while(|&&c| c == b'=').count();
+        if pad > 2 {
+            return None;
+        }
+        let mut n = 0u32;
+        for (i, &c) in q.iter().enumerate() {
+            let v = if i >= 4 - pad { 0 } else { val(c)? };
+            n = n << 6 | v;
+        }
+        let bytes = [(n >> 16) as u8, (n >> 8) as u8, n as u8];
+        out.extend_from_slice(&bytes[..3 - pad]);
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (plain, enc) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64_encode(plain.as_bytes()), enc);
+            assert_eq!(base64_decode(enc).unwrap(), plain.as_bytes());
+        }
+        assert!(base64_decode("Zm9").is_none());
+        assert!(base64_decode("Z!==").is_none());
+    }
+
+    #[test]
+    fn raw_frame_round_trips_u8_u16_strided_and_metadata() {
+        let f16 = RawFrame::new(
+            3,
+            2,
+            4,
+            RawPixels::U16(vec![1, 2, 3, 999, 4, 5, 1023, 999]),
+            Cfa::Gbrg,
+            10,
+            Levels {
+                black: [1, 2, 3, 4],
+                white: 1023,
+            },
+        )
+        .unwrap()
+        .with_wb_gains([2.0, 1.0, 1.5])
+        .with_meta(FrameMeta {
+            sequence: 7,
+            sensor_sequence: Some(42),
+            timestamp_ns: 123_456_789_012,
+            source: Arc::from("cam0"),
+        });
+        let mut buf = Vec::new();
+        encode_raw_frame(&f16, &mut buf);
+        let back = decode_raw_frame(&buf).unwrap();
+        assert_eq!(back.to_u16_vec(), vec![1, 2, 3, 4, 5, 1023]);
+        assert_eq!(back.cfa(), Cfa::Gbrg);
+        assert_eq!(back.bit_depth(), 10);
+        assert_eq!(back.levels(), f16.levels());
+        assert_eq!(back.meta, f16.meta);
+        assert_eq!(back.wb_gains, f16.wb_gains);
+        // Pixel bytes are little-endian at the end: last pixel 1023 = 0xFF 0x03.
+        assert_eq!(&buf[buf.len() - 2..], &[0xFF, 0x03]);
+
+        let f8 = RawFrame::from_u8(2, 2, vec![9, 8, 7, 6], Cfa::Bggr, Levels::uniform(3, 255)).unwrap();
+        encode_raw_frame(&f8, &mut buf);
+        assert_eq!(&buf[buf.len() - 4..], &[9, 8, 7, 6]);
+        assert_eq!(decode_raw_frame(&buf).unwrap(), f8);
+    }
+
+    #[test]
+    fn raw_frame_decoder_rejects_damage() {
+        let f = RawFrame::from_u8(2, 2, vec![9, 8, 7, 6], Cfa::Bggr, Levels::uniform(3, 255)).unwrap();
+        let mut buf = Vec::new();
+        encode_raw_frame(&f, &mut buf);
+        assert!(matches!(
+            decode_raw_frame(&buf[..buf.len() - 1]),
+            Err(SchemaError::Short { .. })
+        ));
+        assert!(matches!(
+            decode_raw_frame(&buf[..6]),
+            Err(SchemaError::BadMagic { .. })
+        ));
+        assert!(matches!(
+            decode_raw_frame(&buf[..12]),
+            Err(SchemaError::Short { .. })
+        ));
+        let mut bad = buf.clone();
+        bad[0] = b'X';
+        assert!(matches!(
+            decode_raw_frame(&bad),
+            Err(SchemaError::BadMagic { .. })
+        ));
+        let mut bad = buf.clone();
+        bad[9] = b'#';
+        assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Json { .. })));
+        let at = buf.windows(6).position(|w| w == b"\"BGGR\"").unwrap();
+        let mut bad = buf.clone();
+        bad[at + 1..at + 5].copy_from_slice(b"XXXX");
+        assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Cfa(_))));
+        // Huge header length must not allocate or panic.
+        let mut bad = buf.clone();
+        bad[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Short { .. })));
+    }
+
+    #[test]
+    fn annotations_are_line_loops_scaled_to_preview() {
+        let d = Detection {
+            x: 10.0,
+            y: 20.0,
+            width: 64.0,
+            height: 128.0,
+            score: 1.25,
+        };
+        let a = annotations_from_detections(1_500_000_000, &[d], 2.0);
+        assert_eq!(a.points.len(), 1);
+        assert_eq!(a.points[0].kind, POINTS_LINE_LOOP);
+        assert_eq!(a.points[0].points[0], Point2 { x: 5.0, y: 10.0 });
+        assert_eq!(a.points[0].points[2], Point2 { x: 37.0, y: 74.0 });
+        assert_eq!(a.texts[0].text, "1.25");
+        assert_eq!(
+            a.texts[0].timestamp,
+            FoxgloveTime {
+                sec: 1,
+                nsec: 500_000_000
+            }
+        );
+        let json = serde_json::to_value(&a).unwrap();
+        assert_eq!(json["points"][0]["type"], 2);
+    }
+
+    #[test]
+    fn our_json_schemas_parse() {
+        for s in [
+            raw_image_json_schema(),
+            image_annotations_json_schema(),
+            DETECTIONS_JSON_SCHEMA.to_string(),
+            STATS_JSON_SCHEMA.to_string(),
+        ] {
+            serde_json::from_str::<serde_json::Value>(&s).unwrap();
+        }
+    }
+}

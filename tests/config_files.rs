@@ -1,0 +1,67 @@
+//! Every config file we ship parses and validates, and the documented default file documents
+//! every key the daemon knows.
+
+use std::path::Path;
+
+use mosaicd::config::Config;
+
+fn load(name: &str) -> Config {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("config").join(name);
+    Config::load(&p).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn shipped_configs_validate() {
+    for name in [
+        "mosaicd.toml",
+        "replay.toml",
+        "camera.toml",
+        "multi-camera.toml",
+        "synthetic.toml",
+    ] {
+        let c = load(name);
+        assert!(!c.cameras.is_empty(), "{name}");
+    }
+    assert_eq!(load("multi-camera.toml").cameras.len(), 2);
+}
+
+#[test]
+fn default_config_equals_built_in_defaults_and_mentions_every_key() {
+    let c = load("mosaicd.toml");
+    let d = Config::default();
+    assert_eq!(c.daemon, d.daemon);
+    assert_eq!(c.publish, d.publish);
+    assert_eq!(c.record, d.record);
+    assert_eq!(c.compute, d.compute);
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/mosaicd.toml")).unwrap();
+    let keys = toml::Value::try_from(&c).unwrap();
+    for (section, table) in keys.as_table().unwrap() {
+        let table = match table {
+            toml::Value::Array(a) => a[0].as_table().unwrap().clone(),
+            t => t.as_table().unwrap().clone(),
+        };
+        for key in table.keys() {
+            assert!(
+                text.contains(key.as_str()),
+                "config/mosaicd.toml does not document {section}.{key}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_bad_value_in_a_file_names_the_file_key_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.toml");
+    std::fs::write(
+        &p,
+        "[daemon]\nmax_in_flight = 100\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n",
+    )
+    .unwrap();
+    let msg = Config::load(&p).unwrap_err().to_string();
+    assert!(
+        msg.contains("daemon.max_in_flight") && msg.contains("1..=64"),
+        "{msg}"
+    );
+}
