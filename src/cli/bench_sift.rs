@@ -1,10 +1,171 @@
-//! `mosaicd bench sift` (in progress).
+//! `mosaicd bench sift`: mosaic SIFT on a 1080p 12-bit mosaic against OpenCV's conventional path
+//! (demosaic → grey → 8-bit → `SIFT.detectAndCompute`) run by Python in the same command on the
+//! same frame with the same thread count. Prints both median times and the ratio.
+//!
+//! The frame is the real 1920x1080 10-bit RGGB chart `raw/openisp/test.RAW` shifted left by 2 bits
+//! (a 12-bit frame with the same content).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::Command;
+
+use anyhow::{bail, Context};
+
+use mosaicd::features::sift::{detect_and_compute, normalised_mosaic_from_frame, SiftSpec};
+use mosaicd::raw::{Cfa, Levels, RawFrame};
+
+/// The Python peer: OpenCV demosaic, grey, 8-bit, SIFT; prints "median_seconds keypoints".
+const PEER: &str = r#"
+import sys, time
+import numpy as np, cv2
+path, w, h, code, reps, threads, white = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], int(sys.argv[5]), int(sys.argv[6]), float(sys.argv[7])
+cv2.setNumThreads(threads)
+m = np.fromfile(path, dtype='<u2').reshape(h, w)
+sift = cv2.SIFT_create()
+conv = getattr(cv2, 'COLOR_' + code + '2BGR')
+times, n = [], 0
+for _ in range(reps):
+    t0 = time.perf_counter()
+    bgr = cv2.cvtColor(m, conv)
+    g = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
+    g8 = cv2.convertScaleAbs(g, alpha=255.0 / white)
+    kp, d = sift.detectAndCompute(g8, None)
+    times.append(time.perf_counter() - t0)
+    n = len(kp)
+times.sort()
+print(times[len(times) // 2], n)
+"#;
 
 /// Arguments of `mosaicd bench sift`.
 #[derive(clap::Args, Debug)]
-pub struct BenchSiftArgs {}
+pub struct BenchSiftArgs {
+    /// Repetitions (median reported).
+    #[arg(long, default_value_t = 5)]
+    pub reps: usize,
+    /// Threads for both sides (our rayon pool, `cv2.setNumThreads`).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Python interpreter with cv2.
+    #[arg(long, default_value = "python3")]
+    pub python: String,
+    /// Also time mosaic SIFT with doubled colour planes.
+    #[arg(long)]
+    pub with_doubled: bool,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
 
 /// Run `mosaicd bench sift`.
-pub fn run(_args: BenchSiftArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`mosaicd bench sift` is not built yet")
+pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.reps > 0, "--reps must be at least 1");
+    let path = mosaicd::data::data_path("raw/openisp/test.RAW")?;
+    let (w, h) = (1920usize, 1080usize);
+    let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    anyhow::ensure!(
+        bytes.len() >= w * h * 2,
+        "{} is not a 1920x1080 u16 frame",
+        path.display()
+    );
+    let data: Vec<u16> = bytes
+        .chunks_exact(2)
+        .take(w * h)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]).min(1023) << 2)
+        .collect();
+    let white = 4095u16;
+    let cfa = Cfa::Rggb;
+    let frame = RawFrame::from_u16(w, h, data.clone(), cfa, 12, Levels::uniform(0, white))?;
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()?;
+    let run_ours = |spec: SiftSpec| -> anyhow::Result<(f64, usize)> {
+        let mut times = Vec::new();
+        let mut n = 0;
+        for _ in 0..args.reps {
+            let t0 = std::time::Instant::now();
+            let f = pool.install(|| {
+                let img = normalised_mosaic_from_frame(&frame);
+                detect_and_compute(img.view(), &spec)
+            })?;
+            times.push(t0.elapsed().as_secs_f64());
+            n = f.keypoints.len();
+        }
+        Ok((median(times), n))
+    };
+    let base = SiftSpec::mosaic().with_max_value(1.0)?;
+    let (ours, n_ours) = run_ours(base)?;
+    let doubled = if args.with_doubled {
+        Some(run_ours(base.with_double_image(true))?)
+    } else {
+        None
+    };
+
+    let mut tmp = tempfile_path()?;
+    {
+        let mut f = std::fs::File::create(&tmp.0)?;
+        for v in &data {
+            f.write_all(&v.to_le_bytes())?;
+        }
+    }
+    let out = Command::new(&args.python)
+        .arg("-c")
+        .arg(PEER)
+        .arg(&tmp.0)
+        .arg(w.to_string())
+        .arg(h.to_string())
+        .arg(cfa.opencv_code_name())
+        .arg(args.reps.to_string())
+        .arg(args.threads.to_string())
+        .arg(white.to_string())
+        .output()
+        .with_context(|| format!("running {}", args.python))?;
+    tmp.cleanup();
+    if !out.status.success() {
+        bail!("OpenCV peer failed: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut it = text.split_whitespace();
+    let cv_s: f64 = it.next().context("peer output")?.parse()?;
+    let cv_n: usize = it.next().context("peer output")?.parse()?;
+    let commit = Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    println!("bench sift: 1920x1080 12-bit RGGB (openisp test.RAW << 2), {} threads, median of {} runs, commit {commit}", args.threads, args.reps);
+    println!(
+        "  OpenCV demosaic + grey + SIFT.detectAndCompute: {:.3} s ({cv_n} keypoints)",
+        cv_s
+    );
+    println!(
+        "  mosaicd mosaic SIFT (keypoints + descriptors):   {:.3} s ({n_ours} keypoints)",
+        ours
+    );
+    println!("  speed-up: {:.2}x", cv_s / ours);
+    if let Some((t, n)) = doubled {
+        println!(
+            "  mosaicd mosaic SIFT, doubled planes:            {:.3} s ({n} keypoints), speed-up {:.2}x",
+            t,
+            cv_s / t
+        );
+    }
+    Ok(())
+}
+
+/// A temporary file path removed on cleanup.
+struct TmpPath(PathBuf);
+
+impl TmpPath {
+    fn cleanup(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+fn tempfile_path() -> anyhow::Result<TmpPath> {
+    let p = std::env::temp_dir().join(format!("mosaicd_bench_sift_{}.u16", std::process::id()));
+    Ok(TmpPath(p))
 }

@@ -383,17 +383,35 @@ fn orientation_hist(
     maxval
 }
 
-/// `atan2(y, x)` in degrees in `[0, 360)`, as OpenCV's `fastAtan2` range.
+/// `atan2(y, x)` in degrees in `[0, 360)` by OpenCV's `fastAtan2` polynomial (max error about
+/// 0.01°; the same constants as `atan2_bitexact` in `sift.simd.hpp`), several times cheaper than
+/// `f32::atan2` in the descriptor's inner loop.
 #[inline]
 pub(crate) fn fast_atan2_deg(y: f32, x: f32) -> f32 {
-    let a = y.atan2(x).to_degrees();
-    if a < 0.0 {
-        a + 360.0
-    } else if a >= 360.0 {
-        a - 360.0
+    /// Polynomial coefficients (degrees) of OpenCV's `atan2` approximation on [0, 1].
+    const P1: f32 = 57.283_627;
+    const P3: f32 = -18.667_446;
+    const P5: f32 = 8.914_001;
+    const P7: f32 = -2.539_725;
+    /// Guards the division when both components are zero (OpenCV adds `DBL_EPSILON` as float).
+    const EPS: f32 = f64::EPSILON as f32;
+    let (ax, ay) = (x.abs(), y.abs());
+    let mut a = if ax >= ay {
+        let c = ay / (ax + EPS);
+        let c2 = c * c;
+        (((P7 * c2 + P5) * c2 + P3) * c2 + P1) * c
     } else {
-        a
+        let c = ax / (ay + EPS);
+        let c2 = c * c;
+        90.0 - (((P7 * c2 + P5) * c2 + P3) * c2 + P1) * c
+    };
+    if x < 0.0 {
+        a = 180.0 - a;
     }
+    if y < 0.0 {
+        a = 360.0 - a;
+    }
+    a
 }
 
 /// Map a refined octave position to input-image coordinates.
@@ -562,6 +580,14 @@ mod tests {
         assert!((fast_atan2_deg(-1.0, 0.0) - 270.0).abs() < 1e-4);
         assert!((fast_atan2_deg(0.0, -1.0) - 180.0).abs() < 1e-4);
         assert_eq!(fast_atan2_deg(0.0, 1.0), 0.0);
+        assert_eq!(fast_atan2_deg(0.0, 0.0), 0.0);
+        for i in 0..3600 {
+            let t = (i as f32 * 0.1).to_radians();
+            let (y, x) = (3.0 * t.sin(), 3.0 * t.cos());
+            let exact = y.atan2(x).to_degrees().rem_euclid(360.0);
+            let d = (fast_atan2_deg(y, x) - exact).abs();
+            assert!(d.min(360.0 - d) < 0.02, "{i}: {d}");
+        }
     }
 
     #[test]

@@ -368,14 +368,24 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
     src: ImageView<T>,
     spec: &SiftSpec,
 ) -> Result<SiftFeatures, SiftError> {
+    let t0 = std::time::Instant::now();
     let img = prepare(src, spec)?;
     let pyr = detect::build_pyramid(&img, spec)?;
+    let t1 = std::time::Instant::now();
     let cands = sorted_candidates(&pyr, spec);
+    let t2 = std::time::Instant::now();
     let s = spec.step();
     let descriptors = cands
         .par_iter()
         .map(|c| descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s))
         .collect();
+    tracing::debug!(
+        pyramid_s = (t1 - t0).as_secs_f64(),
+        extrema_s = (t2 - t1).as_secs_f64(),
+        descriptors_s = t2.elapsed().as_secs_f64(),
+        keypoints = cands.len(),
+        "sift stages"
+    );
     Ok(SiftFeatures {
         keypoints: cands.into_iter().map(|c| c.kp).collect(),
         descriptors,
