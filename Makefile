@@ -5,16 +5,23 @@ CARGO ?= cargo
 export MOSAICD_DATA ?= $(abspath ../shared/data)
 ORACLE_DIR := target/oracle
 
-.PHONY: setup demo test oracle lint doc bench
+.PHONY: setup demo recording test oracle lint doc bench
 
 setup:
 	@bash scripts/setup.sh
 
-# Quick start 1: the main job on a bundled default.
+# Quick start 1: the main job on a bundled default — the daemon replays the demo recording (built once
+# from a real 8-bit sensor frame in $(MOSAICD_DATA) by recordings/demo.toml) with detection on, publishes
+# over iceoryx2 and prints a summary (frames, detections, throughput, latency).
 demo: setup
 	$(CARGO) build --release --quiet
-	./target/release/mosaicd gradients $(MOSAICD_DATA)/raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw \
-		--width 768 --height 512 --bit-depth 14 --cfa RGGB --black 600 --white 15520 --out out/demo
+	test -f recordings/out/demo.mcap || ./target/release/mosaicd record --recipe recordings/demo.toml
+	./target/release/mosaicd run
+
+# The demo recording alone (recordings/out/demo.mcap, about 28 MB, never committed).
+recording: setup
+	$(CARGO) build --release --quiet
+	./target/release/mosaicd record --recipe recordings/demo.toml
 
 # Reference fixtures from OpenCV / scikit-image / colour-demosaicing (tests/oracle/gen_*.py).
 oracle: setup

@@ -6,6 +6,7 @@ use anyhow::{bail, Context};
 use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod};
 use mosaicd::features::hog::{mosaic_from_raw, HogInput};
 use mosaicd::image::Image;
+use mosaicd::isp::grey::grey_from_rgb_u8;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 /// Arguments of `mosaicd detect`.
@@ -284,7 +285,7 @@ pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>)
     let colour = Image::from_vec(w, h, rgb.pixels().map(|p| p.0).collect())?;
     match want.unwrap_or(if is_grey { Domain::Grey } else { Domain::Colour }) {
         Domain::Colour => Ok(Frame::Colour(colour)),
-        Domain::Grey => Ok(Frame::Grey(grey_from_rgb_opencv(&colour))),
+        Domain::Grey => Ok(Frame::Grey(grey_from_rgb_u8(&colour.view()))),
         Domain::Mosaic => {
             let cfa = raw.cfa.unwrap_or(Cfa::Rggb);
             if w % 2 != 0 || h % 2 != 0 {
@@ -301,11 +302,6 @@ pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>)
             Ok(Frame::Mosaic(m, cfa))
         }
     }
-}
-
-/// OpenCV `COLOR_RGB2GRAY` (fixed point, 14-bit coefficients 4899/9617/1868).
-pub fn grey_from_rgb_opencv(c: &Image<[u8; 3]>) -> Image<u8> {
-    c.map(|p| ((p[0] as u32 * 4899 + p[1] as u32 * 9617 + p[2] as u32 * 1868 + (1 << 13)) >> 14) as u8)
 }
 
 /// Draw box outlines (2 px, green) on an RGB image.
