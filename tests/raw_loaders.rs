@@ -224,23 +224,34 @@ fn halide_bayer_small_png_grbg() {
     assert!((gr - gb).abs() < 0.05 * gr, "gr {gr} gb {gb}");
 }
 
-/// rawloader 0.37 has no entry for the Kodak DC50 (its KDC decoder handles the DC120 and the
-/// EasyShare models; the DC40/DC50 use Kodak's RADC compression). Our loader must say so clearly,
-/// naming the camera, rather than panic or return a wrong frame. When rawloader gains support this
-/// test fails and must be turned into the real check (GRBG, 768x512, 0/16383).
+/// The Kodak DC50 KDC: rawloader 0.37 cannot decode it (no entry for the camera; the DC40/DC50
+/// use Kodak's RADC compression), so the camera-raw loader identifies it by its TIFF make/model and
+/// uses our RADC decoder (`src/raw/kodak_radc.rs`; pixel parity with LibRaw is `tests/raw_kdc.rs`).
+/// Here: what the data README says — GRBG, 768x512, 14-bit range, 0 / 16383 — and a plausible
+/// picture (values spread over the range, the two green planes alike).
 #[test]
-fn kodak_dc50_kdc_through_rawloader_is_refused_clearly() {
+fn kodak_dc50_kdc_loads_as_grbg_768x512_14_bit() {
     let p = require("raw/rawpy_kodak_dc50/RAW_KODAK_DC50.KDC");
-    match load_camera_raw(&p) {
-        Err(RawError::Format { path, what }) => {
-            assert_eq!(path, p);
-            assert!(what.contains("DC50"), "{what}");
-        }
-        other => panic!("expected a clear refusal, got {other:?}"),
+    // Still refused by rawloader itself: when that changes, compare the two decoders here.
+    match rawloader::decode_file(&p) {
+        Err(e) => assert!(e.to_string().contains("DC50"), "{e}"),
+        Ok(_) => panic!("rawloader now decodes the DC50: compare it with our RADC decoder"),
     }
-    // The dispatcher sends it to rawloader too, with the file named in the message.
-    let e = load_input(&p, &InputOptions::default()).unwrap_err();
-    assert!(e.to_string().contains("RAW_KODAK_DC50.KDC"), "{e}");
+    let f = load_camera_raw(&p).unwrap();
+    assert_eq!((f.width(), f.height()), (768, 512));
+    assert_eq!(f.cfa(), Cfa::Grbg);
+    assert_eq!(f.bit_depth(), 14);
+    assert_eq!(*f.levels(), Levels::uniform(0, 16383));
+    assert!(f.wb_gains.is_none());
+    let v = f.to_u16_vec();
+    let (min, max) = (*v.iter().min().unwrap(), *v.iter().max().unwrap());
+    assert!(max <= 16383 && min < 1000 && max > 8000, "min {min} max {max}");
+    let (gr, gb) = (channel_mean(&f, CfaChannel::Gr), channel_mean(&f, CfaChannel::Gb));
+    assert!((gr - gb).abs() < 0.05 * gr, "gr {gr} gb {gb}");
+    // The dispatcher sends it to the same place, and names the file in the frame's source.
+    let l = load_input(&p, &InputOptions::default()).unwrap();
+    assert_eq!(l.frame.to_u16_vec(), v);
+    assert!(l.frame.meta.source.contains("RAW_KODAK_DC50.KDC"));
 }
 
 #[test]

@@ -39,6 +39,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::kodak_radc;
 use super::sample::frame_from_rgb8;
 use super::{Cfa, FrameMeta, Levels, RawError, RawFrame, RawPixels};
 use crate::image::Image;
@@ -540,9 +541,15 @@ fn cfa_from_rawloader(name: &str, origin: &Path) -> Result<Cfa, RawError> {
     })
 }
 
-/// Load a camera raw file through `rawloader`.
+/// Load a camera raw file: a Kodak DC40/DC50 KDC (identified by its TIFF make and model, see
+/// [`super::kodak_radc`]) through our RADC decoder, anything else through `rawloader`.
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
-    let raw = rawloader::decode_file(path).map_err(|e| format_err(path, format!("rawloader: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
+    if let Some(info) = kodak_radc::identify(&bytes) {
+        return load_kodak_radc(path, &bytes, &info);
+    }
+    let raw = rawloader::decode(&mut std::io::Cursor::new(&bytes))
+        .map_err(|e| format_err(path, format!("rawloader: {e}")))?;
     let data = match raw.data {
         rawloader::RawImageData::Integer(ref d) => d,
         rawloader::RawImageData::Float(_) => {
@@ -601,6 +608,28 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     }
     frame.meta = meta_for(path);
     Ok(frame)
+}
+
+/// A Kodak DC40/DC50 RADC file: 768x512 GRBG, linear 14-bit values, black 0, white 16383, no
+/// white-balance gains in the file.
+fn load_kodak_radc(path: &Path, bytes: &[u8], info: &kodak_radc::RadcInfo) -> Result<RawFrame, RawError> {
+    let px = kodak_radc::decode(bytes, info).map_err(|e| {
+        format_err(
+            path,
+            format!("{} {} (Kodak RADC): {e}", info.make, info.model_name),
+        )
+    })?;
+    let levels = Levels::uniform(kodak_radc::BLACK, kodak_radc::WHITE);
+    let frame = RawFrame::new(
+        info.width,
+        info.height,
+        info.width,
+        RawPixels::U16(px),
+        kodak_radc::CFA,
+        kodak_radc::BIT_DEPTH,
+        levels,
+    )?;
+    Ok(frame.with_meta(meta_for(path)))
 }
 
 /// How [`load_input`] should read a file. Fields that do not apply to a file type are ignored.

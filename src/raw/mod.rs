@@ -7,6 +7,7 @@
 
 pub mod cfa;
 pub mod frame;
+pub mod kodak_radc;
 pub mod levels;
 pub mod load;
 pub mod sample;
