@@ -431,8 +431,8 @@ const TREES: [&[(u8, i8)]; 18] = [
 ];
 
 /// Lookup table of tree `t` (0..18): for each 8-bit peek value, (bits to consume, symbol). Tree
-/// 18 (raw values) is not a table here: see [`Decoder::raw_value`]. Trees whose lengths do not
-/// fill 256 entries exactly would be a bug in [`TREES`]; the unit tests check they all do.
+/// 18 (raw values: `8 - s` bits, see the module docs) is not a table here. Trees whose lengths do not
+/// fill 256 entries exactly would be a bug in the code lengths; the unit tests check they all do.
 pub fn code_table(t: usize) -> [(u8, i8); 256] {
     let mut out = [(8u8, 0i8); 256];
     let mut v = 0usize;
