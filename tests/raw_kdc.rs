@@ -91,6 +91,21 @@ fn truncated_dc50_never_panics_and_names_the_offset() {
     cuts.extend([0, 1, 2, 3, 100].iter().map(|d| info.data_offset + d));
     cuts.extend((1..20).map(|k| info.data_offset + data * k / 20));
     cuts.extend([bytes.len() - 64, bytes.len() - 2, bytes.len() - 1]);
+    // Where the stream ends: the shortest prefix that decodes (decoding a prefix is monotone:
+    // peeking past the end pads with zeros, consuming past it is an error).
+    let (mut lo, mut hi) = (info.data_offset + 1, bytes.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if kodak_radc::decode(&bytes[..mid], &info).is_ok() {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let end = lo;
+    eprintln!("RADC stream ends at byte {end} of {}", bytes.len());
+    assert!(kodak_radc::decode(&bytes[..end - 1], &info).is_err());
+    cuts.extend([end - 1, end]);
     let mut errors_in_data = 0;
     for &cut in &cuts {
         let head = &bytes[..cut];
@@ -99,8 +114,12 @@ fn truncated_dc50_never_panics_and_names_the_offset() {
             continue;
         };
         match kodak_radc::decode(head, &info) {
-            Ok(px) => assert_eq!(px, full, "cut at {cut} decoded to a different image"),
+            Ok(px) => {
+                assert!(cut >= end, "cut at {cut} before the stream end {end} decoded");
+                assert_eq!(px, full, "cut at {cut} decoded to a different image");
+            }
             Err(RadcError::Truncated { offset, len, .. }) => {
+                assert!(cut < end, "cut at {cut} after the stream end {end} refused");
                 assert_eq!(len, cut);
                 assert!(
                     offset >= info.data_offset && offset <= cut,

@@ -175,6 +175,12 @@ fn all_cases() -> Vec<Case> {
         tuned: Some([1.5, 1.0, 1.1]),
     });
     v.push(halide());
+    // Kodak DC50 KDC through our RADC decoder: the file has no white balance (LibRaw uses 1, 1, 1).
+    v.push(Case {
+        name: "Kodak DC50 KDC (GRBG 14-bit linearised, 0/16383)",
+        frame: load("raw/rawpy_kodak_dc50/RAW_KODAK_DC50.KDC", InputOptions::default()),
+        tuned: None,
+    });
     v
 }
 

@@ -21,13 +21,16 @@
 //! assert!(frame_from_bytes(&bytes, &be, "mem".as_ref()).is_err());
 //! ```
 //!
-//! Camera raw files go through `rawloader::decode_file`: its crop (`crops` = top, right, bottom,
+//! Camera raw files are read once; a Kodak DC40/DC50 KDC (identified by its TIFF make and model,
+//! not by its name) is decoded by [`super::kodak_radc`] (RADC compression, which rawloader 0.37
+//! lacks) into a 768x512 GRBG frame, 14-bit, black 0, white 16383, no gains; a truncated or corrupt
+//! one is refused naming the camera and the byte offset. Everything else goes through
+//! `rawloader::decode`: its crop (`crops` = top, right, bottom,
 //! left) is applied and the pattern re-phased, its black levels (given per colour, RGBE) are mapped
 //! to our per-tile-position black levels, the bit depth is the smallest that holds the white level
 //! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
 //! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
-//! Refused with rawloader's or our message: cameras rawloader 0.37 does not know (among them the
-//! Kodak DC40/DC50 with RADC compression, e.g. the shared `RAW_KODAK_DC50.KDC`), floating-point
+//! Refused with rawloader's or our message: cameras rawloader 0.37 does not know, floating-point
 //! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
 //!
 //! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
