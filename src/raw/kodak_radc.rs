@@ -65,6 +65,20 @@
 //!   wrap to 16 bits before the curve, divisions truncate toward zero, the rescaling saturates at
 //!   `i32::MAX` before the shift as in LibRaw.
 //!
+//! Decoding is inherently serial (one bit stream, each 2x2 group predicted from the previous
+//! ones), so there is no rayon path; the 768x512 frame takes a few milliseconds.
+//!
+//! ```
+//! use mosaicd::raw::kodak_radc::{self, RadcError};
+//! // Not a TIFF, or not a Kodak DC40/DC50: not ours (the loader then tries rawloader).
+//! assert!(kodak_radc::identify(b"II*\0\x08\0\0\0").is_none());
+//! // A band starts with three 6-bit multipliers; 0 is corrupt, and the error says where.
+//! let e = kodak_radc::decode_stream(&[0u8; 16], 0, 768, 512, false).unwrap_err();
+//! assert!(matches!(e, RadcError::Corrupt { offset: 0, row: 0, .. }));
+//! ```
+//!
+//! With a file:
+//!
 //! ```no_run
 //! use mosaicd::raw::kodak_radc;
 //! let bytes = std::fs::read("RAW_KODAK_DC50.KDC").unwrap();
@@ -83,6 +97,15 @@ pub const BIT_DEPTH: u8 = 14;
 pub const WHITE: u16 = 16383;
 /// Black level of the decoded values (dcraw/LibRaw subtract none for these cameras).
 pub const BLACK: u16 = 0;
+
+/// Byte offset of the compressed data in a DC50 file (dcraw; equals the file's strip offset).
+const DC50_DATA_OFFSET: usize = 19712;
+/// Byte offset of the compressed data in a DC40 file (dcraw).
+const DC40_DATA_OFFSET: usize = 1152;
+/// `CompressedBitsPerPixel` numerator for which raw values (tree 18) have 6 bits, else 5.
+const SIX_BIT_CBPP: u32 = 243;
+/// Initial plane value, and the offset of the red/blue colour differences.
+const MID: i32 = 2048;
 
 /// Largest width the decoder's line buffers hold (all RADC cameras are 768 x 512).
 const MAX_WIDTH: usize = 768;
@@ -120,7 +143,7 @@ pub enum RadcError {
         /// First row of the band being decoded.
         row: usize,
         /// What is wrong.
-        what: String,
+        what: &'static str,
     },
     /// A geometry the decoder does not support.
     #[error("RADC size {width}x{height} is not supported (need multiples of 4, at most 768x512)")]
@@ -270,9 +293,9 @@ pub fn identify(bytes: &[u8]) -> Option<RadcInfo> {
         return None;
     }
     let (kind, data_offset) = if model_name.contains("DC50") {
-        (KodakModel::Dc50, 19712)
+        (KodakModel::Dc50, DC50_DATA_OFFSET)
     } else if model_name == "40" || model_name.contains("DC40") || model_name.contains("Digital Camera 40") {
-        (KodakModel::Dc40, 1152)
+        (KodakModel::Dc40, DC40_DATA_OFFSET)
     } else {
         return None;
     };
@@ -583,7 +606,13 @@ fn curve() -> Vec<u16> {
 /// Decode the RADC image of a file identified by [`identify`]: `width * height` values in row
 /// order, GRBG, linear 0..=[`WHITE`].
 pub fn decode(bytes: &[u8], info: &RadcInfo) -> Result<Vec<u16>, RadcError> {
-    decode_stream(bytes, info.data_offset, info.width, info.height, info.cbpp == 243)
+    decode_stream(
+        bytes,
+        info.data_offset,
+        info.width,
+        info.height,
+        info.cbpp == SIX_BIT_CBPP,
+    )
 }
 
 /// Decode an RADC stream starting at `data_offset` of `bytes` into a `width x height` mosaic
@@ -619,7 +648,7 @@ pub fn decode_stream(
         row: 0,
     };
     let mut raw = vec![0u16; width * height];
-    let mut planes: Planes = std::array::from_fn(|_| vec![vec![2048i16; half + 2]; 3]);
+    let mut planes: Planes = std::array::from_fn(|_| vec![vec![MID as i16; half + 2]; 3]);
     let mut last = [16i32; 3];
     for row in (0..height).step_by(4) {
         d.row = row;
@@ -631,7 +660,7 @@ pub fn decode_stream(
                 return Err(RadcError::Corrupt {
                     offset: at,
                     row,
-                    what: "quantiser multiplier 0".into(),
+                    what: "quantiser multiplier 0",
                 });
             }
         }
@@ -721,7 +750,7 @@ pub fn decode_stream(
             for x in ((1 - (y & 1))..width).step_by(2) {
                 let l = if x > 0 { x - 1 } else { x + 1 };
                 let rr = if x + 1 < width { x + 1 } else { x - 1 };
-                let v = (i32::from(line[x]) - 2048) * 2 + (i32::from(line[l]) + i32::from(line[rr])) / 2;
+                let v = (i32::from(line[x]) - MID) * 2 + (i32::from(line[l]) + i32::from(line[rr])) / 2;
                 line[x] = v.max(0) as u16;
             }
         }
