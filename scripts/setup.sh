@@ -23,8 +23,8 @@ if [ ${#pkgs[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${pkgs[@]}" >/dev/null
 fi
 
-# Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing.
-if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy; assert cv2.__version__.startswith("4.")' >/dev/null 2>&1; then
+# Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing, rawpy (LibRaw).
+if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy, rawpy; assert cv2.__version__.startswith("4.")' >/dev/null 2>&1; then
   echo "setup: installing Python oracles (tests/oracle/requirements.txt)" >&2
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/oracle/requirements.txt
 fi
