@@ -7,7 +7,7 @@
 //!     --cfa RGGB --black 600 --white 15520
 //! mosaicd gradients bayer_small.png --cfa GRBG --bit-depth 10 --black 25 --white 1023
 //! mosaicd gradients kodim01.png --cfa GRBG        # RGB resampled to a GRBG mosaic
-//! mosaicd gradients RAW_KODAK_DC50.KDC            # camera raw through rawloader
+//! mosaicd gradients RAW_KODAK_DC50.KDC            # camera raw (rawloader; Kodak DC40/DC50 RADC by our decoder)
 //! ```
 
 use std::path::PathBuf;
@@ -32,7 +32,7 @@ fn parse_black(s: &str) -> Result<[u16; 4], String> {
 #[derive(clap::Args, Debug, Clone)]
 pub struct InputArgs {
     /// Input: headerless raw (.raw/.bin or with --width/--height), grey PNG/PGM mosaic, RGB PNG/JPEG
-    /// (resampled to --cfa), or a camera raw file (anything else, via rawloader).
+    /// (resampled to --cfa), or a camera raw file (anything else: rawloader, or our Kodak RADC decoder).
     pub input: PathBuf,
     /// Width in pixels of a headerless raw file.
     #[arg(long)]
