@@ -224,6 +224,9 @@ pub struct ComputeConfig {
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
     pub strip_rows: usize,
+    /// Also compute mosaic SIFT keypoints (super-pixel DoG, 5x5 extrema; no descriptors) and
+    /// publish them on `<prefix>/<camera>/keypoints` and record them on `/<camera>/keypoints`.
+    pub keypoints: bool,
 }
 
 impl Default for ComputeConfig {
@@ -237,6 +240,7 @@ impl Default for ComputeConfig {
             upsample: 1.0,
             orientation_bins: 9,
             strip_rows: 64,
+            keypoints: false,
         }
     }
 }

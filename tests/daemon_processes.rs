@@ -4,12 +4,13 @@
 //! Every test uses its own service prefix and camera name (tests run in parallel) and a synthetic
 //! source (`source = "synthetic"`), so no data files are needed.
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use mosaicd::pipeline::sinks::strip_wall_clock;
+
+mod common;
 
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 
@@ -84,9 +85,9 @@ fn every_frame_yields_one_detections_message_received_by_a_listen_process() {
     let (prefix, camera) = (unique("lp"), unique("lc"));
     let n = 40;
     let cfg = config(dir.path(), &prefix, &camera, &format!("frames = {n}"), true);
-    let mut listener = Command::new(BIN)
-        .args([
-            "listen",
+    let listener = common::spawn_listener(
+        BIN,
+        &[
             "--camera",
             &camera,
             "--prefix",
@@ -94,20 +95,10 @@ fn every_frame_yields_one_detections_message_received_by_a_listen_process() {
             "--buffer",
             "256",
             "--until-final",
-        ])
-        .args(["--timeout-s", "60"])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Wait until the listener is subscribed.
-    let mut err = BufReader::new(listener.stderr.take().unwrap());
-    let mut line = String::new();
-    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
-        line.clear();
-    }
-    assert!(line.contains("subscribed"), "listener did not start: {line}");
+            "--timeout-s",
+            "60",
+        ],
+    );
     let out = daemon(&cfg, &[]).output().unwrap();
     assert!(out.status.success(), "daemon failed: {}", stderr_of(&out));
     let summary = String::from_utf8_lossy(&out.stdout);
@@ -312,9 +303,9 @@ fn gradient_maps_are_published_as_decimated_slices() {
         "frames = 20\nlive = true\nfps = 100.0",
         true,
     );
-    let mut listener = Command::new(BIN)
-        .args([
-            "listen",
+    let listener = common::spawn_listener(
+        BIN,
+        &[
             "--camera",
             &camera,
             "--prefix",
@@ -322,18 +313,11 @@ fn gradient_maps_are_published_as_decimated_slices() {
             "--buffer",
             "256",
             "--until-final",
-        ])
-        .args(["--gradients", "--timeout-s", "60"])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut err = BufReader::new(listener.stderr.take().unwrap());
-    let mut line = String::new();
-    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
-        line.clear();
-    }
+            "--gradients",
+            "--timeout-s",
+            "60",
+        ],
+    );
     let out = daemon(&cfg, &["--publish-gradients"]).output().unwrap();
     assert!(out.status.success(), "{}", stderr_of(&out));
     let lout = listener.wait_with_output().unwrap();

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use mosaicd::capture::{CaptureError, Clock, FakeClock, McapSource, McapSourceOptions, Pacing, Source};
 use mosaicd::detect::Detection;
+use mosaicd::features::sift::Keypoint;
 use mosaicd::raw::{Cfa, FrameMeta, Levels, RawFrame};
 use mosaicd::record::read::{read_annotations, read_detections, read_stats, RecordingInfo};
 use mosaicd::record::{FlushPolicy, McapRecorder, RecordError, RecorderOptions, RotatePolicy};
@@ -51,13 +52,32 @@ fn det(i: u64) -> Vec<Detection> {
         .collect()
 }
 
+/// `i % 4` keypoints (none on every fourth frame).
+fn kps(i: u64) -> Vec<Keypoint> {
+    (0..(i % 4))
+        .map(|k| Keypoint {
+            x: 10.0 + k as f32,
+            y: 6.0 + i as f32,
+            size: 6.4,
+            angle: 90.0,
+            response: 0.02,
+            octave: 0,
+            layer: 1,
+        })
+        .collect()
+}
+
 fn record(path: &Path, n: u64, opts: RecorderOptions) -> mosaicd::record::RecordingSummary {
+    let keypoints = opts.keypoints;
     let mut rec = McapRecorder::create(path, opts).unwrap();
     for i in 0..n {
         let f = frame(i, 64, 48);
         rec.write_frame(&f).unwrap();
         rec.write_detections(i, f.meta.timestamp_ns, 64, 48, &det(i))
             .unwrap();
+        if keypoints {
+            rec.write_keypoints(f.meta.timestamp_ns, &kps(i)).unwrap();
+        }
         if i % 5 == 4 {
             rec.write_stats(f.meta.timestamp_ns, &serde_json::json!({"frames": i + 1}))
                 .unwrap();
@@ -418,8 +438,13 @@ fn replay_paces_loops_and_starts_late() {
 fn foxglove_messages_match_their_schemas() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("f.mcap");
-    record(&path, 3, RecorderOptions::default());
+    let opts = RecorderOptions {
+        keypoints: true,
+        ..RecorderOptions::default()
+    };
+    record(&path, 3, opts);
     let mut checked = 0;
+    let mut keypoint_points = Vec::new();
     mosaicd::record::read::for_each_message(&path, |m| {
         let Some(schema) = &m.channel.schema else {
             return Ok(());
@@ -439,11 +464,37 @@ fn foxglove_messages_match_their_schemas() {
             let data = mosaicd::record::schema::base64_decode(v["data"].as_str().unwrap()).unwrap();
             assert_eq!(data.len(), 32 * 24);
         }
+        if m.channel.topic == "/camera/keypoints" {
+            assert_eq!(schema.name, "foxglove.ImageAnnotations");
+            let pts = v["points"].as_array().unwrap();
+            keypoint_points.push(pts.first().map_or(0, |p| p["points"].as_array().unwrap().len()));
+            if let Some(p) = pts.first() {
+                assert_eq!(p["type"], 1, "POINTS");
+                // Preview coordinates (decimation 2): x = (10 + k) / 2.
+                assert_eq!(p["points"][0]["x"], 5.0);
+            }
+        }
         checked += 1;
         Ok(())
     })
     .unwrap();
-    assert!(checked >= 9);
+    assert!(checked >= 12);
+    assert_eq!(
+        keypoint_points,
+        vec![0, 1, 2],
+        "one annotation per frame, i % 4 points"
+    );
+}
+
+#[test]
+fn keypoints_need_the_keypoints_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rec = McapRecorder::create(dir.path().join("k.mcap"), RecorderOptions::default()).unwrap();
+    let e = rec.write_keypoints(0, &kps(1)).unwrap_err();
+    assert!(e.to_string().contains("keypoints"), "{e}");
+    // The recorder is not stopped by the refusal.
+    rec.write_detections(0, 0, 64, 48, &det(1)).unwrap();
+    rec.finish().unwrap();
 }
 
 /// Every property of `v` is declared in `schema` with a matching JSON type.

@@ -75,7 +75,7 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
         Box::new(src),
         pool,
         Arc::new(ReplayClock::default()),
-        vec![IceoryxSink::factory(camera, &publish)],
+        vec![IceoryxSink::factory(camera, &publish, stage.spec().keypoints)],
         frames,
     )?;
     let r = p.join();

@@ -2,7 +2,8 @@
 //! lines (one object per sample, with a `"topic"` key).
 //!
 //! It opens (or creates, if it starts first) the camera's `detections` and `stats` services — and
-//! `gradients` with `--gradients` — with the same settings as the daemon. It stops after `--count`
+//! `gradients` with `--gradients`, `keypoints` with `--keypoints` — with the same settings as the
+//! daemon. It stops after `--count`
 //! detections, after the daemon's final stats with `--until-final`, after `--timeout-s`, or on
 //! SIGINT/SIGTERM.
 
@@ -11,9 +12,9 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use mosaicd::publish::messages::DetectionsMsg;
+use mosaicd::publish::messages::{DetectionsMsg, KeypointsMsg};
 use mosaicd::publish::service::{
-    create_node, detections_service, gradients_service, stats_service, subscriber,
+    create_node, detections_service, gradients_service, keypoints_service, stats_service, subscriber,
 };
 
 /// Poll period of the subscriber loop.
@@ -43,6 +44,24 @@ pub struct ListenArgs {
     /// Also print the gradients service (header and payload size).
     #[arg(long)]
     gradients: bool,
+    /// Also print the keypoints service (daemon with `compute.keypoints = true`).
+    #[arg(long)]
+    keypoints: bool,
+}
+
+fn keypoints_json(m: &KeypointsMsg) -> serde_json::Value {
+    json!({
+        "topic": "keypoints",
+        "index": m.index,
+        "sequence": m.sequence,
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "publish_timestamp_ns": m.publish_timestamp_ns,
+        "frame_width": m.frame_width,
+        "frame_height": m.frame_height,
+        "keypoint_count": m.keypoint_count,
+        "overflow": m.overflow,
+        "keypoints": m.keypoints(),
+    })
 }
 
 fn detections_json(m: &DetectionsMsg) -> serde_json::Value {
@@ -81,6 +100,12 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
     } else {
         None
     };
+    let kp_sub = if args.keypoints {
+        let svc = keypoints_service(&node, &args.prefix, &args.camera, args.buffer)?;
+        Some(subscriber(&svc, args.buffer, "keypoints")?)
+    } else {
+        None
+    };
     eprintln!(
         "mosaicd listen: subscribed to {}/{}/{{detections,stats}}",
         args.prefix, args.camera
@@ -90,7 +115,14 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
     let mut out = stdout.lock();
     let mut received = 0u64;
     let mut finished = false;
+    // Keypoints are published before the frame's detections, so draining them first keeps a
+    // frame's lines together.
     let drain_detections = |out: &mut std::io::StdoutLock<'_>, received: &mut u64| -> anyhow::Result<()> {
+        if let Some(sub) = &kp_sub {
+            while let Some(s) = sub.receive()? {
+                writeln!(out, "{}", keypoints_json(&s))?;
+            }
+        }
         while let Some(s) = det_sub.receive()? {
             writeln!(out, "{}", detections_json(&s))?;
             *received += 1;

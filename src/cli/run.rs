@@ -102,7 +102,11 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
     move |cam: &CameraConfig| {
         let mut v = Vec::new();
         if cfg.publish.enabled {
-            v.push(IceoryxSink::factory(&cam.name, &cfg.publish));
+            v.push(IceoryxSink::factory(
+                &cam.name,
+                &cfg.publish,
+                cfg.compute.keypoints,
+            ));
         }
         if cfg.record.enabled {
             v.push(mosaicd::pipeline::record_sink::recorder_sink(cfg, cam)?);

@@ -154,6 +154,7 @@ pub fn stage_spec(cfg: &Config) -> StageSpec {
         orientation_bins: cfg.compute.orientation_bins,
         strip_rows: cfg.compute.strip_rows,
         detect: cfg.compute.detect,
+        keypoints: cfg.compute.keypoints,
     }
 }
 

@@ -1,8 +1,8 @@
 //! The MCAP recorder ([`crate::record::McapRecorder`]) as a pipeline sink, on its own thread.
 //!
 //! Per processed frame: the detections as `foxglove.ImageAnnotations` and `mosaicd.Detections`
-//! (log time = the frame's capture timestamp), optionally the raw frame (lossless) and an 8-bit
-//! preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
+//! (log time = the frame's capture timestamp), the mosaic SIFT keypoints when `compute.keypoints`
+//! is on, optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
 //! ([`super::sinks::stats_json`]). Chunks are flushed every `record.flush_frames` frames, so a crash
 //! loses at most that many; [`Sink::finish`] writes the summary and index. A write error (disk full)
 //! stops this sink and is reported; detection and publishing go on.
@@ -38,6 +38,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
         preview: (cfg.record.preview_decimation > 0).then_some(PreviewOptions {
             decimation: cfg.record.preview_decimation,
         }),
+        keypoints: cfg.compute.keypoints,
         ..RecorderOptions::default()
     };
     let (camera, frames) = (
@@ -95,6 +96,11 @@ impl Sink for McapSink {
                 &r.output.detections,
             )
             .map_err(|e| self.err(e))?;
+        if let Some(k) = &r.output.keypoints {
+            self.recorder
+                .write_keypoints(r.meta.timestamp_ns, k)
+                .map_err(|e| self.err(e))?;
+        }
         // The recorder's own cadence counts raw frames; results-only recordings flush here, so a
         // crash loses at most `record.flush_frames` frames' results either way.
         self.since_flush += 1;

@@ -2,7 +2,7 @@
 //! in-memory collector for tests.
 //!
 //! The results file has one line per processed frame (index, sequence, timestamps, size, mean
-//! gradient magnitude, boxes) and the final stats. Wall-clock fields are grouped under the key
+//! gradient magnitude, boxes, and keypoints when `compute.keypoints` is on) and the final stats. Wall-clock fields are grouped under the key
 //! `"wall"` so a comparison can drop them; everything else is a function of the input alone, so
 //! replaying a recording gives a byte-identical file for any thread count once `"wall"` is removed
 //! ([`strip_wall_clock`]).
@@ -19,9 +19,9 @@ use crate::publish::messages::StatsMsg;
 /// Key under which wall-clock (non-deterministic) values are grouped.
 pub const WALL_KEY: &str = "wall";
 
-/// The JSON record of one frame.
+/// The JSON record of one frame (`"keypoints"` only when the stage computes them).
 pub fn frame_json(r: &FrameResult) -> serde_json::Value {
-    json!({
+    let mut v = json!({
         "type": "frame",
         "camera": &*r.camera,
         "index": r.index,
@@ -34,7 +34,11 @@ pub fn frame_json(r: &FrameResult) -> serde_json::Value {
         "mean_magnitude": r.output.mean_magnitude,
         "detections": r.output.detections,
         WALL_KEY: { "latency_ns": r.latency_ns },
-    })
+    });
+    if let Some(k) = &r.output.keypoints {
+        v["keypoints"] = json!(k);
+    }
+    v
 }
 
 /// The JSON record of a stats message.

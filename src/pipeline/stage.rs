@@ -9,6 +9,11 @@
 //!   [`crate::features::hog::mosaic_from_raw`], tested equal) and handed to the multi-scale HOG +
 //!   linear SVM [`Detector`]. A frame smaller than the detection window gives no detections (not an
 //!   error).
+//! * **Keypoints** (optional, `compute.keypoints`): the paper's mosaic SIFT
+//!   ([`crate::features::sift::keypoints_from_frame`]: black level subtracted per tile, super-pixel
+//!   DoG pyramid, 5x5 extrema, no descriptors), sorted by decreasing |response| with ties broken by
+//!   position, so the order — and which keypoints fit a message — is the same for any thread count.
+//!   A frame smaller than SIFT's minimum size gives an empty list (not an error).
 //! * **mean_magnitude**: `Σ mag · 2^s / (white − max black) / (w·h)`, a cheap liveness signal in
 //!   normalised units. The sum is an exact integer, so it is identical for any thread count.
 //!
@@ -30,6 +35,7 @@ use rayon::prelude::*;
 use crate::detect::types::Detection;
 use crate::detect::Detector;
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
+use crate::features::sift::{keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec};
 use crate::image::{Image, ImageViewMut};
 use crate::raw::{RawFrame, RawView};
 
@@ -69,6 +75,9 @@ pub enum StageError {
     /// The detector refused the frame.
     #[error("detection: {0}")]
     Detect(#[from] crate::detect::DetectError),
+    /// Mosaic SIFT refused the frame (other than for being too small).
+    #[error("keypoints: {0}")]
+    Keypoints(#[from] SiftError),
     /// An internal buffer did not match the frame.
     #[error("buffer: {0}")]
     Buffer(#[from] crate::image::ImageError),
@@ -83,6 +92,8 @@ pub struct StageSpec {
     pub strip_rows: usize,
     /// Run detection.
     pub detect: bool,
+    /// Compute mosaic SIFT keypoints.
+    pub keypoints: bool,
 }
 
 impl Default for StageSpec {
@@ -91,6 +102,7 @@ impl Default for StageSpec {
             orientation_bins: 9,
             strip_rows: 64,
             detect: true,
+            keypoints: false,
         }
     }
 }
@@ -122,6 +134,7 @@ pub struct Stage {
     spec: StageSpec,
     gradient: MagBinSpec,
     detector: Option<Arc<Detector>>,
+    sift: Option<SiftSpec>,
 }
 
 impl Stage {
@@ -136,10 +149,16 @@ impl Stage {
             range: AngleRange::Unsigned,
             serial: false,
         })?;
+        let sift = if spec.keypoints {
+            Some(SiftOptions::mosaic().build()?)
+        } else {
+            None
+        };
         Ok(Self {
             spec,
             gradient,
             detector: if spec.detect { detector } else { None },
+            sift,
         })
     }
 
@@ -190,11 +209,36 @@ impl Stage {
             }
             None => Vec::new(),
         };
+        let keypoints = match &self.sift {
+            Some(spec) => Some(keypoints_sorted(frame, spec)?),
+            None => None,
+        };
         Ok(StageOutput {
             detections,
+            keypoints,
             mean_magnitude: mean as f32,
         })
     }
+}
+
+/// Mosaic SIFT keypoints of `frame`, strongest first (total order: |response| descending, then x,
+/// y, size, angle); an empty list for a frame below SIFT's minimum size.
+fn keypoints_sorted(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
+    let mut k = match keypoints_from_frame(frame, spec) {
+        Ok(k) => k,
+        Err(SiftError::TooSmall { .. }) => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    k.sort_by(|a, b| {
+        b.response
+            .abs()
+            .total_cmp(&a.response.abs())
+            .then(a.x.total_cmp(&b.x))
+            .then(a.y.total_cmp(&b.y))
+            .then(a.size.total_cmp(&b.size))
+            .then(a.angle.total_cmp(&b.angle))
+    });
+    Ok(k)
 }
 
 /// `(v − black(x, y)) · 255 / (white − black(x, y))`, clamped at 0, into a reused buffer.
@@ -258,6 +302,8 @@ impl GradientMaps {
 pub struct StageOutput {
     /// Detections, highest score first.
     pub detections: Vec<Detection>,
+    /// Mosaic SIFT keypoints, strongest first; `None` when the stage does not compute them.
+    pub keypoints: Option<Vec<Keypoint>>,
     /// Mean gradient magnitude over the frame, normalised units.
     pub mean_magnitude: f32,
 }
@@ -341,6 +387,92 @@ mod tests {
             assert_eq!(m, m1);
             assert_eq!(o.mean_magnitude.to_bits(), o1.mean_magnitude.to_bits());
         }
+    }
+
+    /// Bright Gaussian blobs on a dark 12-bit RGGB mosaic (G planes brighter, as raw is).
+    fn blobs(w: usize, h: usize) -> RawFrame {
+        let centres = [
+            (40.0, 36.0, 5.0),
+            (100.0, 70.0, 8.0),
+            (60.0, 100.0, 4.0),
+            (130.0, 30.0, 6.0),
+        ];
+        let px: Vec<u16> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let v: f32 = centres
+                    .iter()
+                    .map(|&(cx, cy, s)| {
+                        3000.0 * (-((x - cx).powi(2) + (y - cy).powi(2)) / (2.0 * s * s)).exp()
+                    })
+                    .sum();
+                let gain = if (x as usize + y as usize) % 2 == 1 {
+                    1.0
+                } else {
+                    0.6
+                };
+                (64.0 + v * gain).min(4095.0) as u16
+            })
+            .collect();
+        RawFrame::from_u16(w, h, px, Cfa::Rggb, 12, Levels::uniform(64, 4095)).unwrap()
+    }
+
+    fn keypoint_stage() -> Stage {
+        Stage::new(
+            StageSpec {
+                detect: false,
+                keypoints: true,
+                strip_rows: 4,
+                ..StageSpec::default()
+            },
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn keypoints_are_off_by_default_and_found_on_blobs_when_on() {
+        let f = blobs(160, 128);
+        let mut maps = GradientMaps::default();
+        assert_eq!(stage().compute(&f, &mut maps).unwrap().keypoints, None);
+        let k = keypoint_stage()
+            .compute(&f, &mut maps)
+            .unwrap()
+            .keypoints
+            .unwrap();
+        assert!(!k.is_empty(), "no keypoints on four blobs");
+        // Each blob centre is near some keypoint (full-resolution mosaic coordinates).
+        for (cx, cy) in [(40.0f32, 36.0f32), (100.0, 70.0)] {
+            let d = k
+                .iter()
+                .map(|p| ((p.x - cx).powi(2) + (p.y - cy).powi(2)).sqrt())
+                .fold(f32::INFINITY, f32::min);
+            assert!(d < 4.0, "no keypoint within 4 px of ({cx}, {cy}): nearest {d}");
+        }
+        // Strongest first.
+        assert!(k.windows(2).all(|p| p[0].response.abs() >= p[1].response.abs()));
+        // The same keypoints as the library call, reordered.
+        let spec = SiftOptions::mosaic().build().unwrap();
+        let mut lib = keypoints_from_frame(&f, &spec).unwrap();
+        let mut got = k.clone();
+        let key = |p: &Keypoint| (p.x.to_bits(), p.y.to_bits(), p.size.to_bits(), p.angle.to_bits());
+        lib.sort_by_key(key);
+        got.sort_by_key(key);
+        assert_eq!(got, lib);
+    }
+
+    #[test]
+    fn keypoints_are_identical_for_any_pool_and_empty_on_tiny_frames() {
+        let f = blobs(160, 128);
+        let serial = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let mut m = GradientMaps::default();
+        let k1 = serial.install(|| keypoint_stage().compute(&f, &mut m)).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        let k3 = pool.install(|| keypoint_stage().compute(&f, &mut m)).unwrap();
+        assert_eq!(k1, k3);
+        let tiny = RawFrame::from_u16(8, 8, vec![100; 64], Cfa::Rggb, 12, Levels::uniform(0, 4095)).unwrap();
+        let out = keypoint_stage().compute(&tiny, &mut m).unwrap();
+        assert_eq!(out.keypoints, Some(Vec::new()));
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! | `<prefix>/<camera>/detections` | [`DetectionsMsg`] | fixed size, up to [`MAX_BOXES`] boxes |
 //! | `<prefix>/<camera>/gradients` | `[u8]` with user header [`GradientsHeader`] | magnitude (u16 LE) then orientation bin (u8) |
 //! | `<prefix>/<camera>/stats` | [`StatsMsg`] | one every stats interval and a final one (`is_final = 1`) |
+//! | `<prefix>/<camera>/keypoints` | [`KeypointsMsg`] | with `compute.keypoints = true`: up to [`MAX_KEYPOINTS`] mosaic SIFT keypoints, strongest first |
 //!
 //! ```
 //! use mosaicd::publish::messages::{DetectionsMsg, BoxMsg, MAX_BOXES};
@@ -30,6 +31,7 @@ use iceoryx2::prelude::ZeroCopySend;
 use serde::Serialize;
 
 use crate::detect::types::Detection;
+use crate::features::sift::Keypoint;
 
 /// Capacity of [`DetectionsMsg::boxes`]. More boxes in one frame are counted in
 /// [`DetectionsMsg::overflow`] (highest scores are kept: the detector sorts by score).
@@ -133,6 +135,99 @@ impl DetectionsMsg {
     }
 }
 
+/// Capacity of [`KeypointsMsg::keypoints`]. The stage sorts keypoints by decreasing |response|, so
+/// the strongest are kept; the rest are counted in [`KeypointsMsg::overflow`]. A 1080p frame gives
+/// about 350 mosaic SIFT keypoints.
+pub const MAX_KEYPOINTS: usize = 512;
+
+/// One keypoint: full-resolution mosaic pixel coordinates, scale and orientation.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize)]
+#[type_name("mosaicd.KeypointMsg.v1")]
+pub struct KeypointMsg {
+    /// Column, pixels (pixel centres at integers, as OpenCV).
+    pub x: f32,
+    /// Row, pixels.
+    pub y: f32,
+    /// Diameter of the keypoint's neighbourhood, pixels (OpenCV `size`).
+    pub size: f32,
+    /// Orientation, degrees in [0, 360) (OpenCV convention).
+    pub angle: f32,
+    /// |DoG| response at the extremum, on [0, 1] data.
+    pub response: f32,
+}
+
+impl From<&Keypoint> for KeypointMsg {
+    fn from(k: &Keypoint) -> Self {
+        Self {
+            x: k.x,
+            y: k.y,
+            size: k.size,
+            angle: k.angle,
+            response: k.response,
+        }
+    }
+}
+
+/// Mosaic SIFT keypoints of one frame (`<prefix>/<camera>/keypoints`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("mosaicd.KeypointsMsg.v1")]
+pub struct KeypointsMsg {
+    /// The pipeline's dense frame index (the same as the frame's [`DetectionsMsg::index`]).
+    pub index: u64,
+    /// The source's sequence number.
+    pub sequence: u64,
+    /// Source timestamp, ns.
+    pub capture_timestamp_ns: u64,
+    /// Injected-clock timestamp at publication, ns.
+    pub publish_timestamp_ns: u64,
+    /// Frame width, pixels.
+    pub frame_width: u32,
+    /// Frame height, pixels.
+    pub frame_height: u32,
+    /// Number of valid entries in `keypoints`.
+    pub keypoint_count: u32,
+    /// Keypoints that did not fit ([`MAX_KEYPOINTS`]).
+    pub overflow: u32,
+    /// The keypoints, `keypoint_count` valid, strongest first.
+    pub keypoints: [KeypointMsg; MAX_KEYPOINTS],
+}
+
+impl Default for KeypointsMsg {
+    fn default() -> Self {
+        Self {
+            index: 0,
+            sequence: 0,
+            capture_timestamp_ns: 0,
+            publish_timestamp_ns: 0,
+            frame_width: 0,
+            frame_height: 0,
+            keypoint_count: 0,
+            overflow: 0,
+            keypoints: [KeypointMsg::default(); MAX_KEYPOINTS],
+        }
+    }
+}
+
+impl KeypointsMsg {
+    /// Copy keypoints in, counting those beyond [`MAX_KEYPOINTS`] in `overflow`.
+    pub fn set_keypoints(&mut self, keypoints: &[Keypoint]) {
+        let n = keypoints.len().min(MAX_KEYPOINTS);
+        for (d, k) in self.keypoints.iter_mut().zip(&keypoints[..n]) {
+            *d = KeypointMsg::from(k);
+        }
+        self.keypoints[n..].fill(KeypointMsg::default());
+        self.keypoint_count = n as u32;
+        self.overflow = (keypoints.len() - n) as u32;
+    }
+
+    /// The valid keypoints.
+    pub fn keypoints(&self) -> &[KeypointMsg] {
+        &self.keypoints[..(self.keypoint_count as usize).min(MAX_KEYPOINTS)]
+    }
+}
+
 /// Header of a gradients sample (`<prefix>/<camera>/gradients`, payload `[u8]`).
 ///
 /// The payload holds `width * height` little-endian `u16` magnitudes (raw units `>> mag_shift`, the
@@ -191,4 +286,43 @@ pub struct StatsMsg {
     pub latency_p99_us: f32,
     /// 1 for the last message before shutdown.
     pub is_final: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kp(i: usize) -> Keypoint {
+        Keypoint {
+            x: i as f32,
+            y: 2.0 * i as f32,
+            size: 3.0,
+            angle: 45.0,
+            response: 1.0 / (1 + i) as f32,
+            octave: 0,
+            layer: 1,
+        }
+    }
+
+    #[test]
+    fn keypoints_beyond_capacity_are_counted_not_written() {
+        let ks: Vec<Keypoint> = (0..MAX_KEYPOINTS + 7).map(kp).collect();
+        let mut m = KeypointsMsg::default();
+        m.set_keypoints(&ks);
+        assert_eq!(m.keypoint_count as usize, MAX_KEYPOINTS);
+        assert_eq!(m.overflow, 7);
+        assert_eq!(m.keypoints()[3], KeypointMsg::from(&ks[3]));
+        // A shorter list afterwards clears the tail and the overflow.
+        m.set_keypoints(&ks[..2]);
+        assert_eq!(m.keypoints().len(), 2);
+        assert_eq!(m.overflow, 0);
+        assert_eq!(m.keypoints[2], KeypointMsg::default());
+    }
+
+    #[test]
+    fn keypoints_message_fits_a_shared_memory_sample() {
+        // 512 keypoints x 20 bytes + header: about 10 KiB per sample.
+        assert_eq!(std::mem::size_of::<KeypointMsg>(), 20);
+        assert!(std::mem::size_of::<KeypointsMsg>() <= 48 + 20 * MAX_KEYPOINTS);
+    }
 }

@@ -8,9 +8,10 @@
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
 
-use super::messages::{BoxMsg, DetectionsMsg, GradientsHeader, StatsMsg};
+use super::messages::{BoxMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 use super::service::{
-    create_node, detections_service, gradients_publisher, gradients_service, publisher, stats_service,
+    create_node, detections_service, gradients_publisher, gradients_service, keypoints_service, publisher,
+    stats_service,
 };
 use crate::config::PublishConfig;
 use crate::pipeline::engine::{FrameResult, Sink, SinkError, SinkFactory};
@@ -25,15 +26,17 @@ pub struct IceoryxSink {
     detections: Publisher<ipc::Service, DetectionsMsg, ()>,
     stats: Publisher<ipc::Service, StatsMsg, ()>,
     gradients: Option<GradientsPort>,
+    keypoints: Option<Publisher<ipc::Service, KeypointsMsg, ()>>,
     _node: Node<ipc::Service>,
 }
 
 impl IceoryxSink {
-    /// A factory for the pipeline.
-    pub fn factory(camera: &str, cfg: &PublishConfig) -> SinkFactory {
+    /// A factory for the pipeline. `keypoints`: also publish the keypoints service
+    /// (`compute.keypoints`).
+    pub fn factory(camera: &str, cfg: &PublishConfig, keypoints: bool) -> SinkFactory {
         let (camera, cfg) = (camera.to_string(), cfg.clone());
         Box::new(move || {
-            Self::new(&camera, &cfg)
+            Self::new(&camera, &cfg, keypoints)
                 .map(|s| Box::new(s) as Box<dyn Sink>)
                 .map_err(|e| SinkError::Start {
                     sink: format!("iceoryx2 {}/{camera}", cfg.service_prefix),
@@ -42,8 +45,12 @@ impl IceoryxSink {
         })
     }
 
-    /// Create the node, services and publishers.
-    pub fn new(camera: &str, cfg: &PublishConfig) -> Result<Self, super::service::PublishError> {
+    /// Create the node, services and publishers (`keypoints`: the keypoints service too).
+    pub fn new(
+        camera: &str,
+        cfg: &PublishConfig,
+        keypoints: bool,
+    ) -> Result<Self, super::service::PublishError> {
         let node = create_node(&format!("mosaicd-{camera}"), true)?;
         let p = &cfg.service_prefix;
         let det_svc = detections_service(&node, p, camera, cfg.subscriber_buffer)?;
@@ -56,11 +63,18 @@ impl IceoryxSink {
         } else {
             None
         };
+        let keypoints = if keypoints {
+            let svc = keypoints_service(&node, p, camera, cfg.subscriber_buffer)?;
+            Some(publisher(&svc, "keypoints")?)
+        } else {
+            None
+        };
         Ok(Self {
             camera: camera.into(),
             detections,
             stats,
             gradients,
+            keypoints,
             _node: node,
         })
     }
@@ -71,6 +85,22 @@ impl IceoryxSink {
             message: e.to_string(),
         }
     }
+}
+
+/// The keypoints message of a result (`None` when the stage computed no keypoints).
+pub fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
+    let kps = r.output.keypoints.as_ref()?;
+    let mut m = KeypointsMsg {
+        index: r.index,
+        sequence: r.meta.sequence,
+        capture_timestamp_ns: r.meta.timestamp_ns,
+        publish_timestamp_ns: r.publish_timestamp_ns,
+        frame_width: r.width as u32,
+        frame_height: r.height as u32,
+        ..KeypointsMsg::default()
+    };
+    m.set_keypoints(kps);
+    Some(m)
 }
 
 /// The detections message of a result.
@@ -98,6 +128,14 @@ impl Sink for IceoryxSink {
     }
 
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
+        // Keypoints first: a subscriber that has a frame's detections has its keypoints too.
+        if let (Some(pubr), Some(msg)) = (self.keypoints.as_ref(), keypoints_msg(r)) {
+            let sample = pubr.loan_uninit().map_err(|e| self.werr("keypoints loan", e))?;
+            sample
+                .write_payload(msg)
+                .send()
+                .map_err(|e| self.werr("keypoints send", e))?;
+        }
         let msg = detections_msg(r);
         let sample = self
             .detections

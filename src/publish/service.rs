@@ -14,7 +14,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 
-use super::messages::{DetectionsMsg, GradientsHeader, StatsMsg};
+use super::messages::{DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 
 /// Publishers per service (one daemon, plus room for a restarted one while the old is cleaned).
 const MAX_PUBLISHERS: usize = 2;
@@ -84,6 +84,26 @@ fn name(prefix: &str, camera: &str, topic: &str) -> Result<ServiceName, PublishE
         .map_err(|e| err(format!("service name {s:?}"), format!("{e:?}")))
 }
 
+/// A fixed-size publish-subscribe service `<prefix>/<camera>/<topic>` with the daemon's settings
+/// (safe overflow, history, publisher and subscriber limits).
+fn fixed_service<T: std::fmt::Debug + ZeroCopySend>(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    camera: &str,
+    topic: &str,
+    buffer: usize,
+) -> Result<PortFactory<ipc::Service, T, ()>, PublishError> {
+    node.service_builder(&name(prefix, camera, topic)?)
+        .publish_subscribe::<T>()
+        .enable_safe_overflow(true)
+        .subscriber_max_buffer_size(buffer)
+        .history_size(HISTORY)
+        .max_publishers(MAX_PUBLISHERS)
+        .max_subscribers(MAX_SUBSCRIBERS)
+        .open_or_create()
+        .map_err(|e| err(service_name(prefix, camera, topic), e))
+}
+
 /// The detections service.
 pub fn detections_service(
     node: &Node<ipc::Service>,
@@ -91,15 +111,7 @@ pub fn detections_service(
     camera: &str,
     buffer: usize,
 ) -> Result<PortFactory<ipc::Service, DetectionsMsg, ()>, PublishError> {
-    node.service_builder(&name(prefix, camera, "detections")?)
-        .publish_subscribe::<DetectionsMsg>()
-        .enable_safe_overflow(true)
-        .subscriber_max_buffer_size(buffer)
-        .history_size(HISTORY)
-        .max_publishers(MAX_PUBLISHERS)
-        .max_subscribers(MAX_SUBSCRIBERS)
-        .open_or_create()
-        .map_err(|e| err(service_name(prefix, camera, "detections"), e))
+    fixed_service(node, prefix, camera, "detections", buffer)
 }
 
 /// The stats service.
@@ -109,15 +121,17 @@ pub fn stats_service(
     camera: &str,
     buffer: usize,
 ) -> Result<PortFactory<ipc::Service, StatsMsg, ()>, PublishError> {
-    node.service_builder(&name(prefix, camera, "stats")?)
-        .publish_subscribe::<StatsMsg>()
-        .enable_safe_overflow(true)
-        .subscriber_max_buffer_size(buffer)
-        .history_size(HISTORY)
-        .max_publishers(MAX_PUBLISHERS)
-        .max_subscribers(MAX_SUBSCRIBERS)
-        .open_or_create()
-        .map_err(|e| err(service_name(prefix, camera, "stats"), e))
+    fixed_service(node, prefix, camera, "stats", buffer)
+}
+
+/// The keypoints service (mosaic SIFT keypoints, `compute.keypoints = true`).
+pub fn keypoints_service(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    camera: &str,
+    buffer: usize,
+) -> Result<PortFactory<ipc::Service, KeypointsMsg, ()>, PublishError> {
+    fixed_service(node, prefix, camera, "keypoints", buffer)
 }
 
 /// The gradients service (dynamic `[u8]` slices with a header).

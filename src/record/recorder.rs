@@ -13,6 +13,7 @@ use super::preview::preview_from_raw;
 use super::schema::{self, DetectionsMessage, FoxgloveTime, RawImageMessage};
 use super::RecordError;
 use crate::detect::Detection;
+use crate::features::sift::Keypoint;
 use crate::raw::RawFrame;
 
 /// Default uncompressed chunk size target (bytes): a few 1080p frames per chunk at most.
@@ -103,6 +104,8 @@ pub struct RecorderOptions {
     pub raw: bool,
     /// Record the 8-bit Foxglove preview.
     pub preview: Option<PreviewOptions>,
+    /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations).
+    pub keypoints: bool,
 }
 
 impl Default for RecorderOptions {
@@ -116,6 +119,7 @@ impl Default for RecorderOptions {
             rotate: RotatePolicy::default(),
             raw: true,
             preview: Some(PreviewOptions { decimation: 2 }),
+            keypoints: false,
         }
     }
 }
@@ -171,6 +175,8 @@ pub struct Topics {
     pub detections: String,
     /// `/<camera>/stats` (`mosaicd.Stats`).
     pub stats: String,
+    /// `/<camera>/keypoints` (`foxglove.ImageAnnotations`, POINTS).
+    pub keypoints: String,
 }
 
 impl Topics {
@@ -182,6 +188,7 @@ impl Topics {
             annotations: format!("/{camera}/annotations"),
             detections: format!("/{camera}/detections"),
             stats: format!("/{camera}/stats"),
+            keypoints: format!("/{camera}/keypoints"),
         }
     }
 }
@@ -232,6 +239,7 @@ struct ChannelIds {
     annotations: u16,
     detections: u16,
     stats: u16,
+    keypoints: Option<u16>,
 }
 
 struct Segment {
@@ -270,8 +278,8 @@ pub struct McapRecorder {
     state: State,
     segment_index: u32,
     files: Vec<PathBuf>,
-    /// Per-channel message sequence (raw, preview, annotations, detections, stats).
-    seq: [u32; 5],
+    /// Per-channel message sequence (raw, preview, annotations, detections, stats, keypoints).
+    seq: [u32; 6],
     frames: u64,
     detections: u64,
     stats: u64,
@@ -323,7 +331,7 @@ impl McapRecorder {
             state: State::Idle,
             segment_index: 0,
             files: Vec::new(),
-            seq: [0; 5],
+            seq: [0; 6],
             frames: 0,
             detections: 0,
             stats: 0,
@@ -452,6 +460,7 @@ impl McapRecorder {
             schema::image_annotations_json_schema().as_bytes(),
         )?;
         let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
+        let annotations_schema = s;
         let s = w.add_schema(
             schema::DETECTIONS_SCHEMA,
             "jsonschema",
@@ -464,12 +473,19 @@ impl McapRecorder {
             schema::STATS_JSON_SCHEMA.as_bytes(),
         )?;
         let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+        // Added last, so the other channels keep their ids whether or not keypoints are recorded.
+        let keypoints = if opts.keypoints {
+            Some(w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?)
+        } else {
+            None
+        };
         Ok(ChannelIds {
             raw,
             preview,
             annotations,
             detections,
             stats,
+            keypoints,
         })
     }
 
@@ -648,6 +664,23 @@ impl McapRecorder {
         self.write_message(3, ids.detections, timestamp_ns, &json)?;
         self.detections += 1;
         Ok(())
+    }
+
+    /// Record the mosaic SIFT keypoints of one frame as `foxglove.ImageAnnotations` points on
+    /// `/<camera>/keypoints` (preview coordinates when a preview is recorded). Refused with
+    /// [`RecordError::Option`] when the recorder was created without `keypoints`.
+    pub fn write_keypoints(&mut self, timestamp_ns: u64, keypoints: &[Keypoint]) -> Result<(), RecordError> {
+        let Some(ch) = self.segment()?.ids.keypoints else {
+            return Err(RecordError::Option {
+                name: "keypoints",
+                value: "false".into(),
+                why: "true to record keypoints",
+            });
+        };
+        let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
+        let ann = schema::annotations_from_keypoints(timestamp_ns, keypoints, scale);
+        let json = serde_json::to_vec(&ann).expect("annotations serialise");
+        self.write_message(5, ch, timestamp_ns, &json)
     }
 
     /// Record a stats message (any serialisable value, e.g. `serde_json::Value` or a struct).

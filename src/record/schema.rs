@@ -1,6 +1,6 @@
 //! Message schemas of mosaicd recordings, and their encoders / decoders.
 //!
-//! A recording holds up to five channels per camera (`<camera>` defaults to `camera`):
+//! A recording holds up to six channels per camera (`<camera>` defaults to `camera`):
 //!
 //! | topic | schema name | schema encoding | message encoding | content |
 //! |---|---|---|---|---|
@@ -9,6 +9,7 @@
 //! | `/<camera>/annotations` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | boxes (LINE_LOOP) + scores (texts), preview coordinates |
 //! | `/<camera>/detections` | `mosaicd.Detections` | `jsonschema` | `json` | boxes in full-frame coordinates |
 //! | `/<camera>/stats` | `mosaicd.Stats` | `jsonschema` | `json` | free-form pipeline statistics |
+//! | `/<camera>/keypoints` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | with `compute.keypoints`: mosaic SIFT keypoints as one POINTS annotation, preview coordinates |
 //!
 //! ## `mosaicd.RawFrame` (message encoding `mosaicd.rawframe.v1`)
 //!
@@ -43,6 +44,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::detect::Detection;
+use crate::features::sift::Keypoint;
 use crate::raw::{Cfa, FrameMeta, Levels, RawError, RawFrame, RawPixels, RawView};
 
 /// Magic bytes opening every `mosaicd.RawFrame` message.
@@ -61,6 +63,8 @@ pub const IMAGE_ANNOTATIONS_SCHEMA: &str = "foxglove.ImageAnnotations";
 pub const DETECTIONS_SCHEMA: &str = "mosaicd.Detections";
 /// Schema name of our stats channel.
 pub const STATS_SCHEMA: &str = "mosaicd.Stats";
+/// Foxglove `PointsAnnotationType::POINTS`.
+pub const POINTS_POINTS: u8 = 1;
 /// Foxglove `PointsAnnotationType::LINE_LOOP`.
 pub const POINTS_LINE_LOOP: u8 = 2;
 
@@ -452,6 +456,48 @@ pub fn annotations_from_detections(timestamp_ns: u64, dets: &[Detection], scale:
         circles: Vec::new(),
         points,
         texts,
+    }
+}
+
+/// Keypoint marker colour in annotations (opaque magenta, apart from the green boxes).
+const KEYPOINT_COLOUR: Color = Color {
+    r: 1.0,
+    g: 0.0,
+    b: 1.0,
+    a: 1.0,
+};
+/// Keypoint marker size, pixels.
+const KEYPOINT_THICKNESS: f64 = 4.0;
+
+/// Annotations for keypoints: one `POINTS` annotation holding every keypoint, coordinates divided
+/// by `scale` (the preview decimation; 1 for full-frame coordinates). An empty list gives no
+/// annotation, so Foxglove clears the previous frame's points.
+pub fn annotations_from_keypoints(timestamp_ns: u64, keypoints: &[Keypoint], scale: f64) -> ImageAnnotations {
+    let t = FoxgloveTime::from_ns(timestamp_ns);
+    let s = if scale > 0.0 { 1.0 / scale } else { 1.0 };
+    let points = if keypoints.is_empty() {
+        Vec::new()
+    } else {
+        vec![PointsAnnotation {
+            timestamp: t,
+            kind: POINTS_POINTS,
+            points: keypoints
+                .iter()
+                .map(|k| Point2 {
+                    x: k.x as f64 * s,
+                    y: k.y as f64 * s,
+                })
+                .collect(),
+            outline_color: KEYPOINT_COLOUR,
+            outline_colors: Vec::new(),
+            fill_color: KEYPOINT_COLOUR,
+            thickness: KEYPOINT_THICKNESS,
+        }]
+    };
+    ImageAnnotations {
+        circles: Vec::new(),
+        points,
+        texts: Vec::new(),
     }
 }
 

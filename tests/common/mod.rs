@@ -46,3 +46,24 @@ pub fn max_abs_diff(a: &Image<f32>, b: &Image<f32>) -> f32 {
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f32::max)
 }
+
+/// Start `mosaicd listen` with `args` (stdout piped) and return once it says it is subscribed, so a
+/// daemon started afterwards cannot publish before the subscriber exists.
+pub fn spawn_listener(bin: &str, args: &[&str]) -> std::process::Child {
+    use std::io::{BufRead, BufReader};
+    let mut listener = std::process::Command::new(bin)
+        .arg("listen")
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(listener.stderr.take().unwrap());
+    let mut line = String::new();
+    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+        line.clear();
+    }
+    assert!(line.contains("subscribed"), "listener did not start: {line}");
+    listener
+}

@@ -1,0 +1,166 @@
+//! The optional keypoint stage (`compute.keypoints = true`) as real processes: `mosaicd run`
+//! replaying the committed synthetic recording (recordings/synthetic_pan.mcap, 12 frames of
+//! 160x120 10-bit GRBG made by our own code) computes mosaic SIFT keypoints per frame, publishes them on
+//! `<prefix>/<camera>/keypoints` to a `mosaicd listen --keypoints` process over real iceoryx2 shared
+//! memory, writes them to the results file, and records them in MCAP as `foxglove.ImageAnnotations`
+//! points. With the stage off (the default) none of these appear.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use mosaicd::record::read::{read_json_topic, RecordingInfo};
+use mosaicd::record::schema::{ImageAnnotations, POINTS_POINTS};
+use mosaicd::record::Topics;
+
+mod common;
+
+const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
+const FRAMES: u64 = 12;
+const WIDTH: f64 = 160.0;
+const HEIGHT: f64 = 120.0;
+
+fn recording() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/synthetic_pan.mcap")
+}
+
+fn config(dir: &Path, prefix: &str, camera: &str, keypoints: bool) -> PathBuf {
+    let p = dir.join(format!("{camera}.toml"));
+    let rec = dir.join("{camera}.mcap");
+    std::fs::write(
+        &p,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n\
+             [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 64\n\
+             [record]\nenabled = true\npath = \"{}\"\n\
+             [compute]\ndetect = false\nkeypoints = {keypoints}\n\
+             [[camera]]\nname = \"{camera}\"\nsource = \"mcap\"\npath = \"{}\"\n",
+            rec.display(),
+            recording().display()
+        ),
+    )
+    .unwrap();
+    p
+}
+
+/// `mosaicd run --config CFG --results DIR/results.jsonl`, which must succeed; the results path.
+fn run_daemon(cfg: &Path, dir: &Path) -> PathBuf {
+    let results = dir.join("results.jsonl");
+    let out = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(cfg)
+        .arg("--results")
+        .arg(&results)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "daemon failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    results
+}
+
+fn json_lines(text: &str) -> Vec<serde_json::Value> {
+    text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+}
+
+#[test]
+fn keypoints_reach_a_listen_process_the_results_file_and_the_mcap() {
+    let dir = tempfile::tempdir().unwrap();
+    let (prefix, camera) = (format!("t{}kp", std::process::id()), "kpcam");
+    let cfg = config(dir.path(), &prefix, camera, true);
+    let listener = common::spawn_listener(
+        BIN,
+        &[
+            "--camera",
+            camera,
+            "--prefix",
+            &prefix,
+            "--keypoints",
+            "--until-final",
+            "--timeout-s",
+            "60",
+        ],
+    );
+
+    let results = run_daemon(&cfg, dir.path());
+
+    // Results file: every frame carries its keypoints, strongest first.
+    let frames: Vec<serde_json::Value> = json_lines(&std::fs::read_to_string(&results).unwrap())
+        .into_iter()
+        .filter(|r| r["type"] == "frame")
+        .collect();
+    assert_eq!(frames.len() as u64, FRAMES);
+    let mut total = 0;
+    for f in &frames {
+        let k = f["keypoints"].as_array().expect("keypoints array in every frame");
+        total += k.len();
+        let resp: Vec<f64> = k.iter().map(|p| p["response"].as_f64().unwrap().abs()).collect();
+        assert!(resp.windows(2).all(|w| w[0] >= w[1]), "not strongest first");
+        for p in k {
+            let (x, y) = (p["x"].as_f64().unwrap(), p["y"].as_f64().unwrap());
+            assert!((0.0..WIDTH).contains(&x) && (0.0..HEIGHT).contains(&y), "{p}");
+        }
+    }
+    // The panned scene gives 6-10 keypoints a frame.
+    assert!(
+        total >= FRAMES as usize,
+        "only {total} keypoints in {FRAMES} frames"
+    );
+
+    // Listener: one keypoints message per frame, before that frame's detections, same content.
+    let lout = listener.wait_with_output().unwrap();
+    assert!(lout.status.success(), "{}", String::from_utf8_lossy(&lout.stderr));
+    let msgs = json_lines(&String::from_utf8_lossy(&lout.stdout));
+    let kmsgs: Vec<&serde_json::Value> = msgs.iter().filter(|m| m["topic"] == "keypoints").collect();
+    let idx: Vec<u64> = kmsgs.iter().map(|m| m["index"].as_u64().unwrap()).collect();
+    assert_eq!(idx, (0..FRAMES).collect::<Vec<_>>());
+    for (m, f) in kmsgs.iter().zip(&frames) {
+        let want = f["keypoints"].as_array().unwrap();
+        assert_eq!(
+            m["keypoint_count"].as_u64().unwrap() as usize,
+            want.len().min(512)
+        );
+        let got = m["keypoints"].as_array().unwrap();
+        for (g, w) in got.iter().zip(want) {
+            for key in ["x", "y", "size", "angle", "response"] {
+                assert_eq!(g[key], w[key], "frame {} {key}", m["index"]);
+            }
+        }
+    }
+    let first_det = msgs.iter().position(|m| m["topic"] == "detections").unwrap();
+    let first_kp = msgs.iter().position(|m| m["topic"] == "keypoints").unwrap();
+    assert!(
+        first_kp < first_det,
+        "keypoints are published before the frame's detections"
+    );
+
+    // MCAP: one POINTS annotation per frame on /<camera>/keypoints, as many points as keypoints.
+    let rec = dir.path().join(format!("{camera}.mcap"));
+    let topic = Topics::new(camera).keypoints;
+    let info = RecordingInfo::read(&rec).unwrap();
+    assert_eq!(info.count(&topic), FRAMES);
+    let anns = read_json_topic::<ImageAnnotations>(&rec, &topic).unwrap();
+    for (a, f) in anns.iter().zip(&frames) {
+        assert_eq!(a.log_time, f["capture_timestamp_ns"].as_u64().unwrap());
+        let n = f["keypoints"].as_array().unwrap().len();
+        let pts: usize = a.message.points.iter().map(|p| p.points.len()).sum();
+        assert_eq!(pts, n);
+        assert!(a.message.points.iter().all(|p| p.kind == POINTS_POINTS));
+    }
+}
+
+#[test]
+fn keypoints_are_absent_when_the_stage_is_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let (prefix, camera) = (format!("t{}kq", std::process::id()), "kpoff");
+    let cfg = config(dir.path(), &prefix, camera, false);
+    let results = run_daemon(&cfg, dir.path());
+    let text = std::fs::read_to_string(&results).unwrap();
+    assert!(json_lines(&text).iter().all(|r| r.get("keypoints").is_none()));
+    let rec = dir.path().join(format!("{camera}.mcap"));
+    let info = RecordingInfo::read(&rec).unwrap();
+    assert_eq!(info.count(&Topics::new(camera).keypoints), 0);
+    assert_eq!(info.count(&Topics::new(camera).detections), FRAMES);
+}
