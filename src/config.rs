@@ -220,6 +220,9 @@ pub struct ComputeConfig {
     pub max_levels: usize,
     /// Start the pyramid magnified (`0.5..=4.0`; 2 finds people ~64 px tall).
     pub upsample: f64,
+    /// Feature-pyramid approximation (Dollár et al. 2014): every n-th level is computed exactly,
+    /// the levels between resample its cells (`1..=64`; 1 = exact, 14 ≈ one exact level per octave).
+    pub approx_levels: usize,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -238,6 +241,7 @@ impl Default for ComputeConfig {
             scale_step: 1.05,
             max_levels: 64,
             upsample: 1.0,
+            approx_levels: 1,
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
@@ -435,6 +439,7 @@ impl Config {
         range("compute.scale_step", c.scale_step, 1.01, 2.0)?;
         range("compute.max_levels", c.max_levels, 1, 64)?;
         range("compute.upsample", c.upsample, 0.5, 4.0)?;
+        range("compute.approx_levels", c.approx_levels, 1, 64)?;
         if c.model.is_empty() {
             return Err(ConfigError::Missing {
                 key: "compute.model".into(),
@@ -558,6 +563,8 @@ mod tests {
             ("[compute]\norientation_bins = 0\n", "compute.orientation_bins"),
             ("[compute]\nscale_step = 1.0\n", "compute.scale_step"),
             ("[compute]\nupsample = 9.0\n", "compute.upsample"),
+            ("[compute]\napprox_levels = 0\n", "compute.approx_levels"),
+            ("[compute]\napprox_levels = 65\n", "compute.approx_levels"),
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
         ];
         for (extra, key) in cases {

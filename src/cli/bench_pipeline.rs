@@ -42,6 +42,12 @@ pub struct BenchPipelineArgs {
     /// Gradients only (no pedestrian detection).
     #[arg(long)]
     no_detect: bool,
+    /// Detector feature-pyramid approximation (`compute.approx_levels`; 1 = exact).
+    #[arg(long, default_value_t = 1)]
+    approx_levels: usize,
+    /// Also compute mosaic SIFT keypoints (`compute.keypoints`).
+    #[arg(long)]
+    keypoints: bool,
     /// Skip the stalled-subscriber run.
     #[arg(long)]
     no_stalled: bool,
@@ -96,12 +102,14 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
 pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let mut cfg = Config::default();
     cfg.compute.detect = !a.no_detect;
+    cfg.compute.approx_levels = a.approx_levels;
+    cfg.compute.keypoints = a.keypoints;
     let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
-        "pipeline {}x{} {}-bit, detection {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
+        "pipeline {}x{} {}-bit, detection {} (approx {}), keypoints {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, if a.keypoints { "on" } else { "off" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
     );
     let mut stalled = None;
     if !a.no_stalled {
@@ -128,7 +136,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
     println!(
         "{}",
-        json!({"detect": !a.no_detect, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
+        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "keypoints": a.keypoints, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit})
     );

@@ -182,6 +182,7 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
         max_levels: c.max_levels,
         upsample: c.upsample,
         hit_threshold: c.hit_threshold,
+        approx_levels: c.approx_levels,
         ..DetectorOptions::default()
     };
     let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
