@@ -196,7 +196,8 @@ fn window_protocol_noise_rows_are_deterministic_and_plot_det() {
     assert_eq!(r.len(), 2, "{md}");
     assert_eq!((r[0][2].as_str(), r[1][2].as_str()), ("sampled", "raw-high"));
     assert_eq!(r[0][3], r[1][3], "same negative windows in both pipelines");
-    assert_png(&out.join("det.png"));
+    assert_png(&out.join("det_sampled.png"));
+    assert_png(&out.join("det_raw-high.png"));
     // Seeded: the noisy run repeats exactly.
     assert_eq!(ok(&args), md);
 }

@@ -177,7 +177,7 @@ fn run_windows(
             "MR@1e-4",
         ],
     );
-    let mut curves: Vec<(String, WindowEval)> = Vec::new();
+    let mut curves: Vec<(String, InputPipeline, WindowEval)> = Vec::new();
     let total = runs.len() * pipelines.len();
     for (k, (pipe, (m, domain, d))) in pipelines
         .iter()
@@ -185,11 +185,11 @@ fn run_windows(
         .enumerate()
     {
         let model = load_model(m, Domain::Colour)?;
-        let label = format!("{m}={d} {}", pipe.name());
+        let label = format!("{m} on {d}");
         let quiet = a.quiet;
         let mut progress = |s: &str| {
             if !quiet {
-                eprintln!("[{}/{total}] {label}: {s}", k + 1)
+                eprintln!("[{}/{total}] {label}, {}: {s}", k + 1, pipe.name())
             }
         };
         let ev = evaluate_windows_via(&model, &split, *domain, a.cfa, pipe, &mut progress)?;
@@ -201,19 +201,29 @@ fn run_windows(
         ];
         row.extend(ev.miss_rate_at.iter().map(|(_, mr)| fmt(*mr, 3)));
         table.row(row);
-        curves.push((label, ev));
+        curves.push((label, *pipe, ev));
     }
-    let det_path = a.out.join("det.png");
-    let named: Vec<(String, &[_])> = curves
-        .iter()
-        .map(|(n, e)| (n.clone(), e.det.as_slice()))
-        .collect();
-    det_plot("DET, held-out windows", &named, &det_path)?;
+    // One DET plot per input pipeline (a plot with every run is unreadable).
+    let mut plots = Vec::new();
+    for pipe in pipelines {
+        let named: Vec<(String, &[_])> = curves
+            .iter()
+            .filter(|(_, p, _)| p == pipe)
+            .map(|(n, _, e)| (n.clone(), e.det.as_slice()))
+            .collect();
+        let path = a.out.join(format!("det_{}.png", pipe.name()));
+        det_plot(
+            &format!("DET, held-out windows, {} inputs", pipe.name()),
+            &named,
+            &path,
+        )?;
+        plots.push(path);
+    }
     Ok(Report {
         name: "detection".into(),
         heading: "Pedestrian detection: window protocol".into(),
         tables: vec![table],
-        plots: vec![det_path],
+        plots,
         notes: vec![format!(
             "command: mosaicd {}",
             std::env::args().skip(1).collect::<Vec<_>>().join(" ")
