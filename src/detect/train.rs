@@ -13,9 +13,17 @@
 //! holds out whole photos (file prefix without the trailing letter, which also groups the
 //! mirrors). Negatives: person-free photos (`neg_inria/`, `neg/`, Kodak without 04 05 12 14 15 18),
 //! split by a seeded shuffle. Every image is brought into the model's input domain: colour (RGB),
-//! grey (OpenCV's RGB→grey), or mosaic. **Deviation:** the mosaic domain samples the sRGB image
-//! through the CFA (RGGB) without the reverse ISP (linearisation, white balance, noise) — the
-//! reverse ISP of `isp/reverse.rs` was not on main when this was written.
+//! grey (OpenCV's RGB→grey), or mosaic. **Deviation:** training samples the sRGB image through the
+//! CFA (RGGB) without the reverse ISP (linearisation, white balance, noise) — the reverse ISP of
+//! `isp/reverse.rs` was not on main when the shipped models were trained.
+//!
+//! # Input pipelines of the evaluation
+//! [`InputPipeline::Sampled`] is the training convention above. [`InputPipeline::ReverseIsp`] is the
+//! paper's: every sRGB image goes through the reverse ISP ([`crate::isp::reverse`], default camera
+//! profile, the chosen CFA) to a raw frame, optionally with the paper's eq. 24 noise at one of the
+//! three levels (seeded per image, so runs are deterministic), then the mosaic domain reads the raw
+//! frame directly ([`mosaic_from_raw`]: linear, not white balanced) while the colour and grey domains
+//! see it through the forward ISP ([`crate::isp::forward`], Malvar demosaicing).
 //!
 //! Descriptors are read from the block grid of the whole image (positives: window (2, 2) of the
 //! 96x160 crop), exactly as the detector sees windows, so training and detection agree at borders.
@@ -29,8 +37,15 @@ use super::detector::{Detector, DetectorOptions};
 use super::model::{Domain, LinearModel};
 use super::pyramid::{resize_bilinear, resize_mosaic};
 use super::svm::{train_linear_svm, SvmOptions};
-use crate::features::hog::{block_grid, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE};
+use crate::features::hog::{
+    block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE,
+};
 use crate::image::Image;
+use crate::isp::grey::grey_from_rgb_u8;
+use crate::isp::{
+    raw_from_srgb, srgb_from_raw, CameraProfile, ForwardIspOptions, NoiseLevel, ReverseIspOptions,
+};
+use crate::metrics::detection::{det_curve, DetPoint};
 use crate::raw::{Cfa, Colour};
 
 /// Kodak images that show people (never negatives).
@@ -39,6 +54,10 @@ pub const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
 const HARD_PER_IMAGE: usize = 30;
 /// Offset of the 64x128 window inside the 96x160 INRIA crops, in cells.
 const POS_WINDOW_CELL: usize = 16 / CELL_SIZE;
+/// Noise-seed offset of negative images, so they never share a seed with a positive.
+const NEG_SEED_OFFSET: u64 = 1 << 32;
+/// Most points kept of a DET curve in [`WindowEval::det`] (enough for a plot).
+const DET_PLOT_POINTS: usize = 400;
 
 /// Errors of training.
 #[derive(Debug, thiserror::Error)]
@@ -57,6 +76,48 @@ pub enum TrainError {
     /// HOG failure.
     #[error(transparent)]
     Hog(#[from] crate::features::hog::HogError),
+    /// Reverse or forward ISP failure.
+    #[error(transparent)]
+    Isp(#[from] crate::isp::IspError),
+    /// DET curve failure (no samples).
+    #[error(transparent)]
+    Metrics(#[from] crate::metrics::MetricsError),
+}
+
+/// How an sRGB data image becomes a model's input (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum InputPipeline {
+    /// sRGB sampled through the CFA (mosaic), OpenCV's grey, or the RGB itself: how the shipped
+    /// models were trained.
+    Sampled,
+    /// Reverse ISP to a raw frame with optional eq. 24 noise; mosaic = the raw frame, colour and grey =
+    /// the forward ISP's output.
+    ReverseIsp {
+        /// Noise level (`None`: clean raw).
+        noise: Option<NoiseLevel>,
+        /// Base seed of the noise; image `i` uses a seed derived from it and `i`.
+        seed: u64,
+    },
+}
+
+impl InputPipeline {
+    /// Short name: `sampled`, `raw-clean`, `raw-low`, `raw-medium`, `raw-high`.
+    pub fn name(&self) -> String {
+        match self {
+            InputPipeline::Sampled => "sampled".into(),
+            InputPipeline::ReverseIsp { noise: None, .. } => "raw-clean".into(),
+            InputPipeline::ReverseIsp { noise: Some(n), .. } => format!("raw-{}", n.name()),
+        }
+    }
+}
+
+/// The noise seed of image `index` under base seed `seed` (splitmix-style mixing, so neighbouring
+/// indices get unrelated streams).
+fn image_seed(seed: u64, index: u64) -> u64 {
+    let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
 }
 
 /// Training options.
@@ -202,6 +263,42 @@ impl DomainImage {
             }
         }
     }
+    /// From an RGB image through `pipeline`; `index` picks the image's noise stream (deterministic).
+    pub fn from_rgb_via(
+        img: &Image<[u8; 3]>,
+        domain: Domain,
+        cfa: Cfa,
+        pipeline: &InputPipeline,
+        index: u64,
+    ) -> Result<Self, TrainError> {
+        let (noise, seed) = match *pipeline {
+            InputPipeline::Sampled => return Ok(Self::from_rgb(img, domain, cfa)),
+            InputPipeline::ReverseIsp { noise, seed } => (noise, seed),
+        };
+        let (w, h) = (img.width() & !1, img.height() & !1);
+        let even = if (w, h) == img.dimensions() {
+            img.clone()
+        } else {
+            Image::from_fn(w, h, |x, y| img.get(x, y))
+        };
+        let profile = CameraProfile::default();
+        let opts = ReverseIspOptions {
+            cfa,
+            noise: noise.map(|n| n.params()),
+            seed: image_seed(seed, index),
+            ..ReverseIspOptions::for_profile(&profile)
+        };
+        let raw = raw_from_srgb(even.view(), &profile, &opts)?;
+        Ok(match domain {
+            Domain::Mosaic => DomainImage::Mosaic(mosaic_from_raw(&raw)),
+            Domain::Colour => {
+                DomainImage::Colour(srgb_from_raw(&raw, &profile, &ForwardIspOptions::default())?)
+            }
+            Domain::Grey => DomainImage::Grey(grey_from_rgb_u8(
+                &srgb_from_raw(&raw, &profile, &ForwardIspOptions::default())?.view(),
+            )),
+        })
+    }
     /// HOG input view.
     pub fn input(&self) -> HogInput<'_> {
         match self {
@@ -316,6 +413,38 @@ pub struct WindowEval {
     pub negative_windows: usize,
     /// (FPPW, miss rate) at FPPW 1e-2, 1e-3, 1e-4.
     pub miss_rate_at: Vec<(f64, f64)>,
+    /// The DET curve (miss rate vs FPPW), thinned to at most a few hundred points for plotting;
+    /// the first and last points and every point where the miss rate changes by a plot-visible
+    /// step are kept.
+    pub det: Vec<DetPoint>,
+}
+
+/// Thin a DET curve to at most about `max_points` points: the positive-FPPW range is cut into
+/// `max_points` equal steps in log FPPW and the last point of each step (lowest miss rate there) is
+/// kept, after the last point with FPPW 0.
+pub fn thin_det_curve(curve: &[DetPoint], max_points: usize) -> Vec<DetPoint> {
+    let mut out: Vec<DetPoint> = curve
+        .iter()
+        .rfind(|p| p.fppw == 0.0)
+        .copied()
+        .into_iter()
+        .collect();
+    let positive: Vec<&DetPoint> = curve.iter().filter(|p| p.fppw > 0.0).collect();
+    let (Some(first), Some(last)) = (positive.first(), positive.last()) else {
+        return out;
+    };
+    let lo = first.fppw.log10();
+    let step = ((last.fppw.log10() - lo) / max_points.max(1) as f64).max(f64::MIN_POSITIVE);
+    let mut last_bucket = None;
+    for p in positive {
+        let b = ((p.fppw.log10() - lo) / step).floor() as i64;
+        match out.last_mut() {
+            Some(q) if last_bucket == Some(b) => *q = *p,
+            _ => out.push(*p),
+        }
+        last_bucket = Some(b);
+    }
+    out
 }
 
 /// Miss rate at a given FPPW from positive and negative scores: the threshold lets through
@@ -330,7 +459,8 @@ pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64
     pos.iter().filter(|&&s| s <= thr).count() as f64 / pos.len() as f64
 }
 
-/// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol).
+/// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol), with the
+/// inputs sampled as in training ([`InputPipeline::Sampled`]).
 pub fn evaluate_windows(
     model: &LinearModel,
     split: &Split,
@@ -338,17 +468,31 @@ pub fn evaluate_windows(
     cfa: Cfa,
     progress: &mut dyn FnMut(&str),
 ) -> Result<WindowEval, TrainError> {
+    evaluate_windows_via(model, split, domain, cfa, &InputPipeline::Sampled, progress)
+}
+
+/// [`evaluate_windows`] with the validation images brought into `domain` through `pipeline`
+/// (e.g. the reverse ISP with one of the paper's noise levels).
+pub fn evaluate_windows_via(
+    model: &LinearModel,
+    split: &Split,
+    domain: Domain,
+    cfa: Cfa,
+    pipeline: &InputPipeline,
+    progress: &mut dyn FnMut(&str),
+) -> Result<WindowEval, TrainError> {
     let det = Detector::new(model.clone(), &DetectorOptions::default())?;
     let spec = det.hog_spec().clone();
     let mut pos = Vec::new();
-    for p in &split.val_pos {
-        let img = DomainImage::from_rgb(&load_rgb(p)?, domain, cfa);
+    for (i, p) in split.val_pos.iter().enumerate() {
+        let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64)?;
         let d = positive_descriptor(&spec, &img)?;
         pos.push(d.iter().zip(&model.weights).map(|(a, b)| a * b).sum::<f32>() + model.bias);
     }
     let mut neg = Vec::new();
     for (i, p) in split.val_neg.iter().enumerate() {
-        let img = DomainImage::from_rgb(&load_rgb(p)?, domain, cfa);
+        let img =
+            DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, NEG_SEED_OFFSET + i as u64)?;
         det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
         if i % 10 == 0 {
             progress(&format!(
@@ -364,10 +508,12 @@ pub fn evaluate_windows(
         .iter()
         .map(|&f| (f, miss_rate_at_fppw(&pos, &neg, f)))
         .collect();
+    let det = thin_det_curve(&det_curve(&pos, &neg)?, DET_PLOT_POINTS);
     Ok(WindowEval {
         positives: pos.len(),
         negative_windows: neg.len(),
         miss_rate_at,
+        det,
     })
 }
 
@@ -507,6 +653,67 @@ mod tests {
         // FPPW 0.1 → 1 false positive allowed → threshold at 4.0: positives > 4.0: one.
         assert_eq!(miss_rate_at_fppw(&pos, &neg, 0.1), 0.75);
         assert_eq!(miss_rate_at_fppw(&pos, &neg, 0.3), 0.25);
+    }
+
+    #[test]
+    fn thinned_det_curve_keeps_ends_and_shape() {
+        let pos: Vec<f32> = (0..100).map(|i| i as f32 / 10.0).collect();
+        let neg: Vec<f32> = (0..10_000).map(|i| -(i as f32) / 1000.0).collect();
+        let full = det_curve(&pos, &neg).unwrap();
+        let thin = thin_det_curve(&full, 50);
+        assert!(thin.len() <= 52 && thin.len() > 10, "{}", thin.len());
+        assert_eq!(thin.first().map(|p| p.fppw), Some(0.0));
+        assert_eq!(thin.last(), full.last());
+        // Monotone like the full curve, and every kept point is a point of the full curve.
+        assert!(thin
+            .windows(2)
+            .all(|w| w[1].fppw > w[0].fppw && w[1].miss_rate <= w[0].miss_rate));
+        assert!(thin.iter().all(|p| full.contains(p)));
+    }
+
+    #[test]
+    fn reverse_isp_inputs_are_seeded_and_noisy() {
+        let rgb = Image::from_fn(32, 24, |x, y| [(x * 7) as u8, (y * 9) as u8, 128]);
+        let noisy = |seed, index| {
+            let p = InputPipeline::ReverseIsp {
+                noise: Some(NoiseLevel::High),
+                seed,
+            };
+            DomainImage::from_rgb_via(&rgb, Domain::Mosaic, Cfa::Rggb, &p, index).unwrap()
+        };
+        let clean = DomainImage::from_rgb_via(
+            &rgb,
+            Domain::Mosaic,
+            Cfa::Rggb,
+            &InputPipeline::ReverseIsp { noise: None, seed: 1 },
+            0,
+        )
+        .unwrap();
+        let px = |d: &DomainImage| match d {
+            DomainImage::Mosaic(m) => m.as_slice().to_vec(),
+            _ => unreachable!(),
+        };
+        assert_eq!(
+            px(&noisy(1, 0)),
+            px(&noisy(1, 0)),
+            "same seed and index: same image"
+        );
+        assert_ne!(
+            px(&noisy(1, 0)),
+            px(&noisy(1, 1)),
+            "another image index: another noise"
+        );
+        assert_ne!(px(&noisy(1, 0)), px(&clean));
+        // Colour through the forward ISP keeps the size (cropped to even).
+        let c = DomainImage::from_rgb_via(
+            &rgb,
+            Domain::Colour,
+            Cfa::Rggb,
+            &InputPipeline::ReverseIsp { noise: None, seed: 1 },
+            0,
+        )
+        .unwrap();
+        assert_eq!(c.dimensions(), (32, 24));
     }
 
     #[test]

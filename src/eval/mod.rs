@@ -6,6 +6,7 @@
 //! | [`channels`] | Fig. 9: GMSD of the mosaic gradient vs grey / R / G / B / colour-max gradients |
 //! | [`scale_space`] | Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize |
 //! | [`demosaic`] | Table IV: each demosaicing method vs true colour |
+//! | [`detection`] | pedestrian detection: full-image AP on boxed images (USC), DET and PR plots |
 //! | [`pipeline`] | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first) |
 //! | [`noise`] | gradient and HOG-input degradation under the three noise levels of eq. 24 |
 //! | [`sift`] | Fig. 12 / Fig. 10: SIFT repeatability, grey vs mosaic, under blur, scale and rotation |
@@ -17,6 +18,7 @@
 pub mod channels;
 pub mod common;
 pub mod demosaic;
+pub mod detection;
 pub mod gradients;
 pub mod noise;
 pub mod pipeline;
