@@ -219,7 +219,7 @@ fn block_products(
     kernel: ProductKernel,
     out: &mut [f32],
 ) {
-    debug_assert!(nbxp % PAD_COLUMNS == 0 && nbx <= nbxp);
+    debug_assert!(nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp);
     debug_assert!(bt.len() >= w.bl * nbxp && out.len() >= w.nk * nbxp && w.wt.len() >= w.bl * w.nkp);
     match kernel {
         #[cfg(target_arch = "x86_64")]
@@ -257,7 +257,7 @@ fn block_products_scalar(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, 
 unsafe fn block_products_avx2(w: &ScoreWeights, bt: &[f32], nbx: usize, out: &mut [f32]) {
     use std::arch::x86_64::*;
     const L: usize = 8;
-    debug_assert!(nbx % L == 0);
+    debug_assert!(nbx.is_multiple_of(L));
     let full = nbx;
     let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
     debug_assert!(nk.div_ceil(TILE_K_AVX2) * TILE_K_AVX2 <= nkp);
@@ -296,7 +296,7 @@ unsafe fn block_products_avx2(w: &ScoreWeights, bt: &[f32], nbx: usize, out: &mu
 unsafe fn block_products_avx512(w: &ScoreWeights, bt: &[f32], nbx: usize, out: &mut [f32]) {
     use std::arch::x86_64::*;
     const L: usize = 16;
-    debug_assert!(nbx % L == 0);
+    debug_assert!(nbx.is_multiple_of(L));
     let full = nbx;
     let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
     debug_assert!(nk.div_ceil(TILE_K_AVX512) * TILE_K_AVX512 <= nkp);

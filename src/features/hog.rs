@@ -67,6 +67,8 @@ use crate::raw::{RawFrame, RawView};
 pub const CELL_SIZE: usize = 8;
 /// Cells per block side (OpenCV `blockSize` 16 = 2 cells; fixed here).
 pub const BLOCK_CELLS: usize = 2;
+// Block assembly sums the 2x2 cells of a block explicitly.
+const _: () = assert!(BLOCK_CELLS == 2);
 /// Block side in pixels.
 pub const BLOCK_SIZE: usize = CELL_SIZE * BLOCK_CELLS;
 /// Block stride in pixels (one cell, OpenCV default; fixed here).
@@ -1183,16 +1185,16 @@ fn block_row(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f32]) {
         for bcx in 0..BLOCK_CELLS {
             for bcy in 0..BLOCK_CELLS {
                 let out = &mut blk[(bcx * BLOCK_CELLS + bcy) * nb..(bcx * BLOCK_CELLS + bcy + 1) * nb];
-                for sy in 0..BLOCK_CELLS {
-                    for sx in 0..BLOCK_CELLS {
-                        let c = &cells[((by + sy) * ncx + bx + sx) * cl..][..cl];
-                        let py = bcy * BLOCK_CELLS + sy;
-                        let px = bcx * BLOCK_CELLS + sx;
-                        let h = &c[(py * PROFILES + px) * nb..][..nb];
-                        for (o, &v) in out.iter_mut().zip(h) {
-                            *o += v;
-                        }
-                    }
+                // The four source histograms in (sy, sx) order, summed in registers from 0 (a
+                // read-modify-write of `out` per source stalled on store forwarding).
+                let h = |sy: usize, sx: usize| {
+                    let c = &cells[((by + sy) * ncx + bx + sx) * cl..][..cl];
+                    let (py, px) = (bcy * BLOCK_CELLS + sy, bcx * BLOCK_CELLS + sx);
+                    &c[(py * PROFILES + px) * nb..][..nb]
+                };
+                let (h00, h01, h10, h11) = (h(0, 0), h(0, 1), h(1, 0), h(1, 1));
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = (((0.0 + h00[k]) + h01[k]) + h10[k]) + h11[k];
                 }
             }
         }
