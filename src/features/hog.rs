@@ -875,20 +875,17 @@ pub fn resize_cell_grid(
     };
     let tx = taps(src.ncx, new_ncx);
     let ty = taps(src.ncy, new_ncy);
+    let avx2 = have_avx2();
     let work = |(y, row): (usize, &mut [f32])| {
-        let (y0, y1, fy) = ty[y];
-        for (x, out) in row.chunks_mut(cl).enumerate() {
-            let (x0, x1, fx) = tx[x];
-            let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
-            let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
-            let w00 = (1.0 - fx) * (1.0 - fy) * gain;
-            let w10 = fx * (1.0 - fy) * gain;
-            let w01 = (1.0 - fx) * fy * gain;
-            let w11 = fx * fy * gain;
-            for k in 0..cl {
-                out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
-            }
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: AVX2 and FMA were detected on this CPU (`have_avx2`); the closure is not
+            // compiled with them, the row function is.
+            unsafe { resample_cell_row_avx2(src, &tx, ty[y], gain, row) };
+            return;
         }
+        let _ = avx2;
+        resample_cell_row(src, &tx, ty[y], gain, row)
     };
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
@@ -905,6 +902,38 @@ fn have_avx2() -> bool {
     }
     #[cfg(not(target_arch = "x86_64"))]
     false
+}
+
+/// Taps of one axis of [`resize_cell_grid`]: (lower cell, upper cell, weight of the upper).
+type CellTaps = (usize, usize, f32);
+
+/// [`resample_cell_row`] compiled for AVX2 + FMA (same bits: no fused operations).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn resample_cell_row_avx2(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
+    resample_cell_row(src, tx, ty, gain, row)
+}
+
+/// One output row of [`resize_cell_grid`].
+#[inline(always)]
+fn resample_cell_row(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
+    let cl = src.cell_len;
+    let (y0, y1, fy) = ty;
+    for (x, out) in row.chunks_mut(cl).enumerate() {
+        let (x0, x1, fx) = tx[x];
+        let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
+        let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
+        let w00 = (1.0 - fx) * (1.0 - fy) * gain;
+        let w10 = fx * (1.0 - fy) * gain;
+        let w01 = (1.0 - fx) * fy * gain;
+        let w11 = fx * fy * gain;
+        for k in 0..cl {
+            out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
+        }
+    }
 }
 
 fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
@@ -1426,6 +1455,22 @@ mod tests {
                     .zip(&bw.data)
                     .all(|(a, b)| a.to_bits() == b.to_bits()));
             }
+        }
+        // Cell-grid resampling rows.
+        let spec = HogSpec::new(&HogOptions::default()).unwrap();
+        let mut cg = CellGrid::empty();
+        cell_grid(&spec, &HogInput::GreyU8(grey.view()), Exec::Serial, &mut cg).unwrap();
+        let tx: Vec<CellTaps> = (0..19)
+            .map(|x| (x, (x + 1).min(24), (x % 7) as f32 / 7.0))
+            .collect();
+        let mut want = vec![0.0; 19 * cg.cell_len];
+        resample_cell_row(&cg, &tx, (3, 4, 0.3), 1.0, &mut want);
+        #[cfg(target_arch = "x86_64")]
+        if have_avx2() {
+            let mut got = vec![0.0; 19 * cg.cell_len];
+            // SAFETY: AVX2 and FMA were detected just above.
+            unsafe { resample_cell_row_avx2(&cg, &tx, (3, 4, 0.3), 1.0, &mut got) };
+            assert_eq!(got, want);
         }
         // Gamma rows.
         let src: Vec<f32> = (0..77).map(|i| i as f32 * 3.3 - 20.0).collect();
