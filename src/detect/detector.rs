@@ -23,7 +23,7 @@
 //! OpenCV); mosaic levels use the CFA-preserving super-pixel resize so mosaic gradients stay valid.
 //! A window at block (wx, wy) of a level scores `b + Σ_{bx<7, by<15} w_{bx,by} · B(wx+bx, wy+by)`
 //! where `B` is the level's normalised block grid — each block is computed once per level, never per
-//! window. A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
+//! window, and the sum is evaluated as one GEMM per block row ([`super::score`]). A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
 //! pixels (rounded like OpenCV), then NMS merges hits.
 //!
 //! # Deviations from OpenCV
