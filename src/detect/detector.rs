@@ -23,7 +23,7 @@
 //! OpenCV); mosaic levels use the CFA-preserving super-pixel resize so mosaic gradients stay valid.
 //! A window at block (wx, wy) of a level scores `b + Σ_{bx<7, by<15} w_{bx,by} · B(wx+bx, wy+by)`
 //! where `B` is the level's normalised block grid — each block is computed once per level, never per
-//! window. A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
+//! window, and the sum is evaluated as one GEMM per block row ([`super::score`]). A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
 //! pixels (rounded like OpenCV), then NMS merges hits.
 //!
 //! # Deviations from OpenCV
@@ -37,6 +37,7 @@ use rayon::prelude::*;
 use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
 use super::pyramid::{resize_bilinear, resize_mosaic, PyramidError};
+use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
     blocks_from_cells, cell_grid, resize_cell_grid, BlockGrid, CellGrid, Exec, HogError, HogInput, HogSpec,
@@ -48,9 +49,6 @@ use crate::image::Image;
 /// between 1 (step edges) and the scale ratio (smooth ramps); L2-Hys normalisation removes the
 /// difference except for its epsilon, so we use 1.
 const APPROX_GAIN: f32 = 1.0;
-
-/// Window rows scored per parallel task.
-const SCORE_STRIP_ROWS: usize = 4;
 
 /// Errors of the detector.
 #[derive(Debug, thiserror::Error)]
@@ -212,6 +210,8 @@ pub struct Detector {
     spec: DetectorSpec,
     hog: HogSpec,
     model: LinearModel,
+    /// The model's weights laid out for the scoring GEMM.
+    score_weights: ScoreWeights,
 }
 
 /// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
@@ -242,10 +242,12 @@ impl Detector {
     /// Validate the model and options.
     pub fn new(model: LinearModel, opts: &DetectorOptions) -> Result<Self, DetectError> {
         let hog = model.hog_spec("detector model")?;
+        let score_weights = ScoreWeights::new(&hog, &model.weights, model.bias);
         Ok(Self {
             spec: DetectorSpec::new(opts)?,
             hog,
             model,
+            score_weights,
         })
     }
     /// The model.
@@ -475,7 +477,7 @@ impl Detector {
         let t = Instant::now();
         let (nwx, nwy) = grid.windows(&self.hog);
         let mut scores = vec![0.0f32; nwx * nwy];
-        score_windows(&self.hog, &self.model, grid, &mut scores, exec);
+        window_scores(&self.score_weights, grid, exec, &mut scores);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
         let thr = self.spec.opts.hit_threshold;
@@ -542,111 +544,8 @@ impl Detector {
     pub fn score_grid(&self, grid: &BlockGrid) -> Vec<f32> {
         let (nwx, nwy) = grid.windows(&self.hog);
         let mut scores = vec![0.0f32; nwx * nwy];
-        score_windows(&self.hog, &self.model, grid, &mut scores, Exec::Parallel);
+        window_scores(&self.score_weights, grid, Exec::Parallel, &mut scores);
         scores
-    }
-}
-
-/// 8-lane dot product (vectorises on SSE2/AVX2).
-#[inline(always)]
-fn dot(a: &[f32], b: &[f32]) -> f32 {
-    let mut acc = [0.0f32; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..8 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let mut s = acc.iter().sum::<f32>();
-    for (x, y) in ra.iter().zip(rb) {
-        s += x * y;
-    }
-    s
-}
-
-/// Scores of window rows `first..` into `chunk` (`nwx` per row): for each block row of the window
-/// and each block column, the dot products of the blocks with the weight slice for that position.
-#[inline(always)]
-fn score_rows(
-    hog: &HogSpec,
-    model: &LinearModel,
-    grid: &BlockGrid,
-    first: usize,
-    nwx: usize,
-    chunk: &mut [f32],
-) {
-    let (bw, bh) = hog.blocks_per_window();
-    let bl = hog.block_len();
-    let w = &model.weights;
-    for (k, row) in chunk.chunks_mut(nwx).enumerate() {
-        let wy = first + k;
-        row.iter_mut().for_each(|v| *v = model.bias);
-        for by in 0..bh {
-            let brow = grid.block_row(wy + by);
-            for bx in 0..bw {
-                let ws = &w[(bx * bh + by) * bl..][..bl];
-                for (v, blk) in row.iter_mut().zip(brow[bx * bl..].chunks_exact(bl)) {
-                    *v += dot(blk, ws);
-                }
-            }
-        }
-    }
-}
-
-/// [`score_rows`] compiled for AVX2 + FMA.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA (checked by the caller with `is_x86_feature_detected!`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn score_rows_avx2(
-    hog: &HogSpec,
-    model: &LinearModel,
-    grid: &BlockGrid,
-    first: usize,
-    nwx: usize,
-    chunk: &mut [f32],
-) {
-    score_rows(hog, model, grid, first, nwx, chunk)
-}
-
-fn score_rows_dispatch(
-    hog: &HogSpec,
-    model: &LinearModel,
-    grid: &BlockGrid,
-    first: usize,
-    nwx: usize,
-    chunk: &mut [f32],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the features this function is compiled for were just detected on this CPU.
-        // It measured ~2x faster than the SSE2 baseline on the SVM stage.
-        unsafe { score_rows_avx2(hog, model, grid, first, nwx, chunk) };
-        return;
-    }
-    score_rows(hog, model, grid, first, nwx, chunk)
-}
-
-/// Window scores of a whole grid, parallel over strips of window rows.
-fn score_windows(hog: &HogSpec, model: &LinearModel, grid: &BlockGrid, scores: &mut [f32], exec: Exec) {
-    let (nwx, _) = grid.windows(hog);
-    if nwx == 0 {
-        return;
-    }
-    let work = |(s, chunk): (usize, &mut [f32])| {
-        score_rows_dispatch(hog, model, grid, s * SCORE_STRIP_ROWS, nwx, chunk)
-    };
-    match exec {
-        Exec::Parallel => scores
-            .par_chunks_mut(nwx * SCORE_STRIP_ROWS)
-            .enumerate()
-            .for_each(work),
-        Exec::Serial => scores
-            .chunks_mut(nwx * SCORE_STRIP_ROWS)
-            .enumerate()
-            .for_each(work),
     }
 }
 

@@ -5,6 +5,7 @@ pub mod detector;
 pub mod model;
 pub mod nms;
 pub mod pyramid;
+pub mod score;
 pub mod svm;
 pub mod train;
 pub mod types;

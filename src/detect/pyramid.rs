@@ -85,47 +85,149 @@ fn taps(src: usize, dst: usize) -> Vec<(usize, f32)> {
         .collect()
 }
 
-/// Strided bilinear resize core: reads `src` pixels at `(x0 + sx·step, y0 + sy·step)` and writes
-/// `dst` pixels at `(ox + dx·step, oy + dy·step)` for a plane of `sw x sh` → `dw x dh`.
+/// Column taps of the whole output row: source columns `p`, `q` and weight `fx` of
+/// `a[p] + (a[q] − a[p])·fx`, for a plane interleaved with `step` (1 = plain image, 2 = mosaic:
+/// output column `x` samples plane `x % 2` at plane column `x / 2`).
+fn column_taps(sw: usize, dw: usize, step: usize) -> Vec<(u32, u32, f32)> {
+    let tx = taps(sw, dw);
+    (0..dw * step)
+        .map(|x| {
+            let (ox, dx) = (x % step, x / step);
+            let (ix, fx) = tx[dx];
+            let ix1 = (ix + 1).min(sw - 1);
+            ((ox + ix * step) as u32, (ox + ix1 * step) as u32, fx)
+        })
+        .collect()
+}
+
+/// Bilinear resize core for a plane (`step` 1) or the four interleaved planes of a mosaic
+/// (`step` 2, each plane `sw x sh` → `dw x dh`): one pass over the output rows, each row from two
+/// source rows of the same tile phase. Per pixel the arithmetic is
+/// `r0 = a[p] + (a[q] − a[p])·fx`, `r1` likewise from the lower row, `r0 + (r1 − r0)·fy`.
 #[allow(clippy::too_many_arguments)]
-fn resize_plane(
+fn resize_planes(
     src: ImageView<'_, f32>,
     step: usize,
-    off: (usize, usize),
     sw: usize,
     sh: usize,
     dw: usize,
     dh: usize,
     dst: &mut [f32],
-    dst_stride: usize,
 ) {
-    let tx = taps(sw, dw);
+    let tc = column_taps(sw, dw, step);
     let ty = taps(sh, dh);
-    let (ox, oy) = off;
-    let rows_per_strip = STRIP_ROWS * step;
-    dst.par_chunks_mut(dst_stride * rows_per_strip)
+    let w = dw * step;
+    let avx2 = have_avx2();
+    dst.par_chunks_mut(w * STRIP_ROWS)
         .enumerate()
         .for_each(|(s, chunk)| {
-            let mut r0 = vec![0.0f32; dw];
-            let mut r1 = vec![0.0f32; dw];
-            let first = s * STRIP_ROWS;
-            for dy in first..(first + STRIP_ROWS).min(dh) {
+            // Horizontally resampled source rows, two per tile phase: consecutive output rows of a
+            // phase usually share a source row (scale < 2), so each is resampled once.
+            let mut cache: Vec<[(usize, Vec<f32>); 2]> = (0..step)
+                .map(|_| [(usize::MAX, vec![0.0f32; w]), (usize::MAX, vec![0.0f32; w])])
+                .collect();
+            for (k, row) in chunk.chunks_mut(w).enumerate() {
+                let y = s * STRIP_ROWS + k;
+                let (oy, dy) = (y % step, y / step);
                 let (iy, fy) = ty[dy];
                 let iy1 = (iy + 1).min(sh - 1);
-                let a = src.row(oy + iy * step);
-                let b = src.row(oy + iy1 * step);
-                for (dx, &(ix, fx)) in tx.iter().enumerate() {
-                    let ix1 = (ix + 1).min(sw - 1);
-                    let (p, q) = (ox + ix * step, ox + ix1 * step);
-                    r0[dx] = a[p] + (a[q] - a[p]) * fx;
-                    r1[dx] = b[p] + (b[q] - b[p]) * fx;
+                let (ra, rb) = (oy + iy * step, oy + iy1 * step);
+                let slots = &mut cache[oy];
+                // Keep the slot that holds a needed row; refill the other(s).
+                if slots[0].0 != ra && slots[0].0 != rb {
+                    slots.swap(0, 1);
                 }
-                let row = &mut chunk[((dy - first) * step + oy) * dst_stride..];
-                for dx in 0..dw {
-                    row[ox + dx * step] = r0[dx] + (r1[dx] - r0[dx]) * fy;
+                let (s0, s1) = slots.split_at_mut(1);
+                let (sa, sb) = if s0[0].0 == rb {
+                    (&mut s1[0], &mut s0[0])
+                } else {
+                    (&mut s0[0], &mut s1[0])
+                };
+                for (slot, r) in [(&mut *sa, ra), (&mut *sb, rb)] {
+                    if slot.0 != r {
+                        horizontal(src.row(r), &tc, &mut slot.1, avx2);
+                        slot.0 = r;
+                    }
                 }
+                vertical(&sa.1, &sb.1, fy, row, avx2);
             }
         });
+}
+
+/// `out[x] = a[p] + (a[q] − a[p])·fx` for the column taps `(p, q, fx)`.
+fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32], avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected (`have_avx2`).
+        unsafe { horizontal_avx2(a, tc, out) };
+        return;
+    }
+    let _ = avx2;
+    horizontal_row(a, tc, out)
+}
+
+/// `out[x] = r0[x] + (r1[x] − r0[x])·fy`.
+fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: as in `horizontal`.
+        unsafe { vertical_avx2(r0, r1, fy, out) };
+        return;
+    }
+    let _ = avx2;
+    vertical_row(r0, r1, fy, out)
+}
+
+/// Size `dst` (every pixel is overwritten); a new buffer comes zeroed from the allocator instead
+/// of being `memset`.
+fn fresh(dst: &mut Image<f32>, w: usize, h: usize) {
+    if dst.dimensions() != (w, h) {
+        *dst = Image::new(w, h);
+    }
+}
+
+fn have_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// [`horizontal_row`] compiled for AVX2 + FMA (same bits).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn horizontal_avx2(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
+    horizontal_row(a, tc, out)
+}
+
+/// [`vertical_row`] compiled for AVX2 + FMA (8 lanes wide; same bits).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn vertical_avx2(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+    vertical_row(r0, r1, fy, out)
+}
+
+#[inline(always)]
+fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
+    for (o, &(p, q, fx)) in out.iter_mut().zip(tc) {
+        let (p, q) = (p as usize, q as usize);
+        *o = a[p] + (a[q] - a[p]) * fx;
+    }
+}
+
+#[inline(always)]
+fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+    for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
+        *o = v0 + (v1 - v0) * fy;
+    }
 }
 
 /// Bilinear resize of one f32 plane to `new_w x new_h` (cv2.resize INTER_LINEAR semantics).
@@ -144,8 +246,8 @@ pub fn resize_bilinear(
             dst_h: new_h,
         });
     }
-    dst.reshape(new_w, new_h);
-    resize_plane(src, 1, (0, 0), w, h, new_w, new_h, dst.as_mut_slice(), new_w);
+    fresh(dst, new_w, new_h);
+    resize_planes(src, 1, w, h, new_w, new_h, dst.as_mut_slice());
     Ok(())
 }
 
@@ -174,24 +276,8 @@ pub fn resize_mosaic(
             dst_h: e.3,
         });
     }
-    dst.reshape(new_w, new_h);
-    // Each tile position is a plane; planes write disjoint pixels but share rows, so run them one
-    // after the other (each is parallel inside).
-    for oy in 0..2 {
-        for ox in 0..2 {
-            resize_plane(
-                src,
-                2,
-                (ox, oy),
-                w / 2,
-                h / 2,
-                new_w / 2,
-                new_h / 2,
-                dst.as_mut_slice(),
-                new_w,
-            );
-        }
-    }
+    fresh(dst, new_w, new_h);
+    resize_planes(src, 2, w / 2, h / 2, new_w / 2, new_h / 2, dst.as_mut_slice());
     Ok(())
 }
 
@@ -216,6 +302,41 @@ mod tests {
         for x in 0..4 {
             let want = ((2 * x) * (2 * x) + (2 * x + 1) * (2 * x + 1)) as f32 / 2.0;
             assert_eq!(d.get(x, 0), want);
+        }
+    }
+
+    #[test]
+    fn mosaic_resize_equals_per_plane_bilinear_bit_for_bit() {
+        let src = Image::<f32>::from_fn(46, 30, |x, y| ((x * 37 + y * 11 + x * y) % 97) as f32 * 0.7);
+        let mut d = Image::new(0, 0);
+        for (nw, nh) in [(40, 26), (20, 12), (46, 30), (60, 34)] {
+            resize_mosaic(src.view(), nw, nh, &mut d).unwrap();
+            for (ox, oy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let plane = Image::<f32>::from_fn(23, 15, |x, y| src.get(2 * x + ox, 2 * y + oy));
+                let mut p = Image::new(0, 0);
+                resize_bilinear(plane.view(), nw / 2, nh / 2, &mut p).unwrap();
+                for y in 0..nh / 2 {
+                    for x in 0..nw / 2 {
+                        assert_eq!(d.get(2 * x + ox, 2 * y + oy).to_bits(), p.get(x, y).to_bits());
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_row_kernel_equals_the_generic_one_bit_for_bit() {
+        let a: Vec<f32> = (0..50).map(|i| (i * 7 % 13) as f32 * 1.3).collect();
+        let b: Vec<f32> = (0..37).map(|i| (i * 5 % 11) as f32 * 2.1).collect();
+        let tc = column_taps(50, 37, 1);
+        let (mut h, mut v) = (vec![0.0; 37], vec![0.0; 37]);
+        horizontal(&a, &tc, &mut h, false);
+        vertical(&h, &b, 0.37, &mut v, false);
+        if have_avx2() {
+            let (mut h2, mut v2) = (vec![0.0; 37], vec![0.0; 37]);
+            horizontal(&a, &tc, &mut h2, true);
+            vertical(&h2, &b, 0.37, &mut v2, true);
+            assert_eq!((h2, v2), (h, v));
         }
     }
 

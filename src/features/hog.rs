@@ -67,6 +67,8 @@ use crate::raw::{RawFrame, RawView};
 pub const CELL_SIZE: usize = 8;
 /// Cells per block side (OpenCV `blockSize` 16 = 2 cells; fixed here).
 pub const BLOCK_CELLS: usize = 2;
+// Block assembly sums the 2x2 cells of a block explicitly.
+const _: () = assert!(BLOCK_CELLS == 2);
 /// Block side in pixels.
 pub const BLOCK_SIZE: usize = CELL_SIZE * BLOCK_CELLS;
 /// Block stride in pixels (one cell, OpenCV default; fixed here).
@@ -418,13 +420,13 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
             let s = UNIT_RANGE / *max_value as f32;
             vec![plane_map(*image, |p| g(p as f32 * s))]
         }
-        HogInput::GreyF32(v) => vec![plane_map(*v, |p| g(p.max(0.0)))],
+        HogInput::GreyF32(v) => vec![plane_gamma_f32(*v, gamma)],
         HogInput::Mosaic(v) => {
             if w % 2 != 0 || h % 2 != 0 {
                 return Err(HogError::OddMosaic { width: w, height: h });
             }
             tap = 2;
-            vec![plane_map(*v, |p| g(p.max(0.0)))]
+            vec![plane_gamma_f32(*v, gamma)]
         }
         HogInput::ColourF32(p) => {
             for q in &p[1..] {
@@ -453,6 +455,50 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
         planes,
         tap,
     })
+}
+
+/// `√max(v, 0)` (or `max(v, 0)` without gamma) of a float plane, rows in parallel, vectorised.
+fn plane_gamma_f32(v: ImageView<'_, f32>, gamma: bool) -> Image<f32> {
+    let w = v.width();
+    let mut out = Image::<f32>::new(w, v.height());
+    let avx2 = have_avx2();
+    out.as_mut_slice()
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: AVX2 was detected on this CPU (`have_avx2`).
+                unsafe { gamma_row_avx2(v.row(y), row, gamma) };
+                return;
+            }
+            let _ = avx2;
+            gamma_row(v.row(y), row, gamma)
+        });
+    out
+}
+
+/// [`gamma_row`] compiled for AVX2 (`vsqrtps`, 8 lanes; IEEE square root, same bits as scalar).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn gamma_row_avx2(src: &[f32], dst: &mut [f32], gamma: bool) {
+    gamma_row(src, dst, gamma)
+}
+
+#[inline(always)]
+fn gamma_row(src: &[f32], dst: &mut [f32], gamma: bool) {
+    if gamma {
+        for (o, &p) in dst.iter_mut().zip(src) {
+            *o = p.max(0.0).sqrt();
+        }
+    } else {
+        for (o, &p) in dst.iter_mut().zip(src) {
+            *o = p.max(0.0);
+        }
+    }
 }
 
 fn plane_map<P: Copy + Sync>(v: ImageView<'_, P>, f: impl Fn(P) -> f32 + Sync) -> Image<f32> {
@@ -829,20 +875,17 @@ pub fn resize_cell_grid(
     };
     let tx = taps(src.ncx, new_ncx);
     let ty = taps(src.ncy, new_ncy);
+    let avx2 = have_avx2();
     let work = |(y, row): (usize, &mut [f32])| {
-        let (y0, y1, fy) = ty[y];
-        for (x, out) in row.chunks_mut(cl).enumerate() {
-            let (x0, x1, fx) = tx[x];
-            let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
-            let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
-            let w00 = (1.0 - fx) * (1.0 - fy) * gain;
-            let w10 = fx * (1.0 - fy) * gain;
-            let w01 = (1.0 - fx) * fy * gain;
-            let w11 = fx * fy * gain;
-            for k in 0..cl {
-                out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
-            }
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: AVX2 and FMA were detected on this CPU (`have_avx2`); the closure is not
+            // compiled with them, the row function is.
+            unsafe { resample_cell_row_avx2(src, &tx, ty[y], gain, row) };
+            return;
         }
+        let _ = avx2;
+        resample_cell_row(src, &tx, ty[y], gain, row)
     };
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
@@ -850,29 +893,54 @@ pub fn resize_cell_grid(
     }
 }
 
-fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
+/// Whether the AVX2 + FMA builds of the kernels can run on this CPU.
+#[inline]
+fn have_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU features the function is compiled for were detected just above. The
-        // AVX2 build vectorises the magnitude/atan pass and the profile accumulation 8 lanes wide.
-        unsafe { cells_from_planes_avx2(spec, p, exec, out) };
-        return;
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
     }
-    cells_from_planes_generic(spec, p, exec, out)
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
-/// [`cells_from_planes_generic`] compiled for AVX2 + FMA.
+/// Taps of one axis of [`resize_cell_grid`]: (lower cell, upper cell, weight of the upper).
+type CellTaps = (usize, usize, f32);
+
+/// [`resample_cell_row`] compiled for AVX2 + FMA (same bits: no fused operations).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn cells_from_planes_avx2(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
-    cells_from_planes_generic(spec, p, exec, out)
+unsafe fn resample_cell_row_avx2(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
+    resample_cell_row(src, tx, ty, gain, row)
 }
 
+/// One output row of [`resize_cell_grid`].
 #[inline(always)]
-fn cells_from_planes_generic(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
+fn resample_cell_row(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
+    let cl = src.cell_len;
+    let (y0, y1, fy) = ty;
+    for (x, out) in row.chunks_mut(cl).enumerate() {
+        let (x0, x1, fx) = tx[x];
+        let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
+        let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
+        let w00 = (1.0 - fx) * (1.0 - fy) * gain;
+        let w10 = fx * (1.0 - fy) * gain;
+        let w01 = (1.0 - fx) * fy * gain;
+        let w11 = fx * fy * gain;
+        for k in 0..cl {
+            out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
+        }
+    }
+}
+
+fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
+    cells_from_planes_with(spec, p, exec, CellKernel::detect(spec.nbins()), out)
+}
+
+fn cells_from_planes_with(spec: &HogSpec, p: &Planes, exec: Exec, kernel: CellKernel, out: &mut CellGrid) {
     let nb = spec.nbins();
     let ncx = p.width / CELL_SIZE;
     let ncy = p.height / CELL_SIZE;
@@ -880,116 +948,242 @@ fn cells_from_planes_generic(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut C
     out.ncx = ncx;
     out.ncy = ncy;
     out.cell_len = cl;
-    out.data.clear();
-    out.data.resize(ncx * ncy * cl, 0.0);
+    zeroed(&mut out.data, ncx * ncy * cl);
     let cells = &mut out.data;
     let strip = STRIP_CELL_ROWS * ncx * cl;
-    // Non-zero x-profiles per pixel column of a cell (3 of 4 for the default geometry).
-    let nonzero: Vec<Vec<(usize, f32)>> = (0..CELL_SIZE)
-        .map(|j| {
-            (0..PROFILES)
-                .filter(|&px| spec.profile[px][j] != 0.0)
-                .map(|px| (px, spec.profile[px][j]))
-                .collect()
-        })
-        .collect();
-    let nonzero = &nonzero;
-    let work = |(s, chunk): (usize, &mut [f32])| {
-        let mut bins = vec![[0u8; 2]; ncx * CELL_SIZE];
-        let mut wts = vec![[0.0f32; 2]; ncx * CELL_SIZE];
-        let mut sc = RowScratch::new(p.width);
-        let mut rowacc = vec![0.0f32; PROFILES * nb];
-        for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
-            let cy = s * STRIP_CELL_ROWS + k;
-            for i in 0..CELL_SIZE {
-                gradient_row(p, cy * CELL_SIZE + i, nb, &mut sc, &mut bins, &mut wts);
-                for (cx, cell) in cell_row.chunks_mut(cl).enumerate() {
-                    rowacc.iter_mut().for_each(|v| *v = 0.0);
-                    let x0 = cx * CELL_SIZE;
-                    let cols = bins[x0..x0 + CELL_SIZE].iter().zip(&wts[x0..x0 + CELL_SIZE]);
-                    for (nz, (&[b0, b1], &[w0, w1])) in nonzero.iter().zip(cols) {
-                        for &(px, pw) in nz {
-                            let acc = &mut rowacc[px * nb..(px + 1) * nb];
-                            acc[b0 as usize] += pw * w0;
-                            acc[b1 as usize] += pw * w1;
-                        }
-                    }
-                    for py in 0..PROFILES {
-                        let wy = spec.profile[py][i];
-                        if wy == 0.0 {
-                            continue;
-                        }
-                        let dst = &mut cell[py * PROFILES * nb..(py + 1) * PROFILES * nb];
-                        for (d, &r) in dst.iter_mut().zip(&rowacc) {
-                            *d += wy * r;
-                        }
-                    }
-                }
-            }
-        }
-    };
+    let work = |(s, chunk): (usize, &mut [f32])| cells_strip_with(kernel, spec, p, s, chunk);
     match exec {
         Exec::Parallel => cells.par_chunks_mut(strip.max(1)).enumerate().for_each(work),
         Exec::Serial => cells.chunks_mut(strip.max(1)).enumerate().for_each(work),
     }
 }
 
-/// Assemble and L2-Hys-normalise every block from a cell grid.
-pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU features the function is compiled for were detected just above.
-        unsafe { blocks_from_cells_avx2(spec, cg, exec, dst) };
-        return;
-    }
-    blocks_from_cells_generic(spec, cg, exec, dst)
+/// Which build of the cell-histogram kernel runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CellKernel {
+    /// Portable code (the reference).
+    Generic,
+    /// The portable code compiled for AVX2 + FMA.
+    Avx2,
+    /// AVX-512F: per-cell histograms held in registers, one-hot bin vectors instead of scalar
+    /// scatter (needs ≤ 16 bins).
+    Avx512,
 }
 
-/// [`blocks_from_cells_generic`] compiled for AVX2 + FMA.
+impl CellKernel {
+    /// Every kernel this CPU runs for `nbins` bins, slowest first.
+    fn available(nbins: usize) -> Vec<Self> {
+        #[allow(unused_mut)]
+        let mut v = vec![Self::Generic];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if have_avx2() {
+                v.push(Self::Avx2);
+                if std::arch::is_x86_feature_detected!("avx512f") && nbins <= AVX512_MAX_BINS {
+                    v.push(Self::Avx512);
+                }
+            }
+        }
+        let _ = nbins;
+        v
+    }
+    fn detect(nbins: usize) -> Self {
+        *Self::available(nbins).last().unwrap_or(&Self::Generic)
+    }
+}
+
+/// Most bins the AVX-512 cell kernel holds in one 16-lane register.
+const AVX512_MAX_BINS: usize = 16;
+
+fn cells_strip_with(kernel: CellKernel, spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
+    match kernel {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `kernel` comes from `CellKernel::available`, so AVX2 and FMA were detected. The
+        // closure that calls this is not compiled with those features; the strip function is.
+        CellKernel::Avx2 => unsafe { cells_strip_avx2(spec, p, s, chunk) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above, plus AVX-512F and nbins ≤ 16 checked by `CellKernel::available`.
+        CellKernel::Avx512 => unsafe { cells_strip_avx512(spec, p, s, chunk) },
+        _ => cells_strip(spec, p, s, chunk),
+    }
+}
+
+/// [`cells_strip`] with the per-cell accumulation in AVX-512 registers: for every cell, the 16
+/// (y-profile, x-profile) histograms live in 16 zmm registers (bins in lanes) for its 8 pixel rows;
+/// a pixel's two votes become the vector `w0·e(b0) + w1·e(b1)` (`e` = unit vectors), added with the
+/// x-profile weights into 4 row accumulators, which are added with the y-profile weights into the
+/// 16 cell accumulators (fused multiply-adds). Every lane sees exactly the fused multiply-adds, in
+/// the same order, of the scalar scatter in [`cells_strip`] (other lanes add `w·0 = +0`), so the
+/// result is bit-identical. Measured ≈1.4x less CPU for the cell stage than the AVX2 build of the
+/// scalar scatter, which stalls on store-to-load forwarding.
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX2 and FMA, and `spec.nbins() ≤ 16`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn cells_strip_avx512(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
+    use std::arch::x86_64::*;
+    let nb = spec.nbins();
+    debug_assert!(nb <= AVX512_MAX_BINS && PROFILES == 4);
+    let ncx = p.width / CELL_SIZE;
+    let cl = cell_len(nb);
+    let w8 = ncx * CELL_SIZE;
+    let mut units = [[0.0f32; 16]; 16];
+    for (b, u) in units.iter_mut().enumerate() {
+        u[b] = 1.0;
+    }
+    let mut bins = vec![[0u8; 2]; w8 * CELL_SIZE];
+    let mut wts = vec![[0.0f32; 2]; w8 * CELL_SIZE];
+    let mut sc = RowScratch::new(p.width);
+    let prof = spec.profile;
+    let mask: __mmask16 = ((1u32 << nb) - 1) as __mmask16;
+    for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
+        let cy = s * STRIP_CELL_ROWS + k;
+        for i in 0..CELL_SIZE {
+            let r = i * w8..(i + 1) * w8;
+            gradient_row(
+                p,
+                cy * CELL_SIZE + i,
+                nb,
+                &mut sc,
+                &mut bins[r.clone()],
+                &mut wts[r],
+            );
+        }
+        for (cx, cell) in cell_row.chunks_exact_mut(cl).enumerate() {
+            let mut cacc = [_mm512_setzero_ps(); PROFILES * PROFILES];
+            for i in 0..CELL_SIZE {
+                let mut acc = [_mm512_setzero_ps(); PROFILES];
+                let o = i * w8 + cx * CELL_SIZE;
+                for j in 0..CELL_SIZE {
+                    let ([b0, b1], [w0, w1]) = (bins[o + j], wts[o + j]);
+                    debug_assert!((b0 as usize) < nb && (b1 as usize) < nb);
+                    // SAFETY: b0, b1 < nb ≤ 16 (gradient_row clamps bins), so both rows exist.
+                    let (e0, e1) = unsafe {
+                        (
+                            _mm512_loadu_ps(units.get_unchecked(b0 as usize).as_ptr()),
+                            _mm512_loadu_ps(units.get_unchecked(b1 as usize).as_ptr()),
+                        )
+                    };
+                    let v = _mm512_mul_ps(e0, _mm512_set1_ps(w0));
+                    let v = _mm512_fmadd_ps(e1, _mm512_set1_ps(w1), v);
+                    for (px, a) in acc.iter_mut().enumerate() {
+                        let pw = prof[px][j];
+                        if pw != 0.0 {
+                            *a = _mm512_fmadd_ps(_mm512_set1_ps(pw), v, *a);
+                        }
+                    }
+                }
+                for py in 0..PROFILES {
+                    let wy = prof[py][i];
+                    if wy == 0.0 {
+                        continue;
+                    }
+                    let wv = _mm512_set1_ps(wy);
+                    for px in 0..PROFILES {
+                        let c = &mut cacc[py * PROFILES + px];
+                        *c = _mm512_fmadd_ps(wv, acc[px], *c);
+                    }
+                }
+            }
+            debug_assert!(cell.len() == PROFILES * PROFILES * nb);
+            for (n, c) in cacc.iter().enumerate() {
+                // SAFETY: the masked store writes lanes 0..nb at n·nb, inside the cell (16·nb).
+                unsafe { _mm512_mask_storeu_ps(cell.as_mut_ptr().add(n * nb), mask, *c) };
+            }
+        }
+    }
+}
+
+/// [`cells_strip`] compiled for AVX2 + FMA (vectorises the magnitude/atan pass 8 lanes wide).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn blocks_from_cells_avx2(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
-    blocks_from_cells_generic(spec, cg, exec, dst)
+unsafe fn cells_strip_avx2(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
+    cells_strip(spec, p, s, chunk)
 }
 
+/// Cell histograms of strip `s` (STRIP_CELL_ROWS cell rows) into `chunk`. Votes are accumulated
+/// with [`f32::mul_add`] (one rounding, as the FMA kernels): native on AArch64 and in the AVX2 + FMA
+/// build, a slow library call only on x86 CPUs without FMA.
 #[inline(always)]
-fn blocks_from_cells_generic(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+fn cells_strip(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
     let nb = spec.nbins();
-    let (ncx, ncy, cl) = (cg.ncx, cg.ncy, cg.cell_len);
+    let ncx = p.width / CELL_SIZE;
+    let cl = cell_len(nb);
+    // Non-zero x-profiles per pixel column of a cell (3 of 4 for the default geometry).
+    let mut nonzero = [[(0usize, 0.0f32); PROFILES]; CELL_SIZE];
+    let mut nnz = [0usize; CELL_SIZE];
+    for j in 0..CELL_SIZE {
+        for px in 0..PROFILES {
+            if spec.profile[px][j] != 0.0 {
+                nonzero[j][nnz[j]] = (px, spec.profile[px][j]);
+                nnz[j] += 1;
+            }
+        }
+    }
+    let mut bins = vec![[0u8; 2]; ncx * CELL_SIZE];
+    let mut wts = vec![[0.0f32; 2]; ncx * CELL_SIZE];
+    let mut sc = RowScratch::new(p.width);
+    let mut rowacc = vec![0.0f32; PROFILES * nb];
+    for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
+        let cy = s * STRIP_CELL_ROWS + k;
+        for i in 0..CELL_SIZE {
+            gradient_row(p, cy * CELL_SIZE + i, nb, &mut sc, &mut bins, &mut wts);
+            for (cx, cell) in cell_row.chunks_mut(cl).enumerate() {
+                rowacc.iter_mut().for_each(|v| *v = 0.0);
+                let x0 = cx * CELL_SIZE;
+                let cols = bins[x0..x0 + CELL_SIZE].iter().zip(&wts[x0..x0 + CELL_SIZE]);
+                for (j, (&[b0, b1], &[w0, w1])) in cols.enumerate() {
+                    for &(px, pw) in &nonzero[j][..nnz[j]] {
+                        let acc = &mut rowacc[px * nb..(px + 1) * nb];
+                        acc[b0 as usize] = pw.mul_add(w0, acc[b0 as usize]);
+                        acc[b1 as usize] = pw.mul_add(w1, acc[b1 as usize]);
+                    }
+                }
+                for py in 0..PROFILES {
+                    let wy = spec.profile[py][i];
+                    if wy == 0.0 {
+                        continue;
+                    }
+                    let dst = &mut cell[py * PROFILES * nb..(py + 1) * PROFILES * nb];
+                    for (d, &r) in dst.iter_mut().zip(&rowacc) {
+                        *d = wy.mul_add(r, *d);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Assemble and L2-Hys-normalise every block from a cell grid.
+pub fn blocks_from_cells(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mut BlockGrid) {
+    block_rows_with(spec, cg, exec, have_avx2(), dst)
+}
+
+/// [`blocks_from_cells`], with the AVX2 + FMA build of the row function when `avx2` (which must
+/// then be supported by the CPU).
+fn block_rows_with(spec: &HogSpec, cg: &CellGrid, exec: Exec, avx2: bool, dst: &mut BlockGrid) {
+    let (ncx, ncy) = (cg.ncx, cg.ncy);
     let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
     let nby = ncy.saturating_sub(BLOCK_CELLS - 1);
     let bl = spec.block_len();
     dst.nbx = nbx;
     dst.nby = nby;
     dst.block_len = bl;
-    dst.data.clear();
-    dst.data.resize(nbx * nby * bl, 0.0);
-    let thresh = spec.opts.l2hys_threshold;
-    let eps1 = bl as f32 * L2HYS_EPS_PER_ELEMENT;
-    let cells = &cg.data;
+    zeroed(&mut dst.data, nbx * nby * bl);
     let row_work = |(by, row): (usize, &mut [f32])| {
-        for (bx, blk) in row.chunks_mut(bl).enumerate() {
-            for bcx in 0..BLOCK_CELLS {
-                for bcy in 0..BLOCK_CELLS {
-                    let out = &mut blk[(bcx * BLOCK_CELLS + bcy) * nb..(bcx * BLOCK_CELLS + bcy + 1) * nb];
-                    for sy in 0..BLOCK_CELLS {
-                        for sx in 0..BLOCK_CELLS {
-                            let c = &cells[((by + sy) * ncx + bx + sx) * cl..][..cl];
-                            let py = bcy * BLOCK_CELLS + sy;
-                            let px = bcx * BLOCK_CELLS + sx;
-                            let h = &c[(py * PROFILES + px) * nb..][..nb];
-                            for (o, &v) in out.iter_mut().zip(h) {
-                                *o += v;
-                            }
-                        }
-                    }
-                }
-            }
-            normalize_l2hys(blk, eps1, thresh);
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected
+            // (`have_avx2`); the closure is not compiled with them, the row function is.
+            unsafe { block_row_avx2(spec, cg, by, row) };
+            return;
         }
+        let _ = avx2;
+        block_row(spec, cg, by, row)
     };
     if bl > 0 && nbx > 0 {
         match exec {
@@ -999,20 +1193,88 @@ fn blocks_from_cells_generic(spec: &HogSpec, cg: &CellGrid, exec: Exec, dst: &mu
     }
 }
 
-/// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again.
+/// [`block_row`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_row_avx2(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f32]) {
+    block_row(spec, cg, by, row)
+}
+
+/// Block row `by` (zero-filled on entry) from the cell grid.
+#[inline(always)]
+fn block_row(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f32]) {
+    let nb = spec.nbins();
+    let (ncx, cl) = (cg.ncx, cg.cell_len);
+    let bl = spec.block_len();
+    let thresh = spec.opts.l2hys_threshold;
+    let eps1 = bl as f32 * L2HYS_EPS_PER_ELEMENT;
+    let cells = &cg.data;
+    for (bx, blk) in row.chunks_mut(bl).enumerate() {
+        for bcx in 0..BLOCK_CELLS {
+            for bcy in 0..BLOCK_CELLS {
+                let out = &mut blk[(bcx * BLOCK_CELLS + bcy) * nb..(bcx * BLOCK_CELLS + bcy + 1) * nb];
+                // The four source histograms in (sy, sx) order, summed in registers from 0 (a
+                // read-modify-write of `out` per source stalled on store forwarding).
+                let h = |sy: usize, sx: usize| {
+                    let c = &cells[((by + sy) * ncx + bx + sx) * cl..][..cl];
+                    let (py, px) = (bcy * BLOCK_CELLS + sy, bcx * BLOCK_CELLS + sx);
+                    &c[(py * PROFILES + px) * nb..][..nb]
+                };
+                let (h00, h01, h10, h11) = (h(0, 0), h(0, 1), h(1, 0), h(1, 1));
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = (((0.0 + h00[k]) + h01[k]) + h10[k]) + h11[k];
+                }
+            }
+        }
+        normalize_l2hys(blk, eps1, thresh);
+    }
+}
+
+/// `buf` = `n` zeros. A buffer that must grow is allocated zeroed (`calloc`: fresh pages are
+/// already zero, no `memset` pass over tens of MB per pyramid level).
+fn zeroed(buf: &mut Vec<f32>, n: usize) {
+    if buf.capacity() < n {
+        *buf = vec![0.0; n];
+    } else {
+        buf.clear();
+        buf.resize(n, 0.0);
+    }
+}
+
+/// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again. Squares are summed in 8 interleaved
+/// partial sums (lane `i mod 8`) added pairwise at the end, so the loops vectorise; OpenCV sums in
+/// 4 SIMD lanes, a sequential sum differs from both by ≈1e-7 relative.
 #[inline(always)]
 pub fn normalize_l2hys(h: &mut [f32], eps1: f32, thresh: f32) {
-    let sum: f32 = h.iter().map(|v| v * v).sum();
-    let scale = 1.0 / (sum.sqrt() + eps1);
-    let mut sum2 = 0.0f32;
+    let scale = 1.0 / (sum_of_squares(h).sqrt() + eps1);
     for v in h.iter_mut() {
         *v = (*v * scale).min(thresh);
-        sum2 += *v * *v;
     }
-    let scale2 = 1.0 / (sum2.sqrt() + L2HYS_EPS2);
+    let scale2 = 1.0 / (sum_of_squares(h).sqrt() + L2HYS_EPS2);
     for v in h.iter_mut() {
         *v *= scale2;
     }
+}
+
+/// `Σ v²` in 8 partial sums (lane `i mod 8`), combined as ((0+4)+(2+6))+((1+5)+(3+7)).
+#[inline(always)]
+fn sum_of_squares(h: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let chunks = h.chunks_exact(8);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for k in 0..8 {
+            acc[k] += c[k] * c[k];
+        }
+    }
+    for (k, &v) in rest.iter().enumerate() {
+        acc[k] += v * v;
+    }
+    let a: [f32; 4] = std::array::from_fn(|k| acc[k] + acc[k + 4]);
+    (a[0] + a[2]) + (a[1] + a[3])
 }
 
 /// Descriptor of a whole image that is exactly one window (`cv2.HOGDescriptor().compute(img)`).
@@ -1151,6 +1413,78 @@ mod tests {
         block_grid(&spec, &inp, Exec::Serial, &mut b).unwrap();
         assert_eq!(a, b);
         assert_eq!((a.blocks_x(), a.blocks_y()), (36, 33));
+    }
+
+    #[test]
+    fn every_kernel_build_is_bit_identical_to_the_generic_one() {
+        let grey = Image::<u8>::from_fn(204, 150, |x, y| ((x * x + 3 * y * x + y) % 251) as u8);
+        let mosaic = grey.map(|v| v as f32 * 0.93);
+        let rgb = Image::<[u8; 3]>::from_fn(204, 150, |x, y| {
+            [(x % 256) as u8, ((y * 3) % 256) as u8, ((x ^ y) % 256) as u8]
+        });
+        for nbins in [9, 4, 16, 18] {
+            let spec = HogSpec::new(&HogOptions {
+                nbins,
+                ..Default::default()
+            })
+            .unwrap();
+            for inp in [
+                HogInput::GreyU8(grey.view()),
+                HogInput::Mosaic(mosaic.view()),
+                HogInput::Rgb8(rgb.view()),
+            ] {
+                let planes = planes_from_input(&spec, &inp).unwrap();
+                let mut want = CellGrid::empty();
+                cells_from_planes_with(&spec, &planes, Exec::Serial, CellKernel::Generic, &mut want);
+                let mut bw = BlockGrid::empty();
+                block_rows_with(&spec, &want, Exec::Serial, false, &mut bw);
+                for k in CellKernel::available(nbins) {
+                    let mut got = CellGrid::empty();
+                    cells_from_planes_with(&spec, &planes, Exec::Parallel, k, &mut got);
+                    assert!(
+                        got.data
+                            .iter()
+                            .zip(&want.data)
+                            .all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{k:?} nbins {nbins}"
+                    );
+                }
+                let mut bg = BlockGrid::empty();
+                block_rows_with(&spec, &want, Exec::Parallel, have_avx2(), &mut bg);
+                assert!(bg
+                    .data
+                    .iter()
+                    .zip(&bw.data)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+        }
+        // Cell-grid resampling rows.
+        let spec = HogSpec::new(&HogOptions::default()).unwrap();
+        let mut cg = CellGrid::empty();
+        cell_grid(&spec, &HogInput::GreyU8(grey.view()), Exec::Serial, &mut cg).unwrap();
+        let tx: Vec<CellTaps> = (0..19)
+            .map(|x| (x, (x + 1).min(24), (x % 7) as f32 / 7.0))
+            .collect();
+        let mut want = vec![0.0; 19 * cg.cell_len];
+        resample_cell_row(&cg, &tx, (3, 4, 0.3), 1.0, &mut want);
+        #[cfg(target_arch = "x86_64")]
+        if have_avx2() {
+            let mut got = vec![0.0; 19 * cg.cell_len];
+            // SAFETY: AVX2 and FMA were detected just above.
+            unsafe { resample_cell_row_avx2(&cg, &tx, (3, 4, 0.3), 1.0, &mut got) };
+            assert_eq!(got, want);
+        }
+        // Gamma rows.
+        let src: Vec<f32> = (0..77).map(|i| i as f32 * 3.3 - 20.0).collect();
+        let mut want = vec![0.0; 77];
+        gamma_row(&src, &mut want, true);
+        #[cfg(target_arch = "x86_64")]
+        if have_avx2() {
+            let mut got = vec![0.0; 77];
+            // SAFETY: AVX2 and FMA were detected just above.
+            unsafe { gamma_row_avx2(&src, &mut got, true) };
+            assert_eq!(got, want);
+        }
     }
 
     #[test]
