@@ -19,6 +19,34 @@ const SIFT_INT_DESCR_FCTR: f32 = 512.0;
 /// Descriptor length: 4 x 4 cells x 8 bins.
 pub const DESCRIPTOR_LEN: usize = SIFT_DESCR_WIDTH * SIFT_DESCR_WIDTH * SIFT_DESCR_HIST_BINS;
 
+/// Half-width of the rotated grid in cell units: a sample is inside when `|c_rot|, |r_rot| <
+/// d / 2 + 0.5` (`rbin`, `cbin` in (-1, d)).
+const GRID_HALF: f64 = SIFT_DESCR_WIDTH as f64 / 2.0 + 0.5;
+/// Slack added to [`GRID_HALF`] for the interval below; the f32 rotation is off by ~1e-6.
+const GRID_SLACK: f64 = 1e-3;
+
+/// Columns `j0..=j1` of window row `i` that can lie inside the rotated grid: the exact per-sample
+/// test still decides, this only skips columns that are certainly outside (about half of the
+/// square window). `c_rot = j cos_t - i sin_t` and `r_rot = j sin_t + i cos_t` are linear in
+/// `j`, so each bound is an interval, widened by [`GRID_SLACK`] and one column.
+fn inside_columns(i: i64, cos_t: f32, sin_t: f32, radius: i64) -> (i64, i64) {
+    let (mut lo, mut hi) = (-radius as f64, radius as f64);
+    let lim = GRID_HALF + GRID_SLACK;
+    // c_rot: j cos_t in (-lim + i sin_t, lim + i sin_t); r_rot: j sin_t in (-lim - i cos_t, ...).
+    for (slope, offset) in [
+        (cos_t as f64, i as f64 * sin_t as f64),
+        (sin_t as f64, -(i as f64) * cos_t as f64),
+    ] {
+        if slope.abs() < 1e-9 {
+            continue;
+        }
+        let (a, b) = ((-lim + offset) / slope, (lim + offset) / slope);
+        lo = lo.max(a.min(b).floor() - 1.0);
+        hi = hi.min(a.max(b).ceil() + 1.0);
+    }
+    (lo.max(-radius as f64) as i64, hi.min(radius as f64) as i64)
+}
+
 /// Compute the descriptor of one candidate from its Gaussian layer `img`; same-colour gradient
 /// taps are `s` pixels apart. `sc` holds reusable buffers; `path` runs the gradient kernel.
 ///
@@ -68,7 +96,8 @@ pub(crate) fn descriptor(
         let wi = sc.table[(i + radius) as usize];
         let ru = r as usize;
         let (above, row, below) = (img.row(ru - s), img.row(ru), img.row(ru + s));
-        for j in -radius..=radius {
+        let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
+        for j in j0..=j1 {
             let c_rot = j as f32 * cos_t - i as f32 * sin_t;
             let r_rot = j as f32 * sin_t + i as f32 * cos_t;
             let rbin = r_rot + (d / 2) as f32 - 0.5;
@@ -148,4 +177,33 @@ pub(crate) fn descriptor(
         *o = (v * scale).round().clamp(0.0, 255.0) as u8;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inside_columns_keep_every_sample_of_the_grid() {
+        let d = SIFT_DESCR_WIDTH as f32;
+        for (k, hist_width) in [(0, 4.0f32), (1, 9.6), (2, 25.0)] {
+            let radius = (hist_width * std::f32::consts::SQRT_2 * (d + 1.0) * 0.5).round() as i64;
+            for step in 0..720 {
+                let ang = (step as f32 * 0.5 + k as f32 * 0.1).to_radians();
+                let (sin_t, cos_t) = (ang.sin() / hist_width, ang.cos() / hist_width);
+                for i in -radius..=radius {
+                    let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
+                    for j in -radius..=radius {
+                        let c_rot = j as f32 * cos_t - i as f32 * sin_t;
+                        let r_rot = j as f32 * sin_t + i as f32 * cos_t;
+                        let rbin = r_rot + (d / 2.0) - 0.5;
+                        let cbin = c_rot + (d / 2.0) - 0.5;
+                        if rbin > -1.0 && rbin < d && cbin > -1.0 && cbin < d {
+                            assert!((j0..=j1).contains(&j), "{ang} {i} {j}: {j0}..={j1}");
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

@@ -602,10 +602,11 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                             threshold,
                             &mut flags,
                         );
-                        for c in SIFT_IMG_BORDER..cols - SIFT_IMG_BORDER {
+                        let scan = flags.iter().enumerate().take(cols - SIFT_IMG_BORDER);
+                        for (c, &flag) in scan.skip(SIFT_IMG_BORDER) {
                             // The pre-test checks the threshold and some neighbours; the full
                             // test decides (same result as the full test alone).
-                            if flags[c] == 0 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
+                            if flag == 0 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
                                 continue;
                             }
                             let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {

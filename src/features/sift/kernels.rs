@@ -205,6 +205,8 @@ fn blur_col_body(center: &[f32], up: &[&[f32]], down: &[&[f32]], taps: &[f32], o
 }
 
 /// The reference `fast_atan2_deg` without branches (selects only), so that it vectorises; bit-equal to it.
+// `!(ax >= ay)` on purpose: it is the reference's else branch, NaN included.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn fast_atan2_deg_select(y: f32, x: f32) -> f32 {
     const P1: f32 = 57.283_627;
@@ -257,6 +259,7 @@ fn extremum_pretest_body(
 
 /// The pre-test with the reach known at compile time: comparisons only (`!(v < u)` is the
 /// reference's "not rejected by u", NaN included), so each lane is a few masks.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn extremum_pretest_fixed<const R: usize>(
     prev: &[f32],
@@ -292,6 +295,7 @@ fn extremum_pretest_fixed<const R: usize>(
 }
 
 /// The pre-test for any reach (not used by SIFT's steps 1 and 2, kept for completeness).
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn extremum_pretest_any(
     prev: &[f32],
     cur: &[f32],

@@ -442,14 +442,26 @@ pub fn normalised_mosaic_from_frame(frame: &RawFrame) -> Image<f32> {
         (b, 1.0 / (white - b).max(1.0))
     });
     let (w, h) = (frame.width(), frame.height());
-    let norm = |v: f32, x: usize, y: usize| {
-        let (b, inv) = tile[(y % 2) * 2 + (x % 2)];
-        ((v - b) * inv).clamp(0.0, 1.0)
-    };
-    match frame.view() {
-        RawView::U8(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
-        RawView::U16(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
+    // Rows in parallel; each row alternates two (black, 1 / range) pairs.
+    fn fill<T: Copy + Into<f32> + Sync>(src: ImageView<'_, T>, tile: &[(f32, f32); 4], out: &mut Image<f32>) {
+        let w = out.width();
+        out.as_mut_slice()
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                let t = &tile[(y % 2) * 2..(y % 2) * 2 + 2];
+                for (x, (o, &v)) in row.iter_mut().zip(src.row(y)).enumerate() {
+                    let (b, inv) = t[x % 2];
+                    *o = ((v.into() - b) * inv).clamp(0.0, 1.0);
+                }
+            });
     }
+    let mut out = Image::new(w, h);
+    match frame.view() {
+        RawView::U8(v) => fill(v, &tile, &mut out),
+        RawView::U16(v) => fill(v, &tile, &mut out),
+    }
+    out
 }
 
 #[cfg(test)]
