@@ -110,13 +110,19 @@ pub(crate) fn blur_symmetric(
         .for_each(|(si, strip)| {
             for (ri, out) in strip.chunks_mut(w).enumerate() {
                 let row = src.row(si * SYM_ROW_STRIP + ri);
-                if w > 2 * reach {
+                let interior = if w > 2 * reach { reach..w - reach } else { 0..0 };
+                if !interior.is_empty() {
                     kernels::blur_row_interior(path, row, taps, step, reach, w - reach, out);
                 }
-                for (x, o) in out.iter_mut().enumerate() {
-                    if x >= reach && x + reach < w {
-                        continue;
-                    }
+                // Border pixels only (reflected taps): the two ends, or the whole row when the
+                // kernel is wider than it.
+                let (left, right) = if interior.is_empty() {
+                    (w, w)
+                } else {
+                    (reach, w - reach)
+                };
+                for x in (0..left).chain(right..w) {
+                    let o = &mut out[x];
                     let p = x % step;
                     let j = (x / step) as isize;
                     let n = (w + step - 1 - p) / step;
