@@ -29,8 +29,33 @@ impl KernelPath {
     #[cfg(test)]
     pub(crate) const ALL: [KernelPath; 3] = [KernelPath::Portable, KernelPath::Avx2, KernelPath::Avx512];
 
-    /// The widest path this CPU supports.
+    /// The path SIFT runs: the widest this CPU supports, or the one named by the environment
+    /// variable `MOSAICD_SIFT_KERNELS` (`portable`, `avx2`, `avx512`; for benchmarking the
+    /// paths against each other) when that is available here. Decided once per process.
     pub(crate) fn best() -> Self {
+        static CHOSEN: std::sync::OnceLock<KernelPath> = std::sync::OnceLock::new();
+        *CHOSEN.get_or_init(|| {
+            let asked = std::env::var("MOSAICD_SIFT_KERNELS").ok();
+            let forced = match asked.as_deref() {
+                Some("portable") => Some(Self::Portable),
+                Some("avx2") => Some(Self::Avx2),
+                Some("avx512") => Some(Self::Avx512),
+                _ => None,
+            };
+            match forced {
+                Some(p) if p.is_available() => p,
+                _ => {
+                    if let Some(v) = asked {
+                        tracing::warn!(value = %v, "MOSAICD_SIFT_KERNELS ignored (portable, avx2 or avx512 available here)");
+                    }
+                    Self::widest()
+                }
+            }
+        })
+    }
+
+    /// The widest path this CPU supports.
+    fn widest() -> Self {
         if Self::Avx512.is_available() {
             Self::Avx512
         } else if Self::Avx2.is_available() {
