@@ -19,6 +19,9 @@ const SIFT_INT_DESCR_FCTR: f32 = 512.0;
 /// Descriptor length: 4 x 4 cells x 8 bins.
 pub const DESCRIPTOR_LEN: usize = SIFT_DESCR_WIDTH * SIFT_DESCR_WIDTH * SIFT_DESCR_HIST_BINS;
 
+/// Bins from the first to the last of the eight a sample adds to.
+const SPAN: usize = (SIFT_DESCR_WIDTH + 3) * (SIFT_DESCR_HIST_BINS + 2) + 2;
+
 /// Half-width of the rotated grid in cell units: a sample is inside when `|c_rot|, |r_rot| <
 /// d / 2 + 0.5` (`rbin`, `cbin` in (-1, d)).
 const GRID_HALF: f64 = SIFT_DESCR_WIDTH as f64 / 2.0 + 0.5;
@@ -88,12 +91,24 @@ pub(crate) fn descriptor(
     sc.clear();
     sc.table
         .extend((-radius..=radius).map(|k| ((k * k) as f32 * a).exp()));
+    // Local vectors (moved back below) so that their lengths stay in registers in the loop.
+    let (mut gx, mut gy) = (std::mem::take(&mut sc.dx), std::mem::take(&mut sc.dy));
+    let (mut rbins, mut cbins, mut ws) = (
+        std::mem::take(&mut sc.a),
+        std::mem::take(&mut sc.b),
+        std::mem::take(&mut sc.w),
+    );
+    let most = ((2 * radius + 1) * (2 * radius + 1)) as usize;
+    for v in [&mut gx, &mut gy, &mut rbins, &mut cbins, &mut ws] {
+        v.reserve(most);
+    }
+    let table = &sc.table;
     for i in -radius..=radius {
         let r = pty + i;
         if r < si || r >= rows - si {
             continue;
         }
-        let wi = sc.table[(i + radius) as usize];
+        let wi = table[(i + radius) as usize];
         let ru = r as usize;
         let (above, row, below) = (img.row(ru - s), img.row(ru), img.row(ru + s));
         let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
@@ -105,14 +120,15 @@ pub(crate) fn descriptor(
             let c = ptx + j;
             if rbin > -1.0 && rbin < d as f32 && cbin > -1.0 && cbin < d as f32 && c >= si && c < cols - si {
                 let cu = c as usize;
-                sc.dx.push(row[cu + s] - row[cu - s]);
-                sc.dy.push(above[cu] - below[cu]);
-                sc.a.push(rbin);
-                sc.b.push(cbin);
-                sc.w.push(wi * sc.table[(j + radius) as usize]);
+                gx.push(row[cu + s] - row[cu - s]);
+                gy.push(above[cu] - below[cu]);
+                rbins.push(rbin);
+                cbins.push(cbin);
+                ws.push(wi * table[(j + radius) as usize]);
             }
         }
     }
+    (sc.dx, sc.dy, sc.a, sc.b, sc.w) = (gx, gy, rbins, cbins, ws);
     sc.polar(path);
     let mut hist = [0.0f32; (SIFT_DESCR_WIDTH + 2) * (SIFT_DESCR_WIDTH + 2) * (SIFT_DESCR_HIST_BINS + 2)];
     for k in 0..sc.dx.len() {
@@ -146,14 +162,16 @@ pub(crate) fn descriptor(
         let v_rco001 = v_rc00 * obin;
         let v_rco000 = v_rc00 - v_rco001;
         let idx = (((r0 as i64 + 1) * (d as i64 + 2) + c0 as i64 + 1) * (n as i64 + 2) + o0) as usize;
-        hist[idx] += v_rco000;
-        hist[idx + 1] += v_rco001;
-        hist[idx + (n + 2)] += v_rco010;
-        hist[idx + (n + 3)] += v_rco011;
-        hist[idx + (d + 2) * (n + 2)] += v_rco100;
-        hist[idx + (d + 2) * (n + 2) + 1] += v_rco101;
-        hist[idx + (d + 3) * (n + 2)] += v_rco110;
-        hist[idx + (d + 3) * (n + 2) + 1] += v_rco111;
+        // The eight bins touched, as one fixed-size window: a single bounds check.
+        let cell: &mut [f32; SPAN] = (&mut hist[idx..idx + SPAN]).try_into().expect("SPAN bins");
+        cell[0] += v_rco000;
+        cell[1] += v_rco001;
+        cell[n + 2] += v_rco010;
+        cell[n + 3] += v_rco011;
+        cell[(d + 2) * (n + 2)] += v_rco100;
+        cell[(d + 2) * (n + 2) + 1] += v_rco101;
+        cell[(d + 3) * (n + 2)] += v_rco110;
+        cell[(d + 3) * (n + 2) + 1] += v_rco111;
     }
     let mut raw = [0.0f32; DESCRIPTOR_LEN];
     for i in 0..d {
