@@ -4,7 +4,9 @@
 
 use rayon::prelude::*;
 
-use super::scale_space::{blur_step, downsample2_step, upsample2_step};
+use super::buffers;
+use super::kernels::{self, KernelPath};
+use super::scale_space::{blur_step_with, downsample2_step_into, upsample2_step};
 use super::{Keypoint, SiftSpec};
 use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
@@ -32,6 +34,14 @@ pub(crate) struct Pyramid {
     pub gauss: Vec<Vec<Image<f32>>>,
     /// `dog[o][i] = gauss[o][i + 1] - gauss[o][i]`, `i` in `0..n_octave_layers + 2`.
     pub dog: Vec<Vec<Image<f32>>>,
+}
+
+impl Drop for Pyramid {
+    fn drop(&mut self) {
+        for img in self.gauss.drain(..).chain(self.dog.drain(..)).flatten() {
+            buffers::give(img);
+        }
+    }
 }
 
 /// A keypoint together with where it lives in the pyramid (needed by the descriptor).
@@ -91,10 +101,13 @@ fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
 pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, SuperPixelError> {
     let step = spec.step();
     let st = step as f64;
+    let tp0 = std::time::Instant::now();
+    let doubled;
     let init = if spec.double_image {
-        upsample2_step(src, step)?
+        doubled = upsample2_step(src, step)?;
+        &doubled
     } else {
-        src.clone()
+        src
     };
     // The doubled image carries twice the input blur (SIFT_INIT_SIGMA * 2 in its pixels).
     let init_sigma = if spec.double_image {
@@ -106,44 +119,57 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
     let sig_diff = (spec.sigma_px() * spec.sigma_px() - init_sigma * init_sigma)
         .max(0.01)
         .sqrt();
-    let mut base = Image::new(0, 0);
-    blur_step(&init, sig_diff / st, step, &mut base)?;
+    let path = KernelPath::best();
+    // Scratch image of the blurs' horizontal pass, reused by every blur of the pyramid. All
+    // large images come from `buffers` (recycled between frames, every pixel overwritten).
+    let (iw, ih) = init.dimensions();
+    let mut tmp = buffers::take(iw, ih);
+    let mut base = buffers::take(iw, ih);
+    blur_step_with(init, sig_diff / st, step, &mut base, &mut tmp, None, path)?;
+    let tp1 = std::time::Instant::now();
     let n_oct = octave_count(base.width(), base.height(), spec);
     let sig = layer_sigmas(spec);
     let nl = spec.n_octave_layers;
     let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
+    let mut dog: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
     for o in 0..n_oct {
         let mut layers = Vec::with_capacity(nl + 3);
+        let mut dogs = Vec::with_capacity(nl + 2);
         layers.push(if o == 0 {
-            std::mem::take(&mut base)
+            std::mem::replace(&mut base, Image::new(0, 0))
         } else {
-            downsample2_step(&gauss[o - 1][nl], step)?
+            let prev: &Image<f32> = &gauss[o - 1][nl];
+            let (pw, ph) = prev.dimensions();
+            let mut d = buffers::take(step * ((pw / step) / 2), step * ((ph / step) / 2));
+            downsample2_step_into(prev, step, &mut d)?;
+            d
         });
+        let (lw, lh) = layers[0].dimensions();
         for s in sig.iter().skip(1) {
-            let mut dst = Image::new(0, 0);
-            blur_step(layers.last().expect("layer 0 exists"), s / st, step, &mut dst)?;
+            let mut dst = buffers::take(lw, lh);
+            // dog[i] = gauss[i + 1] - gauss[i], written by the blur that makes gauss[i + 1].
+            let mut d = buffers::take(lw, lh);
+            blur_step_with(
+                layers.last().expect("layer 0 exists"),
+                s / st,
+                step,
+                &mut dst,
+                &mut tmp,
+                Some(&mut d),
+                path,
+            )?;
             layers.push(dst);
+            dogs.push(d);
         }
         gauss.push(layers);
+        dog.push(dogs);
     }
-    let dog = gauss
-        .iter()
-        .map(|layers| {
-            (0..nl + 2)
-                .into_par_iter()
-                .map(|i| {
-                    let (a, b) = (&layers[i], &layers[i + 1]);
-                    let data = a
-                        .as_slice()
-                        .iter()
-                        .zip(b.as_slice())
-                        .map(|(x, y)| y - x)
-                        .collect();
-                    Image::from_vec(a.width(), a.height(), data).expect("same size")
-                })
-                .collect()
-        })
-        .collect();
+    buffers::give(tmp);
+    tracing::debug!(
+        base_s = (tp1 - tp0).as_secs_f64(),
+        layers_s = tp1.elapsed().as_secs_f64(),
+        "sift pyramid"
+    );
     Ok(Pyramid { gauss, dog })
 }
 
@@ -161,8 +187,11 @@ fn is_extremum(
     let val = cur.get(x, y);
     let w = cur.width();
     let (x0, x1) = (x - reach, x + reach);
+    // The centre row first (its neighbours are the closest, so they reject most often), then
+    // the others: the same test in another order.
+    let rows = std::iter::once(y).chain((y - reach..=y + reach).filter(|&yy| yy != y));
     if val > 0.0 {
-        for yy in y - reach..=y + reach {
+        for yy in rows {
             let off = yy * w;
             for img in [prev, cur, next] {
                 let row = &img.as_slice()[off + x0..=off + x1];
@@ -173,7 +202,7 @@ fn is_extremum(
         }
         true
     } else if val < 0.0 {
-        for yy in y - reach..=y + reach {
+        for yy in rows {
             let off = yy * w;
             for img in [prev, cur, next] {
                 let row = &img.as_slice()[off + x0..=off + x1];
@@ -325,8 +354,87 @@ fn adjust_local_extrema(
     })
 }
 
+/// Reusable buffers of the two-pass gradient windows (orientation histogram and descriptor):
+/// the gradients of the samples kept, two per-sample values, weights, and the polar form.
+#[derive(Debug, Default)]
+pub(crate) struct GradScratch {
+    /// Horizontal same-colour differences.
+    pub dx: Vec<f32>,
+    /// Vertical same-colour differences (up minus down).
+    pub dy: Vec<f32>,
+    /// First per-sample value (row bin of the descriptor).
+    pub a: Vec<f32>,
+    /// Second per-sample value (column bin of the descriptor).
+    pub b: Vec<f32>,
+    /// Gaussian weights (descriptor) or `i² + j²` (orientation, as f32, exact below 2^24).
+    pub w: Vec<f32>,
+    /// Magnitudes from [`kernels::polar`].
+    pub mag: Vec<f32>,
+    /// Orientations in degrees from [`kernels::polar`].
+    pub ori: Vec<f32>,
+    /// Weight table.
+    pub table: Vec<f32>,
+}
+
+impl GradScratch {
+    /// Empty every list (capacity kept).
+    pub fn clear(&mut self) {
+        for v in [
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.a,
+            &mut self.b,
+            &mut self.w,
+            &mut self.table,
+        ] {
+            v.clear();
+        }
+    }
+
+    /// Fill `mag` and `ori` from `dx` and `dy`.
+    pub fn polar(&mut self, path: KernelPath) {
+        let n = self.dx.len();
+        self.mag.resize(n, 0.0);
+        self.ori.resize(n, 0.0);
+        kernels::polar(path, &self.dx, &self.dy, &mut self.mag, &mut self.ori);
+    }
+}
+
+/// `x.floor()` without the libm call the baseline x86-64 target makes for it; equal to it for
+/// `|x| < 2^31` (the descriptor's bins lie in (-9, 9)), except that -0 gives +0, which adds the
+/// same zero to the histogram.
+#[inline]
+pub(crate) fn floor(x: f32) -> f32 {
+    debug_assert!(x.abs() < 2_147_483_648.0);
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// `x.round()` (half away from zero) for `0 <= x < 2^31` without the libm call: `x - trunc(x)`
+/// is exact there.
+#[inline]
+fn round_non_negative(x: f32) -> f32 {
+    debug_assert!((0.0..2_147_483_648.0).contains(&x));
+    let t = x as i32 as f32;
+    if x - t >= 0.5 {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
 /// Smoothed 36-bin gradient-orientation histogram around (x, y) of `img` (OpenCV
 /// `calcOrientationHist`); gradients use same-colour taps `s` pixels apart. Returns the maximum.
+///
+/// Two passes as the descriptor: collect the gradients, [`kernels::polar`] for magnitude and
+/// orientation, then accumulate in OpenCV's order. The weight `exp((i² + j²) · expf_scale)` is
+/// computed once per distinct `i² + j²` (a lazily filled table), so the result is bit-equal to
+/// the single loop.
+#[allow(clippy::too_many_arguments)]
 fn orientation_hist(
     img: &Image<f32>,
     x: usize,
@@ -334,6 +442,8 @@ fn orientation_hist(
     radius: i64,
     sigma: f32,
     s: usize,
+    path: KernelPath,
+    sc: &mut GradScratch,
     hist: &mut [f32; SIFT_ORI_HIST_BINS],
 ) -> f32 {
     let n = SIFT_ORI_HIST_BINS;
@@ -341,31 +451,44 @@ fn orientation_hist(
     let mut temp = [0.0f32; SIFT_ORI_HIST_BINS + 4];
     let (cols, rows) = (img.width() as i64, img.height() as i64);
     let si = s as i64;
+    sc.clear();
     for i in -radius..=radius {
         let yy = y as i64 + i;
         if yy < si || yy >= rows - si {
             continue;
         }
+        let yu = yy as usize;
+        let (above, row, below) = (img.row(yu - s), img.row(yu), img.row(yu + s));
         for j in -radius..=radius {
             let xx = x as i64 + j;
             if xx < si || xx >= cols - si {
                 continue;
             }
-            let (xu, yu) = (xx as usize, yy as usize);
-            let dx = img.get(xu + s, yu) - img.get(xu - s, yu);
-            let dy = img.get(xu, yu - s) - img.get(xu, yu + s);
-            let w = ((i * i + j * j) as f32 * expf_scale).exp();
-            let ori = fast_atan2_deg(dy, dx);
-            let mag = (dx * dx + dy * dy).sqrt();
-            let mut bin = ((n as f32 / 360.0) * ori).round() as i64;
-            if bin >= n as i64 {
-                bin -= n as i64;
-            }
-            if bin < 0 {
-                bin += n as i64;
-            }
-            temp[2 + bin as usize] += w * mag;
+            let xu = xx as usize;
+            sc.dx.push(row[xu + s] - row[xu - s]);
+            sc.dy.push(above[xu] - below[xu]);
+            sc.w.push((i * i + j * j) as f32);
         }
+    }
+    sc.polar(path);
+    // NaN marks a weight not computed yet (every real weight is finite).
+    sc.table
+        .resize((2 * radius * radius + 1).max(1) as usize, f32::NAN);
+    for k in 0..sc.dx.len() {
+        let r2 = sc.w[k];
+        let slot = &mut sc.table[r2 as usize];
+        if slot.is_nan() {
+            *slot = (r2 * expf_scale).exp();
+        }
+        let w = *slot;
+        let mut bin = round_non_negative((n as f32 / 360.0) * sc.ori[k]) as i64;
+        if bin >= n as i64 {
+            bin -= n as i64;
+        }
+        if bin < 0 {
+            bin += n as i64;
+        }
+        temp[2 + bin as usize] += w * sc.mag[k];
     }
     temp[1] = temp[n + 1];
     temp[0] = temp[n];
@@ -383,9 +506,10 @@ fn orientation_hist(
     maxval
 }
 
+#[cfg(test)]
 /// `atan2(y, x)` in degrees in `[0, 360)` by OpenCV's `fastAtan2` polynomial (max error about
 /// 0.01°; the same constants as `atan2_bitexact` in `sift.simd.hpp`), several times cheaper than
-/// `f32::atan2` in the descriptor's inner loop.
+/// `f32::atan2`. The reference for the branch-free copy in `kernels`, which the code runs.
 #[inline]
 pub(crate) fn fast_atan2_deg(y: f32, x: f32) -> f32 {
     /// Polynomial coefficients (degrees) of OpenCV's `atan2` approximation on [0, 1].
@@ -450,6 +574,7 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
     let s = spec.step();
     let reach = s;
     let threshold = (0.5 * spec.contrast_threshold / nl as f64 * INTENSITY_RANGE as f64) as f32;
+    let path = KernelPath::best();
     let mut out = Vec::new();
     for (o, dog) in pyr.dog.iter().enumerate() {
         let (cols, rows) = dog[0].dimensions();
@@ -463,24 +588,31 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                 .map(|strip| {
                     let mut v = Vec::new();
                     let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
+                    let mut sc = GradScratch::default();
+                    let mut flags = vec![0u8; cols];
                     for &r in strip {
                         let cur = &dog[i];
                         let row = cur.row(r);
-                        for (c, &val) in row
-                            .iter()
-                            .enumerate()
-                            .take(cols - SIFT_IMG_BORDER)
-                            .skip(SIFT_IMG_BORDER)
-                        {
-                            if val.abs() <= threshold
-                                || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach)
-                            {
+                        kernels::extremum_pretest(
+                            path,
+                            dog[i - 1].row(r),
+                            row,
+                            dog[i + 1].row(r),
+                            reach,
+                            threshold,
+                            &mut flags,
+                        );
+                        let scan = flags.iter().enumerate().take(cols - SIFT_IMG_BORDER);
+                        for (c, &flag) in scan.skip(SIFT_IMG_BORDER) {
+                            // The pre-test checks the threshold and some neighbours; the full
+                            // test decides (same result as the full test alone).
+                            if flag == 0 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
                                 continue;
                             }
                             let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {
                                 continue;
                             };
-                            orient(pyr, spec, o, &rf, &mut hist, &mut v);
+                            orient(pyr, spec, o, &rf, (path, &mut sc), &mut hist, &mut v);
                         }
                     }
                     v
@@ -498,6 +630,7 @@ fn orient(
     spec: &SiftSpec,
     o: usize,
     rf: &Refined,
+    (path, sc): (KernelPath, &mut GradScratch),
     hist: &mut [f32; SIFT_ORI_HIST_BINS],
     out: &mut Vec<Candidate>,
 ) {
@@ -513,6 +646,8 @@ fn orient(
         (SIFT_ORI_RADIUS * scl_octv).round() as i64,
         SIFT_ORI_SIG_FCTR * scl_octv,
         s,
+        path,
+        sc,
         hist,
     );
     let mag_thr = omax * SIFT_ORI_PEAK_RATIO;

@@ -66,8 +66,10 @@
 //! semantics). Zhou, Zhang, Gao, Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
 //! Images", §III-B and §IV-B.5.
 
+mod buffers;
 mod descriptor;
 mod detect;
+mod kernels;
 pub mod matching;
 mod scale_space;
 
@@ -342,7 +344,13 @@ fn prepare<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Im
         return Err(SiftError::OddSize { width: w, height: h });
     }
     let scale = (detect::INTENSITY_RANGE as f64 / spec.max_value) as f32;
-    Ok(Image::from_fn(w, h, |x, y| src.get(x, y).into() * scale))
+    let mut img = buffers::take(w, h);
+    for (y, out) in img.as_mut_slice().chunks_mut(w).enumerate() {
+        for (o, &v) in out.iter_mut().zip(src.row(y)) {
+            *o = v.into() * scale;
+        }
+    }
+    Ok(img)
 }
 
 fn sorted_candidates(pyr: &detect::Pyramid, spec: &SiftSpec) -> Vec<detect::Candidate> {
@@ -370,14 +378,19 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
 ) -> Result<SiftFeatures, SiftError> {
     let t0 = std::time::Instant::now();
     let img = prepare(src, spec)?;
-    let pyr = detect::build_pyramid(&img, spec)?;
+    let pyr = detect::build_pyramid(&img, spec);
+    buffers::give(img);
+    let pyr = pyr?;
     let t1 = std::time::Instant::now();
     let cands = sorted_candidates(&pyr, spec);
     let t2 = std::time::Instant::now();
     let s = spec.step();
+    let path = kernels::KernelPath::best();
     let descriptors = cands
         .par_iter()
-        .map(|c| descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s))
+        .map_init(detect::GradScratch::default, |sc, c| {
+            descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s, path, sc)
+        })
         .collect();
     tracing::debug!(
         pyramid_s = (t1 - t0).as_secs_f64(),
@@ -395,7 +408,9 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
 /// Detect keypoints only (no descriptors).
 pub fn detect<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
     let img = prepare(src, spec)?;
-    let pyr = detect::build_pyramid(&img, spec)?;
+    let pyr = detect::build_pyramid(&img, spec);
+    buffers::give(img);
+    let pyr = pyr?;
     Ok(sorted_candidates(&pyr, spec).into_iter().map(|c| c.kp).collect())
 }
 
@@ -427,14 +442,26 @@ pub fn normalised_mosaic_from_frame(frame: &RawFrame) -> Image<f32> {
         (b, 1.0 / (white - b).max(1.0))
     });
     let (w, h) = (frame.width(), frame.height());
-    let norm = |v: f32, x: usize, y: usize| {
-        let (b, inv) = tile[(y % 2) * 2 + (x % 2)];
-        ((v - b) * inv).clamp(0.0, 1.0)
-    };
-    match frame.view() {
-        RawView::U8(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
-        RawView::U16(v) => Image::from_fn(w, h, |x, y| norm(v.get(x, y) as f32, x, y)),
+    // Rows in parallel; each row alternates two (black, 1 / range) pairs.
+    fn fill<T: Copy + Into<f32> + Sync>(src: ImageView<'_, T>, tile: &[(f32, f32); 4], out: &mut Image<f32>) {
+        let w = out.width();
+        out.as_mut_slice()
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                let t = &tile[(y % 2) * 2..(y % 2) * 2 + 2];
+                for (x, (o, &v)) in row.iter_mut().zip(src.row(y)).enumerate() {
+                    let (b, inv) = t[x % 2];
+                    *o = ((v.into() - b) * inv).clamp(0.0, 1.0);
+                }
+            });
     }
+    let mut out = Image::new(w, h);
+    match frame.view() {
+        RawView::U8(v) => fill(v, &tile, &mut out),
+        RawView::U16(v) => fill(v, &tile, &mut out),
+    }
+    out
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@
 
 use rayon::prelude::*;
 
+use super::kernels::{self, KernelPath};
 use crate::features::superpixel::{
     blur_mosaic, downsample2 as sp_downsample2, downsample2_mosaic, gaussian_blur, resize_bilinear,
     resize_mosaic, GaussianKernel, SuperPixelError,
@@ -28,15 +29,52 @@ pub(crate) fn blur_step(
     step: usize,
     dst: &mut Image<f32>,
 ) -> Result<(), SuperPixelError> {
+    blur_step_with(
+        src,
+        sigma,
+        step,
+        dst,
+        &mut Image::new(0, 0),
+        None,
+        KernelPath::best(),
+    )
+}
+
+/// [`blur_step`] with a reusable scratch image and an explicit kernel path (the pyramid reuses
+/// one scratch image for all its blurs). With `dog`, also writes the difference of Gaussians
+/// `dog = dst - src` (reshaped; fused into the blur's last pass on the symmetric path).
+pub(crate) fn blur_step_with(
+    src: &Image<f32>,
+    sigma: f64,
+    step: usize,
+    dst: &mut Image<f32>,
+    tmp: &mut Image<f32>,
+    dog: Option<&mut Image<f32>>,
+    path: KernelPath,
+) -> Result<(), SuperPixelError> {
     let k = GaussianKernel::from_sigma(sigma)?;
-    if step == 1 {
-        gaussian_blur(src.view(), &k, dst)
-    } else if !src.width().is_multiple_of(2) || !src.height().is_multiple_of(2) {
-        blur_mosaic(src.view(), &k, dst)
-    } else {
-        blur_symmetric(src, k.taps(), step, dst);
-        Ok(())
+    let symmetric = step != 1 && src.width().is_multiple_of(2) && src.height().is_multiple_of(2);
+    if symmetric {
+        blur_symmetric(src, k.taps(), step, dst, tmp, dog, path);
+        return Ok(());
     }
+    if step == 1 {
+        gaussian_blur(src.view(), &k, dst)?;
+    } else {
+        blur_mosaic(src.view(), &k, dst)?;
+    }
+    if let Some(d) = dog {
+        d.reshape(src.width(), src.height());
+        for ((o, &b), &a) in d
+            .as_mut_slice()
+            .iter_mut()
+            .zip(dst.as_slice())
+            .zip(src.as_slice())
+        {
+            *o = b - a;
+        }
+    }
+    Ok(())
 }
 
 /// Rows handed to one rayon task by [`blur_symmetric`].
@@ -45,8 +83,106 @@ const SYM_ROW_STRIP: usize = 16;
 /// Separable blur of a `step`-interleaved image with a symmetric kernel, reflect-101 inside each
 /// plane, without splitting the planes: taps are `step` pixels apart and mirrored pairs are added
 /// before multiplying. Equals `blur_mosaic` (checked against the oracle kernel in the tests) and
-/// avoids its four plane copies and re-interleaving per layer.
-pub(crate) fn blur_symmetric(src: &Image<f32>, taps: &[f32], step: usize, dst: &mut Image<f32>) {
+/// avoids its four plane copies and re-interleaving per layer. `tmp` holds the horizontal pass
+/// (reused between calls); the interior runs through the [`kernels`] of `path`, bit-equal on
+/// every path. With `dog`, each output row's difference `dst - src` is written there while the
+/// row is still in cache (the SIFT pyramid's DoG layer, without another pass over memory).
+pub(crate) fn blur_symmetric(
+    src: &Image<f32>,
+    taps: &[f32],
+    step: usize,
+    dst: &mut Image<f32>,
+    tmp: &mut Image<f32>,
+    dog: Option<&mut Image<f32>>,
+    path: KernelPath,
+) {
+    let (w, h) = src.dimensions();
+    dst.reshape(w, h);
+    tmp.reshape(w, h);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let r = taps.len() / 2;
+    let reach = r * step;
+    tmp.as_mut_slice()
+        .par_chunks_mut(w * SYM_ROW_STRIP)
+        .enumerate()
+        .for_each(|(si, strip)| {
+            for (ri, out) in strip.chunks_mut(w).enumerate() {
+                let row = src.row(si * SYM_ROW_STRIP + ri);
+                let interior = if w > 2 * reach { reach..w - reach } else { 0..0 };
+                if !interior.is_empty() {
+                    kernels::blur_row_interior(path, row, taps, step, reach, w - reach, out);
+                }
+                // Border pixels only (reflected taps): the two ends, or the whole row when the
+                // kernel is wider than it.
+                let (left, right) = if interior.is_empty() {
+                    (w, w)
+                } else {
+                    (reach, w - reach)
+                };
+                for x in (0..left).chain(right..w) {
+                    let o = &mut out[x];
+                    let p = x % step;
+                    let j = (x / step) as isize;
+                    let n = (w + step - 1 - p) / step;
+                    let mut acc = 0.0f32;
+                    for (k, &t) in taps.iter().enumerate() {
+                        acc += t * row[reflect(j + k as isize - r as isize, n) * step + p];
+                    }
+                    *o = acc;
+                }
+            }
+        });
+    let tmp = &*tmp;
+    let vertical = |si: usize, strip: &mut [f32], dog: Option<&mut [f32]>| {
+        let mut up: Vec<&[f32]> = Vec::with_capacity(r);
+        let mut down: Vec<&[f32]> = Vec::with_capacity(r);
+        for (ri, out) in strip.chunks_mut(w).enumerate() {
+            let y = si * SYM_ROW_STRIP + ri;
+            let p = y % step;
+            let j = (y / step) as isize;
+            let n = (h + step - 1 - p) / step;
+            let row_at = |k: isize| tmp.row(reflect(j + k, n) * step + p);
+            up.clear();
+            down.clear();
+            for k in 1..=r as isize {
+                up.push(row_at(-k));
+                down.push(row_at(k));
+            }
+            kernels::blur_col(path, row_at(0), &up, &down, taps, out);
+        }
+        if let Some(d) = dog {
+            for ((o, &b), &a) in d
+                .iter_mut()
+                .zip(&*strip)
+                .zip(&src.as_slice()[si * SYM_ROW_STRIP * w..])
+            {
+                *o = b - a;
+            }
+        }
+    };
+    match dog {
+        Some(d) => {
+            d.reshape(w, h);
+            dst.as_mut_slice()
+                .par_chunks_mut(w * SYM_ROW_STRIP)
+                .zip(d.as_mut_slice().par_chunks_mut(w * SYM_ROW_STRIP))
+                .enumerate()
+                .for_each(|(si, (strip, ds))| vertical(si, strip, Some(ds)));
+        }
+        None => dst
+            .as_mut_slice()
+            .par_chunks_mut(w * SYM_ROW_STRIP)
+            .enumerate()
+            .for_each(|(si, strip)| vertical(si, strip, None)),
+    }
+}
+
+#[cfg(test)]
+/// [`blur_symmetric`] as it was before the kernels (whole-row multiply-adds per tap): the
+/// reference the kernel version must equal bit for bit.
+pub(crate) fn blur_symmetric_reference(src: &Image<f32>, taps: &[f32], step: usize, dst: &mut Image<f32>) {
     let (w, h) = src.dimensions();
     dst.reshape(w, h);
     if w == 0 || h == 0 {
@@ -55,67 +191,52 @@ pub(crate) fn blur_symmetric(src: &Image<f32>, taps: &[f32], step: usize, dst: &
     let r = taps.len() / 2;
     let reach = r * step;
     let mut tmp = Image::<f32>::new(w, h);
-    tmp.as_mut_slice()
-        .par_chunks_mut(w * SYM_ROW_STRIP)
-        .enumerate()
-        .for_each(|(si, strip)| {
-            for (ri, out) in strip.chunks_mut(w).enumerate() {
-                let row = src.row(si * SYM_ROW_STRIP + ri);
-                // Interior: whole-slice multiply-adds (vectorise), mirrored taps added first.
-                if w > 2 * reach {
-                    let (lo, hi) = (reach, w - reach);
-                    for (o, &v) in out[lo..hi].iter_mut().zip(&row[lo..hi]) {
-                        *o = taps[r] * v;
-                    }
-                    for k in 1..=r {
-                        let t = taps[r + k];
-                        let a = &row[lo - k * step..hi - k * step];
-                        let b = &row[lo + k * step..hi + k * step];
-                        for ((o, &va), &vb) in out[lo..hi].iter_mut().zip(a).zip(b) {
-                            *o += t * (va + vb);
-                        }
-                    }
-                }
-                for (x, o) in out.iter_mut().enumerate() {
-                    if x >= reach && x + reach < w {
-                        continue;
-                    } else {
-                        let p = x % step;
-                        let j = (x / step) as isize;
-                        let n = (w + step - 1 - p) / step;
-                        let mut acc = 0.0f32;
-                        for (k, &t) in taps.iter().enumerate() {
-                            acc += t * row[reflect(j + k as isize - r as isize, n) * step + p];
-                        }
-                        *o = acc;
-                    }
+    for (y, out) in tmp.as_mut_slice().chunks_mut(w).enumerate() {
+        let row = src.row(y);
+        if w > 2 * reach {
+            let (lo, hi) = (reach, w - reach);
+            for (o, &v) in out[lo..hi].iter_mut().zip(&row[lo..hi]) {
+                *o = taps[r] * v;
+            }
+            for k in 1..=r {
+                let t = taps[r + k];
+                let a = &row[lo - k * step..hi - k * step];
+                let b = &row[lo + k * step..hi + k * step];
+                for ((o, &va), &vb) in out[lo..hi].iter_mut().zip(a).zip(b) {
+                    *o += t * (va + vb);
                 }
             }
-        });
-    let tmp = &tmp;
-    dst.as_mut_slice()
-        .par_chunks_mut(w * SYM_ROW_STRIP)
-        .enumerate()
-        .for_each(|(si, strip)| {
-            for (ri, out) in strip.chunks_mut(w).enumerate() {
-                let y = si * SYM_ROW_STRIP + ri;
-                let p = y % step;
-                let j = (y / step) as isize;
-                let n = (h + step - 1 - p) / step;
-                let row_at = |k: isize| tmp.row(reflect(j + k, n) * step + p);
-                let c = row_at(0);
-                for (o, &v) in out.iter_mut().zip(c) {
-                    *o = taps[r] * v;
-                }
-                for k in 1..=r {
-                    let t = taps[r + k];
-                    let (a, b) = (row_at(-(k as isize)), row_at(k as isize));
-                    for ((o, &va), &vb) in out.iter_mut().zip(a).zip(b) {
-                        *o += t * (va + vb);
-                    }
-                }
+        }
+        for (x, o) in out.iter_mut().enumerate() {
+            if x >= reach && x + reach < w {
+                continue;
             }
-        });
+            let p = x % step;
+            let j = (x / step) as isize;
+            let n = (w + step - 1 - p) / step;
+            let mut acc = 0.0f32;
+            for (k, &t) in taps.iter().enumerate() {
+                acc += t * row[reflect(j + k as isize - r as isize, n) * step + p];
+            }
+            *o = acc;
+        }
+    }
+    for (y, out) in dst.as_mut_slice().chunks_mut(w).enumerate() {
+        let p = y % step;
+        let j = (y / step) as isize;
+        let n = (h + step - 1 - p) / step;
+        let row_at = |k: isize| tmp.row(reflect(j + k, n) * step + p);
+        for (o, &v) in out.iter_mut().zip(row_at(0)) {
+            *o = taps[r] * v;
+        }
+        for k in 1..=r {
+            let t = taps[r + k];
+            let (a, b) = (row_at(-(k as isize)), row_at(k as isize));
+            for ((o, &va), &vb) in out.iter_mut().zip(a).zip(b) {
+                *o += t * (va + vb);
+            }
+        }
+    }
 }
 
 /// `BORDER_REFLECT_101` index into a plane of `n` samples.
@@ -148,15 +269,25 @@ pub(crate) fn upsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>
     Ok(dst)
 }
 
+#[cfg(test)]
 /// The octave step: every other pixel, or every other super-pixel.
 pub(crate) fn downsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>, SuperPixelError> {
     let mut dst = Image::new(0, 0);
-    if step == 1 {
-        sp_downsample2(src.view(), &mut dst)?;
-    } else {
-        downsample2_mosaic(src.view(), &mut dst)?;
-    }
+    downsample2_step_into(src, step, &mut dst)?;
     Ok(dst)
+}
+
+/// [`downsample2_step`] into `dst` (reshaped; every pixel written).
+pub(crate) fn downsample2_step_into(
+    src: &Image<f32>,
+    step: usize,
+    dst: &mut Image<f32>,
+) -> Result<(), SuperPixelError> {
+    if step == 1 {
+        sp_downsample2(src.view(), dst)
+    } else {
+        downsample2_mosaic(src.view(), dst)
+    }
 }
 
 /// Rows handed to one rayon task by the separable blur.
@@ -446,9 +577,43 @@ mod tests {
         let mut b = Image::new(0, 0);
         pool.install(|| blur(&img, &taps, 2, &mut b));
         assert_eq!(a, b);
-        let (mut c, mut d) = (Image::new(0, 0), Image::new(0, 0));
-        blur_symmetric(&img, &taps, 2, &mut c);
-        pool.install(|| blur_symmetric(&img, &taps, 2, &mut d));
+        let (mut c, mut d, mut t) = (Image::new(0, 0), Image::new(0, 0), Image::new(0, 0));
+        let path = KernelPath::best();
+        blur_symmetric(&img, &taps, 2, &mut c, &mut t, None, path);
+        pool.install(|| blur_symmetric(&img, &taps, 2, &mut d, &mut t, None, path));
         assert_eq!(c, d);
+    }
+
+    #[test]
+    fn blur_symmetric_is_bit_equal_to_its_reference_on_every_path() {
+        // Wider than two kernel chunks, odd interior lengths, and a size where the kernel
+        // reaches past the plane (reflect on both sides).
+        for (w, h) in [(150, 46), (38, 30), (20, 12)] {
+            let img = Image::from_fn(w, h, |x, y| {
+                ((x * 7919 + y * 104_729) % 1013) as f32 * 0.37 - 80.0
+            });
+            for step in [1, 2] {
+                for sigma in [0.7, 1.52, 3.09] {
+                    let taps = gaussian_taps(sigma);
+                    let mut want = Image::new(0, 0);
+                    blur_symmetric_reference(&img, &taps, step, &mut want);
+                    for path in KernelPath::ALL.into_iter().filter(|p| p.is_available()) {
+                        let (mut got, mut tmp, mut dog) =
+                            (Image::new(0, 0), Image::new(0, 0), Image::new(0, 0));
+                        blur_symmetric(&img, &taps, step, &mut got, &mut tmp, Some(&mut dog), path);
+                        for ((d, b), a) in dog.as_slice().iter().zip(want.as_slice()).zip(img.as_slice()) {
+                            assert_eq!(d.to_bits(), (b - a).to_bits(), "dog {w}x{h} {step} {path:?}");
+                        }
+                        assert!(
+                            want.as_slice()
+                                .iter()
+                                .zip(got.as_slice())
+                                .all(|(a, b)| a.to_bits() == b.to_bits()),
+                            "{w}x{h} step {step} sigma {sigma} {path:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
