@@ -800,11 +800,12 @@ fn row_interior<T: RawSample>(ctx: &Ctx<'_>, rp: &[T], r0: &[T], rn: &[T], mag: 
     let nh = spec.half_bins as i32;
     let signed = spec.opts.range == AngleRange::Signed;
     let mut x0 = 1;
+    // Zeroed once per row, not per chunk: zeroing 2 KiB of stack per 256 pixels measured ~6 % of
+    // the kernel's time (perf, 12 MP 8-bit).
+    let (mut gx_buf, mut gy_buf) = ([0f32; CHUNK], [0f32; CHUNK]);
     while x0 + 1 < w {
         let n = CHUNK.min(w - 1 - x0);
-        let mut gx = [0f32; CHUNK];
-        let mut gy = [0f32; CHUNK];
-        let (gx, gy) = (&mut gx[..n], &mut gy[..n]);
+        let (gx, gy) = (&mut gx_buf[..n], &mut gy_buf[..n]);
         let p = &rp[x0 - 1..x0 + n + 1];
         let c = &r0[x0 - 1..x0 + n + 1];
         let q = &rn[x0 - 1..x0 + n + 1];
