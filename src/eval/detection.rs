@@ -202,48 +202,76 @@ fn column(header: &[&str], names: &[&str]) -> Option<usize> {
         .position(|h| names.iter().any(|n| h.trim().eq_ignore_ascii_case(n)))
 }
 
-/// Parse a box CSV (see the module docs). `origin` names the file in errors.
-pub fn parse_box_csv(text: &str, origin: &Path) -> Result<Vec<BoxRecord>> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((hl, header)) = lines.next() else {
-        return Err(parse_err(
-            origin,
-            1,
-            "empty file: expected a header with image,x,y,w,h",
-        ));
-    };
-    let header: Vec<&str> = header.split(',').collect();
-    let need = |names: &[&str]| {
-        column(&header, names).ok_or_else(|| {
-            parse_err(
-                origin,
-                hl + 1,
-                format!(
-                    "header lacks a `{}` column (need image,x,y,w,h; optional set)",
-                    names[0]
-                ),
-            )
-        })
-    };
-    let (ci, cx, cy, cw, ch) = (
-        need(&["image", "file", "filename"])?,
-        need(&["x"])?,
-        need(&["y"])?,
-        need(&["w", "width"])?,
-        need(&["h", "height"])?,
-    );
-    let cs = column(&header, &["set"]);
-    let mut out = Vec::new();
-    for (i, l) in lines {
-        let n = i + 1;
-        let f: Vec<&str> = l.split(',').collect();
-        if f.len() < header.len() {
+/// A CSV text with a header line, split into fields; blank lines are skipped and every row must
+/// have at least the header's field count. Errors name the file and the 1-based line.
+struct Csv<'a> {
+    origin: &'a Path,
+    /// Line of the header (1-based).
+    header_line: usize,
+    header: Vec<&'a str>,
+    /// What the header must name, for error messages (`image,x,y,w,h`).
+    need: &'static str,
+    /// (line, fields) of every data row.
+    rows: Vec<(usize, Vec<&'a str>)>,
+}
+
+impl<'a> Csv<'a> {
+    fn parse(text: &'a str, origin: &'a Path, need: &'static str) -> Result<Self> {
+        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+        let Some((hl, header)) = lines.next() else {
             return Err(parse_err(
                 origin,
-                n,
-                format!("{} fields, the header has {}", f.len(), header.len()),
+                1,
+                format!("empty file: expected a header with {need}"),
             ));
+        };
+        let header: Vec<&str> = header.split(',').collect();
+        let mut rows = Vec::new();
+        for (i, l) in lines {
+            let f: Vec<&str> = l.split(',').collect();
+            if f.len() < header.len() {
+                return Err(parse_err(
+                    origin,
+                    i + 1,
+                    format!("{} fields, the header has {}", f.len(), header.len()),
+                ));
+            }
+            rows.push((i + 1, f));
         }
+        Ok(Self {
+            origin,
+            header_line: hl + 1,
+            header,
+            need,
+            rows,
+        })
+    }
+
+    /// The column called any of `names` (the first is the one errors name).
+    fn column(&self, names: &[&str]) -> Result<usize> {
+        column(&self.header, names).ok_or_else(|| {
+            parse_err(
+                self.origin,
+                self.header_line,
+                format!("header lacks a `{}` column (need {})", names[0], self.need),
+            )
+        })
+    }
+}
+
+/// Parse a box CSV (see the module docs). `origin` names the file in errors.
+pub fn parse_box_csv(text: &str, origin: &Path) -> Result<Vec<BoxRecord>> {
+    let csv = Csv::parse(text, origin, "image,x,y,w,h; optional set")?;
+    let (ci, cx, cy, cw, ch) = (
+        csv.column(&["image", "file", "filename"])?,
+        csv.column(&["x"])?,
+        csv.column(&["y"])?,
+        csv.column(&["w", "width"])?,
+        csv.column(&["h", "height"])?,
+    );
+    let cs = column(&csv.header, &["set"]);
+    let mut out = Vec::new();
+    for (n, f) in csv.rows {
         let image = f[ci].trim();
         if image.is_empty() {
             return Err(parse_err(origin, n, "empty image name"));
@@ -578,43 +606,17 @@ pub fn detect_images(
 /// Parse a detections CSV written by another detector (`image,x,y,w,h,score` with a header; `image`
 /// is the key `set/image`), grouped by key.
 pub fn parse_detections_csv(text: &str, origin: &Path) -> Result<BTreeMap<String, Vec<Detection>>> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((hl, header)) = lines.next() else {
-        return Err(parse_err(
-            origin,
-            1,
-            "empty file: expected a header image,x,y,w,h,score",
-        ));
-    };
-    let header: Vec<&str> = header.split(',').collect();
-    let idx = |names: &[&str]| {
-        column(&header, names).ok_or_else(|| {
-            parse_err(
-                origin,
-                hl + 1,
-                format!("header lacks a `{}` column (need image,x,y,w,h,score)", names[0]),
-            )
-        })
-    };
+    let csv = Csv::parse(text, origin, "image,x,y,w,h,score")?;
     let c = [
-        idx(&["image"])?,
-        idx(&["x"])?,
-        idx(&["y"])?,
-        idx(&["w", "width"])?,
-        idx(&["h", "height"])?,
-        idx(&["score"])?,
+        csv.column(&["image"])?,
+        csv.column(&["x"])?,
+        csv.column(&["y"])?,
+        csv.column(&["w", "width"])?,
+        csv.column(&["h", "height"])?,
+        csv.column(&["score"])?,
     ];
     let mut out: BTreeMap<String, Vec<Detection>> = BTreeMap::new();
-    for (i, l) in lines {
-        let n = i + 1;
-        let f: Vec<&str> = l.split(',').collect();
-        if f.len() < header.len() {
-            return Err(parse_err(
-                origin,
-                n,
-                format!("{} fields, the header has {}", f.len(), header.len()),
-            ));
-        }
+    for (n, f) in csv.rows {
         let r = rect_checked(
             origin,
             n,
