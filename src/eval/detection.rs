@@ -560,22 +560,12 @@ impl Shrink {
     }
 }
 
-/// Decode an image file as RGB (grey images are replicated into three channels).
+/// Decode an image file as RGB (grey images are replicated into three channels); the trainer's
+/// loader, with its error as [`DetEvalError::Decode`].
 pub fn load_image_rgb(path: &Path) -> Result<Image<[u8; 3]>> {
-    let img = image::open(path)
-        .map_err(|e| DetEvalError::Decode {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?
-        .to_rgb8();
-    Image::from_vec(
-        img.width() as usize,
-        img.height() as usize,
-        img.pixels().map(|p| p.0).collect(),
-    )
-    .map_err(|e| DetEvalError::Decode {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
+    crate::detect::train::load_rgb(path).map_err(|e| match e {
+        crate::detect::train::TrainError::Data { path, what } => DetEvalError::Decode { path, reason: what },
+        e => DetEvalError::Input(e),
     })
 }
 
