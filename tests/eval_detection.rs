@@ -104,13 +104,8 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
     std::fs::write(&csv_path, csv).unwrap();
     let ext_arg = format!("truth={}", ext_path.display());
 
-    let md = ok(&[
-        "eval",
-        "detection",
-        "opencv-default=grey",
-        "--usc",
-        "--limit",
-        "2",
+    // Detector options shared by both forms below (the images and the output directory differ).
+    let common = [
         "--upsample",
         "2",
         "--threshold",
@@ -120,9 +115,20 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
         "--quiet",
         "--external",
         &ext_arg,
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    ];
+    let md = ok(&[
+        &[
+            "eval",
+            "detection",
+            "opencv-default=grey",
+            "--usc",
+            "--limit",
+            "2",
+        ][..],
+        &common,
+        &["--out", out.to_str().unwrap()],
+    ]
+    .concat());
     let r = rows(&md);
     assert_eq!(r.len(), 2, "{md}");
     assert!(md.contains("2 of 359 images"), "{md}");
@@ -144,25 +150,19 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
     // The generic form on the same two images gives the same numbers.
     let out2 = dir.path().join("csv");
     let md2 = ok(&[
-        "eval",
-        "detection",
-        "opencv-default=grey",
-        "--boxes",
-        csv_path.to_str().unwrap(),
-        "--images",
-        usc.to_str().unwrap(),
-        "--upsample",
-        "2",
-        "--threshold",
-        "-0.5",
-        "--threads",
-        "2",
-        "--quiet",
-        "--external",
-        &ext_arg,
-        "--out",
-        out2.to_str().unwrap(),
-    ]);
+        &[
+            "eval",
+            "detection",
+            "opencv-default=grey",
+            "--boxes",
+            csv_path.to_str().unwrap(),
+            "--images",
+            usc.to_str().unwrap(),
+        ][..],
+        &common,
+        &["--out", out2.to_str().unwrap()],
+    ]
+    .concat());
     let r2 = rows(&md2);
     assert_eq!(
         r2.iter().map(|r| &r[3..]).collect::<Vec<_>>(),

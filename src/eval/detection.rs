@@ -761,25 +761,9 @@ pub fn det_plot(title: &str, curves: &[(String, &[DetPoint])], path: &Path) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::metrics::detection::tests::{det, rect};
     use crate::metrics::detection::PASCAL_IOU;
 
-    fn det(x: f32, y: f32, w: f32, h: f32, score: f32) -> Detection {
-        Detection {
-            x,
-            y,
-            width: w,
-            height: h,
-            score,
-        }
-    }
-    fn rect(x: f32, y: f32, w: f32, h: f32) -> Rect {
-        Rect {
-            x,
-            y,
-            width: w,
-            height: h,
-        }
-    }
     fn one(dets: Vec<Detection>, gt: Vec<Rect>) -> Vec<ImageDetections> {
         vec![ImageDetections {
             detections: dets,

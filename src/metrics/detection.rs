@@ -382,10 +382,11 @@ pub fn log_average_miss_rate(curve: &[FppiPoint]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn det(x: f32, y: f32, w: f32, h: f32, score: f32) -> Detection {
+    /// A detection (test constructor; also used by `eval::detection`'s tests).
+    pub(crate) fn det(x: f32, y: f32, w: f32, h: f32, score: f32) -> Detection {
         Detection {
             x,
             y,
@@ -394,7 +395,8 @@ mod tests {
             score,
         }
     }
-    fn rect(x: f32, y: f32, w: f32, h: f32) -> Rect {
+    /// A box (test constructor).
+    pub(crate) fn rect(x: f32, y: f32, w: f32, h: f32) -> Rect {
         Rect {
             x,
             y,
