@@ -32,13 +32,37 @@ pub struct EvalSiftArgs {
     /// Double the mosaic's colour planes first too (like grey SIFT's octave -1; 4x the cost).
     #[arg(long)]
     pub mosaic_double: bool,
-    /// Resample each colour plane at its pixels' true mosaic positions instead of about the
-    /// plane's own centre (the paper's recipe, the default).
-    #[arg(long)]
-    pub phase_correct: bool,
+    /// How the mosaic's colour planes are warped by scale and rotation: `lattice` (default: the
+    /// paper's per-plane recipe, but rotations by multiples of 90° are exact pixel permutations
+    /// with the planes re-interleaved where their samples land), `own-centre` (the paper's recipe
+    /// at every angle: each plane about its own centre, phases kept) or `phase-correct` (each
+    /// plane resampled at its pixels' true mosaic positions).
+    #[arg(long, value_enum, default_value_t = WarpArg::Lattice)]
+    pub plane_warp: WarpArg,
     /// Rotation of the Fig. 10 picture, degrees.
     #[arg(long, default_value_t = 20.0)]
     pub fig10_angle: f64,
+}
+
+/// Command-line names of [`PlaneWarp`].
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum WarpArg {
+    /// [`PlaneWarp::Lattice`].
+    Lattice,
+    /// [`PlaneWarp::OwnCentre`].
+    OwnCentre,
+    /// [`PlaneWarp::PhaseCorrect`].
+    PhaseCorrect,
+}
+
+impl From<WarpArg> for PlaneWarp {
+    fn from(w: WarpArg) -> Self {
+        match w {
+            WarpArg::Lattice => PlaneWarp::Lattice,
+            WarpArg::OwnCentre => PlaneWarp::OwnCentre,
+            WarpArg::PhaseCorrect => PlaneWarp::PhaseCorrect,
+        }
+    }
 }
 
 /// Run `mosaicd eval sift`.
@@ -61,11 +85,7 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
     let grey_spec = SiftSpec::grey();
     let mosaic_spec = SiftSpec::mosaic().with_double_image(args.mosaic_double);
     let transforms = default_transforms();
-    let warp = if args.phase_correct {
-        PlaneWarp::PhaseCorrect
-    } else {
-        PlaneWarp::OwnCentre
-    };
+    let warp = PlaneWarp::from(args.plane_warp);
     eprintln!(
         "eval sift: {} images x {} transform levels",
         paths.len(),
@@ -108,9 +128,10 @@ fn font() -> anyhow::Result<&'static [u8]> {
 
 fn markdown(summary: &[LevelSummary], n: usize, doubled: bool, warp: PlaneWarp) -> String {
     let mut s = format!(
-        "SIFT repeatability on {n} Kodak images (t = {MATCH_THRESHOLD_PX} px, ratio 0.8 + mutual; mosaic doubled: {doubled}; plane warp: {warp:?})\n\n\
+        "SIFT repeatability on {n} Kodak images (t = {MATCH_THRESHOLD_PX} px, ratio 0.8 + mutual; mosaic doubled: {doubled}; plane warp: {})\n\n\
          | transform | level | grey mean | mosaic mean | mosaic - grey | grey median [25-75 %] | mosaic median [25-75 %] |\n\
-         |---|---|---|---|---|---|---|\n"
+         |---|---|---|---|---|---|---|\n",
+        warp.name()
     );
     for l in summary {
         s.push_str(&format!(

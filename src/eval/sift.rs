@@ -180,13 +180,36 @@ pub enum PlaneWarp {
     /// Each plane is warped as a small image about its own centre (the paper's wording); the
     /// 2x2 phase offsets are not transformed, so the colour planes end up misregistered by up to
     /// about a pixel (for a 90° rotation, exactly one pixel, but the planes are permuted without
-    /// interpolation). The default.
-    #[default]
+    /// interpolation).
     OwnCentre,
     /// Each plane is still resampled on its own (no colour mixing), but at the exact positions
     /// of its pixels in mosaic coordinates: output pixel (x, y) of colour phase (px, py) samples
     /// its plane at `((X - px) / 2, (Y - py) / 2)`, (X, Y) the inverse-transformed position.
     PhaseCorrect,
+    /// [`PlaneWarp::OwnCentre`] for every transform except a rotation by a multiple of 90°, which
+    /// is done exactly: each plane is rotated about the *image* centre and re-interleaved at the
+    /// 2x2 phase its samples land on. On an even-sized mosaic that is a lossless permutation of
+    /// the pixels, the same permutation that rotates the grey image, and the CFA pattern turns
+    /// with the image (what a raw frame rotated by 90° looks like). The default.
+    #[default]
+    Lattice,
+}
+
+impl PlaneWarp {
+    /// Name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlaneWarp::OwnCentre => "own-centre",
+            PlaneWarp::PhaseCorrect => "phase-correct",
+            PlaneWarp::Lattice => "lattice",
+        }
+    }
+}
+
+/// Whether `deg` is a multiple of 90°.
+fn quarter_turn(deg: f64) -> bool {
+    let q = deg / 90.0;
+    (q - q.round()).abs() < 1e-9
 }
 
 /// Transform a mosaic in the mosaic domain: each of the four colour planes is transformed
@@ -201,7 +224,20 @@ pub fn mosaic_transformed(src: &Image<f32>, t: Transform, warp: PlaneWarp) -> Im
         })
         .collect();
     match (t, warp) {
-        (Transform::Blur(_), _) | (_, PlaneWarp::OwnCentre) => {
+        (Transform::Rotate(deg), PlaneWarp::Lattice) if quarter_turn(deg) => {
+            // Integer source pixel of every output pixel (exact up to rounding of sin/cos).
+            let hinv = invert_affine(&ground_truth(t, w, h));
+            Image::from_fn(ow, oh, |x, y| {
+                let (sx, sy) = apply(&hinv, (x as f64, y as f64));
+                let (sx, sy) = (sx.round(), sy.round());
+                if sx < 0.0 || sy < 0.0 || sx >= w as f64 || sy >= h as f64 {
+                    0.0
+                } else {
+                    src.get(sx as usize, sy as usize)
+                }
+            })
+        }
+        (Transform::Blur(_), _) | (_, PlaneWarp::OwnCentre | PlaneWarp::Lattice) => {
             let t_plane = match t {
                 Transform::Blur(s0) => Transform::Blur(s0 / 2.0),
                 other => other,
@@ -529,7 +565,7 @@ mod tests {
     fn mosaic_transform_keeps_the_pattern() {
         let m = Image::from_fn(40, 30, |x, y| (10 * (1 + (x % 2) + 2 * (y % 2))) as f32);
         for t in [Transform::Blur(2.0), Transform::Scale(0.5), Transform::Scale(1.5)] {
-            for warp in [PlaneWarp::OwnCentre, PlaneWarp::PhaseCorrect] {
+            for warp in [PlaneWarp::OwnCentre, PlaneWarp::PhaseCorrect, PlaneWarp::Lattice] {
                 let o = mosaic_transformed(&m, t, warp);
                 for y in 0..o.height() {
                     for x in 0..o.width() {
@@ -538,6 +574,38 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn lattice_quarter_turns_permute_the_mosaic_like_the_grey_image() {
+        let m = Image::from_fn(40, 30, |x, y| (x + 100 * y) as f32);
+        for deg in [90.0, 180.0, 270.0, -90.0] {
+            let t = Transform::Rotate(deg);
+            let lattice = mosaic_transformed(&m, t, PlaneWarp::Lattice);
+            let grey = grey_transformed(&m, t);
+            let hinv = invert_affine(&ground_truth(t, 40, 30));
+            for y in 0..30 {
+                for x in 0..40 {
+                    let (sx, sy) = apply(&hinv, (x as f64, y as f64));
+                    let inside = sx > -0.5 && sy > -0.5 && sx < 39.5 && sy < 29.5;
+                    let v = lattice.get(x, y);
+                    if inside {
+                        // Exactly one source pixel, whose colour phase may differ from (x, y)'s.
+                        let (sx, sy) = (sx.round() as usize, sy.round() as usize);
+                        assert_eq!(v, m.get(sx, sy), "{deg}° at ({x}, {y})");
+                        assert!((grey.get(x, y) - v).abs() < 1e-2, "{deg}° at ({x}, {y})");
+                    } else {
+                        assert_eq!(v, 0.0);
+                    }
+                }
+            }
+        }
+        // Other angles are the paper's per-plane recipe.
+        let t = Transform::Rotate(30.0);
+        assert_eq!(
+            mosaic_transformed(&m, t, PlaneWarp::Lattice).as_slice(),
+            mosaic_transformed(&m, t, PlaneWarp::OwnCentre).as_slice()
+        );
     }
 
     #[test]
