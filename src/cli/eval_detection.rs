@@ -21,7 +21,6 @@ use mosaicd::eval::detection::{
     ap_summary, det_plot, detect_images, external_detections, load_box_csv, load_usc, parse_detections_csv,
     pr_plot, subsample, usc_root, ApSummary, Shrink,
 };
-use mosaicd::isp::NoiseLevel;
 use mosaicd::metrics::detection::{ImageDetections, PASCAL_IOU};
 use mosaicd::raw::Cfa;
 
@@ -105,16 +104,7 @@ fn parse_run(r: &str) -> anyhow::Result<(String, Domain, String)> {
 }
 
 fn parse_pipeline(s: &str, seed: u64) -> anyhow::Result<InputPipeline> {
-    Ok(match s.trim().to_ascii_lowercase().as_str() {
-        "sampled" => InputPipeline::Sampled,
-        "clean" => InputPipeline::ReverseIsp { noise: None, seed },
-        other => InputPipeline::ReverseIsp {
-            noise: Some(other.parse::<NoiseLevel>().map_err(|_| {
-                anyhow::anyhow!("--inputs {other}: expected sampled, clean, low, medium or high")
-            })?),
-            seed,
-        },
-    })
+    InputPipeline::parse(s, seed).map_err(|e| anyhow::anyhow!("--inputs {e}"))
 }
 
 /// Run `mosaicd eval detection`.

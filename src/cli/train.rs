@@ -3,10 +3,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use mosaicd::detect::train::{evaluate_windows, train, TrainOptions};
+use mosaicd::detect::train::{evaluate_windows_via, train, InputPipeline, TrainOptions};
 use mosaicd::raw::Cfa;
 
 use super::detect::DomainArg;
+
+/// Mixed into `--seed` for the training images' noise streams.
+const TRAIN_NOISE_SALT: u64 = 0x7261_775f_7472_6169;
 
 /// Arguments of `mosaicd train`.
 #[derive(clap::Args, Debug)]
@@ -41,6 +44,11 @@ pub struct TrainArgs {
     /// CFA used to sample mosaics.
     #[arg(long, default_value = "RGGB")]
     pub cfa: Cfa,
+    /// How the sRGB training images become model inputs: `sampled` (through the CFA / OpenCV
+    /// grey / the RGB itself, no ISP) or the paper's reverse ISP to raw: `clean`, or with eq. 24
+    /// noise at `low`, `medium` or `high`. The validation after training uses the same pipeline.
+    #[arg(long, default_value = "sampled")]
+    pub input: String,
     /// Skip the validation (window-level DET) after training.
     #[arg(long)]
     pub no_eval: bool,
@@ -61,6 +69,9 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         max_hard_per_round: a.max_hard,
         val_fraction: a.val_fraction,
         max_neg_images: a.max_neg_images,
+        // Training noise streams differ from `eval detection`'s (which uses `--seed` directly).
+        pipeline: InputPipeline::parse(&a.input, a.seed ^ TRAIN_NOISE_SALT)
+            .map_err(|e| anyhow::anyhow!("--input {e}"))?,
     };
     let root = mosaicd::data::data_root();
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
@@ -72,7 +83,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     model.provenance["command"] = serde_json::json!(cmd.join(" "));
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
     if !a.no_eval {
-        let ev = pool.install(|| evaluate_windows(&model, &split, o.domain, o.cfa, &mut progress))?;
+        let ev = pool
+            .install(|| evaluate_windows_via(&model, &split, o.domain, o.cfa, &o.pipeline, &mut progress))?;
         eprintln!(
             "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
             ev.positives, ev.negative_windows, ev.miss_rate_at

@@ -13,9 +13,12 @@
 //! holds out whole photos (file prefix without the trailing letter, which also groups the
 //! mirrors). Negatives: person-free photos (`neg_inria/`, `neg/`, Kodak without 04 05 12 14 15 18),
 //! split by a seeded shuffle. Every image is brought into the model's input domain: colour (RGB),
-//! grey (OpenCV's RGB→grey), or mosaic. **Deviation:** training samples the sRGB image through the
-//! CFA (RGGB) without the reverse ISP (linearisation, white balance, noise) — the reverse ISP of
-//! `isp/reverse.rs` was not on main when the shipped models were trained.
+//! grey (OpenCV's RGB→grey), or mosaic, through [`TrainOptions::pipeline`]: either sampled
+//! straight from the sRGB image ([`InputPipeline::Sampled`]: through the CFA for the mosaic, no
+//! linearisation or white balance; `models/mosaic.json` and `models/colour.json`) or the paper's
+//! way through the reverse ISP to raw ([`InputPipeline::ReverseIsp`], optionally noisy;
+//! `models/mosaic_raw.json`, `models/colour_raw.json`). Training images use noise streams of
+//! their own (the pipeline's seed and the image's index), never those of the evaluation.
 //!
 //! # Input pipelines of the evaluation
 //! [`InputPipeline::Sampled`] is the training convention above. [`InputPipeline::ReverseIsp`] is the
@@ -101,6 +104,25 @@ pub enum InputPipeline {
 }
 
 impl InputPipeline {
+    /// Parse `sampled`, `clean`, `low`, `medium` or `high` (case-insensitive; `raw-` prefix
+    /// allowed, so every [`InputPipeline::name`] parses back); `seed` is the noise base seed.
+    pub fn parse(s: &str, seed: u64) -> Result<Self, String> {
+        let t = s.trim().to_ascii_lowercase();
+        let t = t.strip_prefix("raw-").unwrap_or(&t);
+        Ok(match t {
+            "sampled" => InputPipeline::Sampled,
+            "clean" => InputPipeline::ReverseIsp { noise: None, seed },
+            other => InputPipeline::ReverseIsp {
+                noise: Some(
+                    other
+                        .parse::<NoiseLevel>()
+                        .map_err(|_| format!("{s:?}: expected sampled, clean, low, medium or high"))?,
+                ),
+                seed,
+            },
+        })
+    }
+
     /// Short name: `sampled`, `raw-clean`, `raw-low`, `raw-medium`, `raw-high`.
     pub fn name(&self) -> String {
         match self {
@@ -141,6 +163,9 @@ pub struct TrainOptions {
     pub val_fraction: f64,
     /// Use at most this many training negative images (0 = all) — a speed knob.
     pub max_neg_images: usize,
+    /// How the sRGB training images become inputs: sampled through the CFA (the shipped
+    /// models), or the paper's reverse ISP to raw (optionally with noise).
+    pub pipeline: InputPipeline,
 }
 
 impl Default for TrainOptions {
@@ -155,6 +180,7 @@ impl Default for TrainOptions {
             max_hard_per_round: 5000,
             val_fraction: 0.2,
             max_neg_images: 0,
+            pipeline: InputPipeline::Sampled,
         }
     }
 }
@@ -529,7 +555,7 @@ pub fn train(
     let mut x: Vec<Vec<f32>> = Vec::new();
     let mut y: Vec<i8> = Vec::new();
     for (i, p) in split.train_pos.iter().enumerate() {
-        let img = DomainImage::from_rgb(&load_rgb(p)?, o.domain, o.cfa);
+        let img = DomainImage::from_rgb_via(&load_rgb(p)?, o.domain, o.cfa, &o.pipeline, i as u64)?;
         x.push(positive_descriptor(&spec, &img)?);
         y.push(1);
         if i % 200 == 0 {
@@ -543,7 +569,13 @@ pub fn train(
     };
     let mut neg_imgs = Vec::new();
     for (i, p) in negs.iter().enumerate() {
-        let img = DomainImage::from_rgb(&load_rgb(p)?, o.domain, o.cfa);
+        let img = DomainImage::from_rgb_via(
+            &load_rgb(p)?,
+            o.domain,
+            o.cfa,
+            &o.pipeline,
+            NEG_SEED_OFFSET + i as u64,
+        )?;
         for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
             x.push(d);
             y.push(-1);
@@ -637,8 +669,15 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) ->
         "max_neg_images": o.max_neg_images,
         "train_positives": split.train_pos.len(), "train_negative_images": split.train_neg.len(),
         "training_vectors": n,
-        "mosaic_note": "mosaic positives/negatives are sRGB sampled through the CFA (no reverse ISP)",
+        "input_pipeline": o.pipeline.name(),
+        "input_note": match o.pipeline {
+            InputPipeline::Sampled => "sRGB sampled through the CFA (mosaic), OpenCV grey or the RGB itself; no reverse ISP",
+            InputPipeline::ReverseIsp { .. } => "sRGB through the reverse ISP (default camera profile) to raw; mosaic = the raw frame, colour/grey = the forward ISP's output",
+        },
     });
+    if let InputPipeline::ReverseIsp { seed, .. } = o.pipeline {
+        m.provenance["noise_seed"] = serde_json::json!(seed);
+    }
     m
 }
 
@@ -714,6 +753,29 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c.dimensions(), (32, 24));
+    }
+
+    #[test]
+    fn input_pipeline_names_parse_back() {
+        for p in [
+            InputPipeline::Sampled,
+            InputPipeline::ReverseIsp { noise: None, seed: 3 },
+            InputPipeline::ReverseIsp {
+                noise: Some(NoiseLevel::High),
+                seed: 3,
+            },
+        ] {
+            assert_eq!(InputPipeline::parse(&p.name(), 3), Ok(p));
+        }
+        assert_eq!(
+            InputPipeline::parse(" Medium ", 9),
+            Ok(InputPipeline::ReverseIsp {
+                noise: Some(NoiseLevel::Medium),
+                seed: 9
+            })
+        );
+        let e = InputPipeline::parse("raw-foggy", 1).unwrap_err();
+        assert!(e.contains("raw-foggy") && e.contains("expected sampled"), "{e}");
     }
 
     #[test]
