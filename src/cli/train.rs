@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use mosaicd::detect::train::{evaluate_windows_via, train, InputPipeline, TrainOptions};
+use mosaicd::detect::train::{
+    evaluate_windows_via, select_c, split_data, train_on, InputPipeline, TrainOptions,
+};
 use mosaicd::raw::Cfa;
 
 use super::detect::DomainArg;
@@ -49,6 +51,16 @@ pub struct TrainArgs {
     /// noise at `low`, `medium` or `high`. The validation after training uses the same pipeline.
     #[arg(long, default_value = "sampled")]
     pub input: String,
+    /// Also train on every negative image mirrored left-right.
+    #[arg(long)]
+    pub mirror_negatives: bool,
+    /// Also train on the five person-free Infinite-ISP raw scenes (rendered by the forward ISP).
+    #[arg(long)]
+    pub raw_negatives: bool,
+    /// Choose C among these values (comma-separated) on an inner split of the training files
+    /// (the held-out validation split is not looked at), then train with it; overrides `--c`.
+    #[arg(long, value_delimiter = ',')]
+    pub select_c: Vec<f64>,
     /// Skip the validation (window-level DET) after training.
     #[arg(long)]
     pub no_eval: bool,
@@ -59,7 +71,7 @@ pub struct TrainArgs {
 
 /// Run `mosaicd train`.
 pub fn run(a: TrainArgs) -> anyhow::Result<()> {
-    let o = TrainOptions {
+    let mut o = TrainOptions {
         domain: a.domain.into(),
         cfa: a.cfa,
         seed: a.seed,
@@ -72,13 +84,34 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         // Training noise streams differ from `eval detection`'s (which uses `--seed` directly).
         pipeline: InputPipeline::parse(&a.input, a.seed ^ TRAIN_NOISE_SALT)
             .map_err(|e| anyhow::anyhow!("--input {e}"))?,
+        mirror_negatives: a.mirror_negatives,
+        raw_negatives: a.raw_negatives,
     };
     let root = mosaicd::data::data_root();
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
     let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
-    let (mut model, split) = pool.install(|| train(&root, &o, &mut progress))?;
+    let split = split_data(&root, o.seed, o.val_fraction)?;
+    let mut selection = None;
+    if !a.select_c.is_empty() {
+        anyhow::ensure!(
+            a.select_c.iter().all(|c| c.is_finite() && *c > 0.0),
+            "--select-c: every C must be a positive number, got {:?}",
+            a.select_c
+        );
+        let (c, results) = pool.install(|| select_c(&split, &o, &a.select_c, &mut progress))?;
+        eprintln!("select C: chose C = {c}");
+        o.c = c;
+        selection = Some(results);
+    }
+    let mut model = pool.install(|| train_on(&split, &o, &mut progress))?;
+    if let Some(results) = selection {
+        model.provenance["c_selection"] = serde_json::json!({
+            "how": "each candidate trained on an inner split of the training files, scored on its inner validation part (lowest MR at 1e-4 FPPW)",
+            "candidates": results,
+        });
+    }
     let cmd: Vec<String> = std::env::args().collect();
     model.provenance["command"] = serde_json::json!(cmd.join(" "));
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());

@@ -40,6 +40,7 @@ use super::detector::{Detector, DetectorOptions};
 use super::model::{Domain, LinearModel};
 use super::pyramid::{resize_bilinear, resize_mosaic};
 use super::svm::{train_linear_svm, SvmOptions};
+use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
 use crate::features::hog::{
     block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE,
 };
@@ -59,6 +60,12 @@ const HARD_PER_IMAGE: usize = 30;
 const POS_WINDOW_CELL: usize = 16 / CELL_SIZE;
 /// Noise-seed offset of negative images, so they never share a seed with a positive.
 const NEG_SEED_OFFSET: u64 = 1 << 32;
+/// Added to a negative image's noise index for its mirror.
+const MIRROR_SEED_OFFSET: u64 = 1 << 31;
+/// Mixed into the seed of [`inner_split`].
+const INNER_SPLIT_SALT: u64 = 0x696e_6e65_725f_7631;
+/// Added to [`NEG_SEED_OFFSET`] for the raw scenes.
+const RAW_SCENE_SEED_OFFSET: u64 = 1 << 30;
 /// Most points kept of a DET curve in [`WindowEval::det`] (enough for a plot).
 const DET_PLOT_POINTS: usize = 400;
 
@@ -166,6 +173,11 @@ pub struct TrainOptions {
     /// How the sRGB training images become inputs: sampled through the CFA (the shipped
     /// models), or the paper's reverse ISP to raw (optionally with noise).
     pub pipeline: InputPipeline,
+    /// Also use every training negative image mirrored left-right.
+    pub mirror_negatives: bool,
+    /// Also use the five person-free Infinite-ISP raw scenes (2592x1536), rendered to sRGB by the
+    /// forward ISP with the sensor's tuning, as training negatives (never held out).
+    pub raw_negatives: bool,
 }
 
 impl Default for TrainOptions {
@@ -181,6 +193,8 @@ impl Default for TrainOptions {
             val_fraction: 0.2,
             max_neg_images: 0,
             pipeline: InputPipeline::Sampled,
+            mirror_negatives: false,
+            raw_negatives: false,
         }
     }
 }
@@ -224,8 +238,31 @@ fn list(dir: &Path) -> Result<Vec<PathBuf>, TrainError> {
 
 /// The seeded split of the shared data (`data_root`: the directory holding `pedestrian/`, `kodak/`).
 pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Split, TrainError> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let pos = list(&data_root.join("pedestrian/inria_pos_96x160"))?;
+    let mut neg = list(&data_root.join("pedestrian/neg_inria"))?;
+    neg.extend(list(&data_root.join("pedestrian/neg"))?);
+    for k in 1..=24u32 {
+        if !KODAK_WITH_PEOPLE.contains(&k) {
+            neg.push(data_root.join(format!("kodak/kodim{k:02}.png")));
+        }
+    }
+    Ok(split_lists(pos, neg, seed, val_fraction))
+}
+
+/// Split the *training* part of `split` once more, the same way (positives by photo prefix,
+/// negatives by image), for model selection; `split`'s own validation files are not used.
+pub fn inner_split(split: &Split, seed: u64, val_fraction: f64) -> Split {
+    split_lists(
+        split.train_pos.clone(),
+        split.train_neg.clone(),
+        seed ^ INNER_SPLIT_SALT,
+        val_fraction,
+    )
+}
+
+/// Seeded split of positives (`pos` sorted by name, grouped by photo prefix) and negatives.
+fn split_lists(pos: Vec<PathBuf>, mut neg: Vec<PathBuf>, seed: u64, val_fraction: f64) -> Split {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut prefixes: Vec<String> = pos
         .iter()
         .filter_map(|p| p.file_name()?.to_str().map(|n| photo_prefix(n).to_string()))
@@ -243,18 +280,11 @@ pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Spli
             s.train_pos.push(p);
         }
     }
-    let mut neg = list(&data_root.join("pedestrian/neg_inria"))?;
-    neg.extend(list(&data_root.join("pedestrian/neg"))?);
-    for k in 1..=24u32 {
-        if !KODAK_WITH_PEOPLE.contains(&k) {
-            neg.push(data_root.join(format!("kodak/kodim{k:02}.png")));
-        }
-    }
     neg.shuffle(&mut rng);
     let n_val = (neg.len() as f64 * val_fraction).round() as usize;
     s.val_neg = neg[..n_val].to_vec();
     s.train_neg = neg[n_val..].to_vec();
-    Ok(s)
+    s
 }
 
 /// An image in a model's input domain.
@@ -363,6 +393,20 @@ impl DomainImage {
             }
         }
     }
+}
+
+/// A raw scene of the shared data rendered to sRGB by the forward ISP with its sensor's profile.
+pub fn raw_scene_srgb(scene: &RawInput) -> Result<Image<[u8; 3]>, TrainError> {
+    let data_err = |what: String| TrainError::Data {
+        path: scene.rel.into(),
+        what,
+    };
+    let frame = load_raw_frame(scene).map_err(|e| data_err(e.to_string()))?;
+    Ok(srgb_from_raw(
+        &frame,
+        &raw_profile(scene),
+        &ForwardIspOptions::default(),
+    )?)
 }
 
 /// Load an RGB image.
@@ -543,13 +587,77 @@ pub fn evaluate_windows_via(
     })
 }
 
-/// Train a model; `progress` receives one line per step.
+/// Train a model on the seeded split of the shared data; `progress` receives one line per step.
 pub fn train(
     data_root: &Path,
     o: &TrainOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(LinearModel, Split), TrainError> {
     let split = split_data(data_root, o.seed, o.val_fraction)?;
+    let model = train_on(&split, o, progress)?;
+    Ok((model, split))
+}
+
+/// One candidate of [`select_c`]: the cost and its inner-validation result.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CCandidate {
+    /// SVM cost.
+    pub c: f64,
+    /// Miss rate at FPPW 1e-2, 1e-3, 1e-4 on the inner validation split.
+    pub miss_rate_at: Vec<(f64, f64)>,
+}
+
+/// Choose the SVM cost among `candidates` without touching `split`'s validation files: each is
+/// trained on an [`inner_split`] of the training files and scored on its inner validation part
+/// (lowest miss rate at 1e-4 FPPW, then at 1e-3, then the smaller C). Returns the chosen C and
+/// every candidate's result.
+pub fn select_c(
+    split: &Split,
+    o: &TrainOptions,
+    candidates: &[f64],
+    progress: &mut dyn FnMut(&str),
+) -> Result<(f64, Vec<CCandidate>), TrainError> {
+    let inner = inner_split(split, o.seed, o.val_fraction);
+    let mut results = Vec::new();
+    for &c in candidates {
+        let oc = TrainOptions { c, ..*o };
+        let model = train_on(&inner, &oc, progress)?;
+        let ev = evaluate_windows_via(&model, &inner, o.domain, o.cfa, &o.pipeline, progress)?;
+        progress(&format!(
+            "select C: C = {c}: inner miss rate {:?}",
+            ev.miss_rate_at
+        ));
+        results.push(CCandidate {
+            c,
+            miss_rate_at: ev.miss_rate_at,
+        });
+    }
+    let key = |r: &CCandidate| {
+        let at = |f: f64| r.miss_rate_at.iter().find(|(x, _)| *x == f).map_or(1.0, |m| m.1);
+        (at(1e-4), at(1e-3), r.c)
+    };
+    let best = results
+        .iter()
+        .min_by(|a, b| {
+            let (ka, kb) = (key(a), key(b));
+            ka.0.total_cmp(&kb.0)
+                .then(ka.1.total_cmp(&kb.1))
+                .then(ka.2.total_cmp(&kb.2))
+        })
+        .map(|r| r.c)
+        .ok_or_else(|| TrainError::Data {
+            path: PathBuf::new(),
+            what: "no C candidates".into(),
+        })?;
+    Ok((best, results))
+}
+
+/// Train a model on `split`'s training files.
+pub fn train_on(
+    split: &Split,
+    o: &TrainOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<LinearModel, TrainError> {
     let spec = HogSpec::new(&HogOptions::default())?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x5eed);
     let mut x: Vec<Vec<f32>> = Vec::new();
@@ -567,20 +675,36 @@ pub fn train(
     } else {
         split.train_neg.clone()
     };
+    // Training negatives in a fixed order: each image (and its mirror), then the raw scenes.
+    // Noise-stream indices: image i → NEG_SEED_OFFSET + i, its mirror + MIRROR_SEED_OFFSET,
+    // raw scene k → NEG_SEED_OFFSET + RAW_SCENE_SEED_OFFSET + k.
     let mut neg_imgs = Vec::new();
-    for (i, p) in negs.iter().enumerate() {
-        let img = DomainImage::from_rgb_via(
-            &load_rgb(p)?,
-            o.domain,
-            o.cfa,
-            &o.pipeline,
-            NEG_SEED_OFFSET + i as u64,
-        )?;
+    let mut add_negative = |rgb: &Image<[u8; 3]>,
+                            index: u64,
+                            x: &mut Vec<Vec<f32>>,
+                            y: &mut Vec<i8>|
+     -> Result<(), TrainError> {
+        let img = DomainImage::from_rgb_via(rgb, o.domain, o.cfa, &o.pipeline, index)?;
         for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
             x.push(d);
             y.push(-1);
         }
         neg_imgs.push(img);
+        Ok(())
+    };
+    for (i, p) in negs.iter().enumerate() {
+        let rgb = load_rgb(p)?;
+        add_negative(&rgb, NEG_SEED_OFFSET + i as u64, &mut x, &mut y)?;
+        if o.mirror_negatives {
+            let (w, h) = rgb.dimensions();
+            let m = Image::from_fn(w, h, |xx, yy| rgb.get(w - 1 - xx, yy));
+            add_negative(
+                &m,
+                NEG_SEED_OFFSET + MIRROR_SEED_OFFSET + i as u64,
+                &mut x,
+                &mut y,
+            )?;
+        }
         if i % 50 == 0 {
             progress(&format!(
                 "random negatives: image {}/{} ({} windows)",
@@ -589,6 +713,22 @@ pub fn train(
                 y.iter().filter(|&&v| v < 0).count()
             ));
         }
+    }
+    if o.raw_negatives {
+        for (k, scene) in INFINITE_ISP_SCENES.iter().enumerate() {
+            let rgb = raw_scene_srgb(scene)?;
+            add_negative(
+                &rgb,
+                NEG_SEED_OFFSET + RAW_SCENE_SEED_OFFSET + k as u64,
+                &mut x,
+                &mut y,
+            )?;
+        }
+        progress(&format!(
+            "random negatives: {} raw scenes ({} windows)",
+            INFINITE_ISP_SCENES.len(),
+            y.iter().filter(|&&v| v < 0).count()
+        ));
     }
     let svm = SvmOptions {
         c: o.c,
@@ -602,7 +742,7 @@ pub fn train(
     ));
     let (mut w, mut b) = train_linear_svm(&x, &y, &svm);
     for round in 1..=o.mining_rounds {
-        let model = model_from(w.clone(), b, o, &split, x.len());
+        let model = model_from(w.clone(), b, o, split, x.len());
         let det = Detector::new(model, &DetectorOptions::default())?;
         // Bounded memory: per image at most HARD_PER_IMAGE (highest scores), overall at most
         // `max_hard_per_round`.
@@ -655,7 +795,7 @@ pub fn train(
         w = r.0;
         b = r.1;
     }
-    Ok((model_from(w, b, o, &split, x.len()), split))
+    Ok(model_from(w, b, o, split, x.len()))
 }
 
 fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) -> LinearModel {
@@ -667,6 +807,7 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) ->
         "neg_per_image": o.neg_per_image, "mining_rounds": o.mining_rounds,
         "max_hard_per_round": o.max_hard_per_round, "val_fraction": o.val_fraction,
         "max_neg_images": o.max_neg_images,
+        "mirror_negatives": o.mirror_negatives, "raw_negatives": o.raw_negatives,
         "train_positives": split.train_pos.len(), "train_negative_images": split.train_neg.len(),
         "training_vectors": n,
         "input_pipeline": o.pipeline.name(),
@@ -776,6 +917,39 @@ mod tests {
         );
         let e = InputPipeline::parse("raw-foggy", 1).unwrap_err();
         assert!(e.contains("raw-foggy") && e.contains("expected sampled"), "{e}");
+    }
+
+    #[test]
+    fn inner_split_regroups_only_the_training_files() {
+        let pos: Vec<PathBuf> = (0..40)
+            .flat_map(|k| ["a", "b"].map(|m| PathBuf::from(format!("crop{k:03}{m}.png"))))
+            .collect();
+        let neg: Vec<PathBuf> = (0..30).map(|k| PathBuf::from(format!("neg{k}.jpg"))).collect();
+        let outer = split_lists(pos, neg, 1, 0.2);
+        let inner = inner_split(&outer, 1, 0.2);
+        let sorted = |v: &[PathBuf]| {
+            let mut v = v.to_vec();
+            v.sort();
+            v
+        };
+        // Inner train + inner validation = outer train; nothing of the outer validation.
+        let mut all_pos = inner.train_pos.clone();
+        all_pos.extend(inner.val_pos.clone());
+        assert_eq!(sorted(&all_pos), sorted(&outer.train_pos));
+        let mut all_neg = inner.train_neg.clone();
+        all_neg.extend(inner.val_neg.clone());
+        assert_eq!(sorted(&all_neg), sorted(&outer.train_neg));
+        assert!(!inner.val_pos.is_empty() && !inner.val_neg.is_empty());
+        // Mirrors stay together.
+        for p in &inner.val_pos {
+            let pre = photo_prefix(p.to_str().unwrap());
+            assert!(inner
+                .train_pos
+                .iter()
+                .all(|q| photo_prefix(q.to_str().unwrap()) != pre));
+        }
+        // Deterministic.
+        assert_eq!(inner_split(&outer, 1, 0.2).val_pos, inner.val_pos);
     }
 
     #[test]

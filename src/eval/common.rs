@@ -142,6 +142,47 @@ pub struct RawInput {
     pub infinite_isp_profile: bool,
 }
 
+/// One of the Infinite-ISP sensor's 2592x1536 8-bit GRBG scenes.
+const fn infinite_isp(name: &'static str, rel: &'static str) -> RawInput {
+    RawInput {
+        name,
+        rel,
+        width: 2592,
+        height: 1536,
+        cfa: Cfa::Grbg,
+        bit_depth: 8,
+        // 50/1023 of the 10-bit original, cut to 8 bits.
+        black: 12,
+        white: 255,
+        infinite_isp_profile: true,
+    }
+}
+
+/// The five Infinite-ISP scenes (indoor, park, playground, wall, car park); none shows a person,
+/// so they are real-sensor negatives for the detector (`mosaicd train --raw-negatives`).
+pub const INFINITE_ISP_SCENES: [RawInput; 5] = [
+    infinite_isp(
+        "infinite_indoor1",
+        "raw/infinite_isp_8bit/Indoor1_2592x1536_8bit_GRBG.raw",
+    ),
+    infinite_isp(
+        "infinite_outdoor1",
+        "raw/infinite_isp_8bit/Outdoor1_2592x1536_8bit_GRBG.raw",
+    ),
+    infinite_isp(
+        "infinite_outdoor2",
+        "raw/infinite_isp_8bit/Outdoor2_2592x1536_8bit_GRBG.raw",
+    ),
+    infinite_isp(
+        "infinite_outdoor3",
+        "raw/infinite_isp_8bit/Outdoor3_2592x1536_8bit_GRBG.raw",
+    ),
+    infinite_isp(
+        "infinite_outdoor4",
+        "raw/infinite_isp_8bit/Outdoor4_2592x1536_8bit_GRBG.raw",
+    ),
+];
+
 /// The real raw frames used by the experiments (see `../shared/data/README.md`).
 pub const RAW_INPUTS: [RawInput; 3] = [
     RawInput {
@@ -155,29 +196,8 @@ pub const RAW_INPUTS: [RawInput; 3] = [
         white: 15520,
         infinite_isp_profile: false,
     },
-    RawInput {
-        name: "infinite_outdoor1",
-        rel: "raw/infinite_isp_8bit/Outdoor1_2592x1536_8bit_GRBG.raw",
-        width: 2592,
-        height: 1536,
-        cfa: Cfa::Grbg,
-        bit_depth: 8,
-        // 50/1023 of the 10-bit original, cut to 8 bits.
-        black: 12,
-        white: 255,
-        infinite_isp_profile: true,
-    },
-    RawInput {
-        name: "infinite_indoor1",
-        rel: "raw/infinite_isp_8bit/Indoor1_2592x1536_8bit_GRBG.raw",
-        width: 2592,
-        height: 1536,
-        cfa: Cfa::Grbg,
-        bit_depth: 8,
-        black: 12,
-        white: 255,
-        infinite_isp_profile: true,
-    },
+    INFINITE_ISP_SCENES[1],
+    INFINITE_ISP_SCENES[0],
 ];
 
 /// The first `limit` raw inputs (all when `None`).
