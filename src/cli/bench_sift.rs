@@ -51,6 +51,9 @@ pub struct BenchSiftArgs {
     /// Also time mosaic SIFT with doubled colour planes.
     #[arg(long)]
     pub with_doubled: bool,
+    /// Time mosaicd only (no OpenCV peer): for profiling.
+    #[arg(long)]
+    pub no_peer: bool,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -103,6 +106,13 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         None
     };
 
+    if args.no_peer {
+        println!(
+            "bench sift: mosaicd mosaic SIFT, {} threads, median of {} runs: {:.3} s ({n_ours} keypoints)",
+            args.threads, args.reps, ours
+        );
+        return Ok(());
+    }
     let mut tmp = tempfile_path()?;
     {
         // One buffered write (2 M unbuffered 2-byte writes took seconds of system time).
