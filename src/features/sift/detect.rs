@@ -564,6 +564,27 @@ fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
     }
 }
 
+/// Indices `x >= from` with `flags[x] != 0`, in increasing order. Most flags are zero (the
+/// pre-test passes a few pixels per row), so zero runs are skipped eight bytes at a time.
+fn flagged(flags: &[u8], from: usize) -> impl Iterator<Item = usize> + '_ {
+    let mut x = from;
+    std::iter::from_fn(move || {
+        while x < flags.len() {
+            if let Some(word) = flags.get(x..x + 8) {
+                if u64::from_ne_bytes(word.try_into().expect("8 bytes")) == 0 {
+                    x += 8;
+                    continue;
+                }
+            }
+            x += 1;
+            if flags[x - 1] != 0 {
+                return Some(x - 1);
+            }
+        }
+        None
+    })
+}
+
 /// Rows of DoG handed to one rayon task while searching extrema.
 const EXTREMA_ROW_STRIP: usize = 8;
 
@@ -602,11 +623,11 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                             threshold,
                             &mut flags,
                         );
-                        let scan = flags.iter().enumerate().take(cols - SIFT_IMG_BORDER);
-                        for (c, &flag) in scan.skip(SIFT_IMG_BORDER) {
+                        let (lo, hi) = (SIFT_IMG_BORDER, cols - SIFT_IMG_BORDER);
+                        for c in flagged(&flags[..hi], lo) {
                             // The pre-test checks the threshold and some neighbours; the full
                             // test decides (same result as the full test alone).
-                            if flag == 0 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
+                            if !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
                                 continue;
                             }
                             let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {
@@ -697,6 +718,18 @@ fn orient(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn flagged_finds_every_set_flag_in_order() {
+        let mut flags = vec![0u8; 45];
+        for x in [0, 3, 7, 8, 9, 23, 31, 40, 44] {
+            flags[x] = 1;
+        }
+        for from in [0, 1, 5, 8, 30, 44, 45] {
+            let want: Vec<usize> = (from..flags.len()).filter(|&x| flags[x] != 0).collect();
+            assert_eq!(flagged(&flags, from).collect::<Vec<_>>(), want, "from {from}");
+        }
+    }
 
     #[test]
     fn solve_lu_by_hand() {
