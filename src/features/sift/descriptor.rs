@@ -103,6 +103,7 @@ pub(crate) fn descriptor(
         v.reserve(most);
     }
     let table = &sc.table;
+    let df = d as f32;
     for i in -radius..=radius {
         let r = pty + i;
         if r < si || r >= rows - si {
@@ -111,21 +112,62 @@ pub(crate) fn descriptor(
         let wi = table[(i + radius) as usize];
         let ru = r as usize;
         let (above, row, below) = (img.row(ru - s), img.row(ru), img.row(ru + s));
-        let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
-        for j in j0..=j1 {
-            let c_rot = j as f32 * cos_t - i as f32 * sin_t;
-            let r_rot = j as f32 * sin_t + i as f32 * cos_t;
+        let fi = i as f32;
+        // The exact per-sample test of OpenCV's loop. `rbin` and `cbin` are monotonic in `j`
+        // (rounding is monotonic), so the samples that pass form one interval of columns: find
+        // its ends from the conservative interval, then take every column in between.
+        let inside = |j: i64| {
+            let c_rot = j as f32 * cos_t - fi * sin_t;
+            let r_rot = j as f32 * sin_t + fi * cos_t;
             let rbin = r_rot + (d / 2) as f32 - 0.5;
             let cbin = c_rot + (d / 2) as f32 - 0.5;
-            let c = ptx + j;
-            if rbin > -1.0 && rbin < d as f32 && cbin > -1.0 && cbin < d as f32 && c >= si && c < cols - si {
-                let cu = c as usize;
-                gx.push(row[cu + s] - row[cu - s]);
-                gy.push(above[cu] - below[cu]);
-                rbins.push(rbin);
-                cbins.push(cbin);
-                ws.push(wi * table[(j + radius) as usize]);
-            }
+            rbin > -1.0 && rbin < df && cbin > -1.0 && cbin < df
+        };
+        let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
+        let (mut ja, mut jb) = (j0.max(si - ptx), j1.min(cols - si - 1 - ptx));
+        while ja <= jb && !inside(ja) {
+            ja += 1;
+        }
+        while jb >= ja && !inside(jb) {
+            jb -= 1;
+        }
+        if ja > jb {
+            continue;
+        }
+        debug_assert!((ja..=jb).all(inside));
+        let n = (jb - ja + 1) as usize;
+        let c0 = (ptx + ja) as usize;
+        let base = gx.len();
+        for v in [&mut gx, &mut gy, &mut rbins, &mut cbins, &mut ws] {
+            v.resize(base + n, 0.0);
+        }
+        for ((o, &a), &b) in gx[base..]
+            .iter_mut()
+            .zip(&row[c0 + s..c0 + s + n])
+            .zip(&row[c0 - s..c0 - s + n])
+        {
+            *o = a - b;
+        }
+        for ((o, &a), &b) in gy[base..]
+            .iter_mut()
+            .zip(&above[c0..c0 + n])
+            .zip(&below[c0..c0 + n])
+        {
+            *o = a - b;
+        }
+        let tj = &table[(ja + radius) as usize..=(jb + radius) as usize];
+        for (o, &t) in ws[base..].iter_mut().zip(tj) {
+            *o = wi * t;
+        }
+        let (is, ic) = (fi * sin_t, fi * cos_t);
+        let ja32 = ja as i32;
+        for (k, (rb, cb)) in rbins[base..].iter_mut().zip(&mut cbins[base..]).enumerate() {
+            // `j as f32` exactly (|j| < 2^24), computed in i32 so that it vectorises.
+            let jf = (ja32 + k as i32) as f32;
+            let c_rot = jf * cos_t - is;
+            let r_rot = jf * sin_t + ic;
+            *rb = r_rot + (d / 2) as f32 - 0.5;
+            *cb = c_rot + (d / 2) as f32 - 0.5;
         }
     }
     (sc.dx, sc.dy, sc.a, sc.b, sc.w) = (gx, gy, rbins, cbins, ws);
