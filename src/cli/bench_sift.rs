@@ -11,7 +11,7 @@ use std::process::Command;
 
 use anyhow::{bail, Context};
 
-use mosaicd::features::sift::{detect_and_compute, normalised_mosaic_from_frame, SiftSpec};
+use mosaicd::features::sift::{features_from_frame, SiftSpec};
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 /// The Python peer: OpenCV demosaic, grey, 8-bit, SIFT; prints "median_seconds keypoints".
@@ -89,10 +89,8 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         let mut n = 0;
         for _ in 0..args.reps {
             let t0 = std::time::Instant::now();
-            let f = pool.install(|| {
-                let img = normalised_mosaic_from_frame(&frame);
-                detect_and_compute(img.view(), &spec)
-            })?;
+            // Normalisation (black, white) and SIFT, as the daemon runs them.
+            let f = pool.install(|| features_from_frame(&frame, &spec))?;
             times.push(t0.elapsed().as_secs_f64());
             n = f.keypoints.len();
         }
