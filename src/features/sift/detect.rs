@@ -452,22 +452,40 @@ fn orientation_hist(
     let (cols, rows) = (img.width() as i64, img.height() as i64);
     let si = s as i64;
     sc.clear();
+    // The columns inside the image are one interval, the same on every row.
+    let (xi, ja) = (x as i64, (-radius).max(si - x as i64));
+    let jb = radius.min(cols - si - 1 - xi);
     for i in -radius..=radius {
         let yy = y as i64 + i;
-        if yy < si || yy >= rows - si {
+        if yy < si || yy >= rows - si || ja > jb {
             continue;
         }
         let yu = yy as usize;
         let (above, row, below) = (img.row(yu - s), img.row(yu), img.row(yu + s));
-        for j in -radius..=radius {
-            let xx = x as i64 + j;
-            if xx < si || xx >= cols - si {
-                continue;
-            }
-            let xu = xx as usize;
-            sc.dx.push(row[xu + s] - row[xu - s]);
-            sc.dy.push(above[xu] - below[xu]);
-            sc.w.push((i * i + j * j) as f32);
+        let (n, c0) = ((jb - ja + 1) as usize, (xi + ja) as usize);
+        let base = sc.dx.len();
+        for v in [&mut sc.dx, &mut sc.dy, &mut sc.w] {
+            v.resize(base + n, 0.0);
+        }
+        for ((o, &a), &b) in sc.dx[base..]
+            .iter_mut()
+            .zip(&row[c0 + s..c0 + s + n])
+            .zip(&row[c0 - s..c0 - s + n])
+        {
+            *o = a - b;
+        }
+        for ((o, &a), &b) in sc.dy[base..]
+            .iter_mut()
+            .zip(&above[c0..c0 + n])
+            .zip(&below[c0..c0 + n])
+        {
+            *o = a - b;
+        }
+        // `i² + j²` in i32 (exact: the radius is small), which vectorises.
+        let (ii, ja32) = ((i * i) as i32, ja as i32);
+        for (k, o) in sc.w[base..].iter_mut().enumerate() {
+            let j = ja32 + k as i32;
+            *o = (ii + j * j) as f32;
         }
     }
     sc.polar(path);
@@ -602,16 +620,18 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
         if cols <= 2 * SIFT_IMG_BORDER || rows <= 2 * SIFT_IMG_BORDER {
             continue;
         }
-        for i in 1..=nl {
-            let rows_range: Vec<usize> = (SIFT_IMG_BORDER..rows - SIFT_IMG_BORDER).collect();
-            let found: Vec<Vec<Candidate>> = rows_range
-                .par_chunks(EXTREMA_ROW_STRIP)
-                .map(|strip| {
-                    let mut v = Vec::new();
-                    let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
-                    let mut sc = GradScratch::default();
-                    let mut flags = vec![0u8; cols];
-                    for &r in strip {
+        // All layers of a row at once, so that the DoG rows each layer's test shares with the
+        // next are still in cache; the candidates are regrouped by layer below.
+        let rows_range: Vec<usize> = (SIFT_IMG_BORDER..rows - SIFT_IMG_BORDER).collect();
+        let mut found: Vec<Vec<Vec<Candidate>>> = rows_range
+            .par_chunks(EXTREMA_ROW_STRIP)
+            .map(|strip| {
+                let mut v = vec![Vec::new(); nl];
+                let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
+                let mut sc = GradScratch::default();
+                let mut flags = vec![0u8; cols];
+                for &r in strip {
+                    for (i, v) in (1..=nl).zip(v.iter_mut()) {
                         let cur = &dog[i];
                         let row = cur.row(r);
                         kernels::extremum_pretest(
@@ -633,13 +653,17 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                             let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {
                                 continue;
                             };
-                            orient(pyr, spec, o, &rf, (path, &mut sc), &mut hist, &mut v);
+                            orient(pyr, spec, o, &rf, (path, &mut sc), &mut hist, v);
                         }
                     }
-                    v
-                })
-                .collect();
-            out.extend(found.into_iter().flatten());
+                }
+                v
+            })
+            .collect();
+        for layer in 0..nl {
+            for strip in &mut found {
+                out.append(&mut strip[layer]);
+            }
         }
     }
     out
