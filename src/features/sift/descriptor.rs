@@ -137,38 +137,27 @@ pub(crate) fn descriptor(
         debug_assert!((ja..=jb).all(inside));
         let n = (jb - ja + 1) as usize;
         let c0 = (ptx + ja) as usize;
-        let base = gx.len();
-        for v in [&mut gx, &mut gy, &mut rbins, &mut cbins, &mut ws] {
-            v.resize(base + n, 0.0);
-        }
-        for ((o, &a), &b) in gx[base..]
-            .iter_mut()
-            .zip(&row[c0 + s..c0 + s + n])
-            .zip(&row[c0 - s..c0 - s + n])
-        {
-            *o = a - b;
-        }
-        for ((o, &a), &b) in gy[base..]
-            .iter_mut()
-            .zip(&above[c0..c0 + n])
-            .zip(&below[c0..c0 + n])
-        {
-            *o = a - b;
-        }
+        // Exact-size iterators: `extend` writes in place (no zero fill first) and vectorises.
+        gx.extend(
+            row[c0 + s..c0 + s + n]
+                .iter()
+                .zip(&row[c0 - s..c0 - s + n])
+                .map(|(&a, &b)| a - b),
+        );
+        gy.extend(
+            above[c0..c0 + n]
+                .iter()
+                .zip(&below[c0..c0 + n])
+                .map(|(&a, &b)| a - b),
+        );
         let tj = &table[(ja + radius) as usize..=(jb + radius) as usize];
-        for (o, &t) in ws[base..].iter_mut().zip(tj) {
-            *o = wi * t;
-        }
+        ws.extend(tj.iter().map(|&t| wi * t));
         let (is, ic) = (fi * sin_t, fi * cos_t);
         let ja32 = ja as i32;
-        for (k, (rb, cb)) in rbins[base..].iter_mut().zip(&mut cbins[base..]).enumerate() {
-            // `j as f32` exactly (|j| < 2^24), computed in i32 so that it vectorises.
-            let jf = (ja32 + k as i32) as f32;
-            let c_rot = jf * cos_t - is;
-            let r_rot = jf * sin_t + ic;
-            *rb = r_rot + (d / 2) as f32 - 0.5;
-            *cb = c_rot + (d / 2) as f32 - 0.5;
-        }
+        // `j as f32` exactly (|j| < 2^24), computed in i32 so that it vectorises.
+        let jf = |k: usize| (ja32 + k as i32) as f32;
+        rbins.extend((0..n).map(|k| (jf(k) * sin_t + ic) + (d / 2) as f32 - 0.5));
+        cbins.extend((0..n).map(|k| (jf(k) * cos_t - is) + (d / 2) as f32 - 0.5));
     }
     (sc.dx, sc.dy, sc.a, sc.b, sc.w) = (gx, gy, rbins, cbins, ws);
     sc.polar(path);

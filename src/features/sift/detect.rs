@@ -463,30 +463,22 @@ fn orientation_hist(
         let yu = yy as usize;
         let (above, row, below) = (img.row(yu - s), img.row(yu), img.row(yu + s));
         let (n, c0) = ((jb - ja + 1) as usize, (xi + ja) as usize);
-        let base = sc.dx.len();
-        for v in [&mut sc.dx, &mut sc.dy, &mut sc.w] {
-            v.resize(base + n, 0.0);
-        }
-        for ((o, &a), &b) in sc.dx[base..]
-            .iter_mut()
-            .zip(&row[c0 + s..c0 + s + n])
-            .zip(&row[c0 - s..c0 - s + n])
-        {
-            *o = a - b;
-        }
-        for ((o, &a), &b) in sc.dy[base..]
-            .iter_mut()
-            .zip(&above[c0..c0 + n])
-            .zip(&below[c0..c0 + n])
-        {
-            *o = a - b;
-        }
+        // Exact-size iterators: `extend` writes in place (no zero fill first) and vectorises.
+        sc.dx.extend(
+            row[c0 + s..c0 + s + n]
+                .iter()
+                .zip(&row[c0 - s..c0 - s + n])
+                .map(|(&a, &b)| a - b),
+        );
+        sc.dy.extend(
+            above[c0..c0 + n]
+                .iter()
+                .zip(&below[c0..c0 + n])
+                .map(|(&a, &b)| a - b),
+        );
         // `i² + j²` in i32 (exact: the radius is small), which vectorises.
         let (ii, ja32) = ((i * i) as i32, ja as i32);
-        for (k, o) in sc.w[base..].iter_mut().enumerate() {
-            let j = ja32 + k as i32;
-            *o = (ii + j * j) as f32;
-        }
+        sc.w.extend((0..n).map(|k| (ii + (ja32 + k as i32) * (ja32 + k as i32)) as f32));
     }
     sc.polar(path);
     // NaN marks a weight not computed yet (every real weight is finite).
