@@ -85,8 +85,10 @@ const SYM_ROW_STRIP: usize = 16;
 /// before multiplying. Equals `blur_mosaic` (checked against the oracle kernel in the tests) and
 /// avoids its four plane copies and re-interleaving per layer. `tmp` holds the horizontal pass
 /// (reused between calls); the interior runs through the [`kernels`] of `path`, bit-equal on
-/// every path. With `dog`, each output row's difference `dst - src` is written there while the
-/// row is still in cache (the SIFT pyramid's DoG layer, without another pass over memory).
+/// every path. With `dog`, each output row's difference `dst - src` is written there by the
+/// vertical kernel from its registers (the SIFT pyramid's DoG layer, without another pass over
+/// memory). The reflected border taps of the horizontal pass come from one index table per call
+/// (the same for every row).
 pub(crate) fn blur_symmetric(
     src: &Image<f32>,
     taps: &[f32],
