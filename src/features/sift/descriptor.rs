@@ -103,6 +103,7 @@ pub(crate) fn descriptor(
         v.reserve(most);
     }
     let table = &sc.table;
+    let df = d as f32;
     for i in -radius..=radius {
         let r = pty + i;
         if r < si || r >= rows - si {
@@ -111,22 +112,52 @@ pub(crate) fn descriptor(
         let wi = table[(i + radius) as usize];
         let ru = r as usize;
         let (above, row, below) = (img.row(ru - s), img.row(ru), img.row(ru + s));
-        let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
-        for j in j0..=j1 {
-            let c_rot = j as f32 * cos_t - i as f32 * sin_t;
-            let r_rot = j as f32 * sin_t + i as f32 * cos_t;
+        let fi = i as f32;
+        // The exact per-sample test of OpenCV's loop. `rbin` and `cbin` are monotonic in `j`
+        // (rounding is monotonic), so the samples that pass form one interval of columns: find
+        // its ends from the conservative interval, then take every column in between.
+        let inside = |j: i64| {
+            let c_rot = j as f32 * cos_t - fi * sin_t;
+            let r_rot = j as f32 * sin_t + fi * cos_t;
             let rbin = r_rot + (d / 2) as f32 - 0.5;
             let cbin = c_rot + (d / 2) as f32 - 0.5;
-            let c = ptx + j;
-            if rbin > -1.0 && rbin < d as f32 && cbin > -1.0 && cbin < d as f32 && c >= si && c < cols - si {
-                let cu = c as usize;
-                gx.push(row[cu + s] - row[cu - s]);
-                gy.push(above[cu] - below[cu]);
-                rbins.push(rbin);
-                cbins.push(cbin);
-                ws.push(wi * table[(j + radius) as usize]);
-            }
+            rbin > -1.0 && rbin < df && cbin > -1.0 && cbin < df
+        };
+        let (j0, j1) = inside_columns(i, cos_t, sin_t, radius);
+        let (mut ja, mut jb) = (j0.max(si - ptx), j1.min(cols - si - 1 - ptx));
+        while ja <= jb && !inside(ja) {
+            ja += 1;
         }
+        while jb >= ja && !inside(jb) {
+            jb -= 1;
+        }
+        if ja > jb {
+            continue;
+        }
+        debug_assert!((ja..=jb).all(inside));
+        let n = (jb - ja + 1) as usize;
+        let c0 = (ptx + ja) as usize;
+        // Exact-size iterators: `extend` writes in place (no zero fill first) and vectorises.
+        gx.extend(
+            row[c0 + s..c0 + s + n]
+                .iter()
+                .zip(&row[c0 - s..c0 - s + n])
+                .map(|(&a, &b)| a - b),
+        );
+        gy.extend(
+            above[c0..c0 + n]
+                .iter()
+                .zip(&below[c0..c0 + n])
+                .map(|(&a, &b)| a - b),
+        );
+        let tj = &table[(ja + radius) as usize..=(jb + radius) as usize];
+        ws.extend(tj.iter().map(|&t| wi * t));
+        let (is, ic) = (fi * sin_t, fi * cos_t);
+        let ja32 = ja as i32;
+        // `j as f32` exactly (|j| < 2^24), computed in i32 so that it vectorises.
+        let jf = |k: usize| (ja32 + k as i32) as f32;
+        rbins.extend((0..n).map(|k| (jf(k) * sin_t + ic) + (d / 2) as f32 - 0.5));
+        cbins.extend((0..n).map(|k| (jf(k) * cos_t - is) + (d / 2) as f32 - 0.5));
     }
     (sc.dx, sc.dy, sc.a, sc.b, sc.w) = (gx, gy, rbins, cbins, ws);
     sc.polar(path);

@@ -452,23 +452,33 @@ fn orientation_hist(
     let (cols, rows) = (img.width() as i64, img.height() as i64);
     let si = s as i64;
     sc.clear();
+    // The columns inside the image are one interval, the same on every row.
+    let (xi, ja) = (x as i64, (-radius).max(si - x as i64));
+    let jb = radius.min(cols - si - 1 - xi);
     for i in -radius..=radius {
         let yy = y as i64 + i;
-        if yy < si || yy >= rows - si {
+        if yy < si || yy >= rows - si || ja > jb {
             continue;
         }
         let yu = yy as usize;
         let (above, row, below) = (img.row(yu - s), img.row(yu), img.row(yu + s));
-        for j in -radius..=radius {
-            let xx = x as i64 + j;
-            if xx < si || xx >= cols - si {
-                continue;
-            }
-            let xu = xx as usize;
-            sc.dx.push(row[xu + s] - row[xu - s]);
-            sc.dy.push(above[xu] - below[xu]);
-            sc.w.push((i * i + j * j) as f32);
-        }
+        let (n, c0) = ((jb - ja + 1) as usize, (xi + ja) as usize);
+        // Exact-size iterators: `extend` writes in place (no zero fill first) and vectorises.
+        sc.dx.extend(
+            row[c0 + s..c0 + s + n]
+                .iter()
+                .zip(&row[c0 - s..c0 - s + n])
+                .map(|(&a, &b)| a - b),
+        );
+        sc.dy.extend(
+            above[c0..c0 + n]
+                .iter()
+                .zip(&below[c0..c0 + n])
+                .map(|(&a, &b)| a - b),
+        );
+        // `i² + j²` in i32 (exact: the radius is small), which vectorises.
+        let (ii, ja32) = ((i * i) as i32, ja as i32);
+        sc.w.extend((0..n).map(|k| (ii + (ja32 + k as i32) * (ja32 + k as i32)) as f32));
     }
     sc.polar(path);
     // NaN marks a weight not computed yet (every real weight is finite).
@@ -564,6 +574,27 @@ fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
     }
 }
 
+/// Indices `x >= from` with `flags[x] != 0`, in increasing order. Most flags are zero (the
+/// pre-test passes a few pixels per row), so zero runs are skipped eight bytes at a time.
+fn flagged(flags: &[u8], from: usize) -> impl Iterator<Item = usize> + '_ {
+    let mut x = from;
+    std::iter::from_fn(move || {
+        while x < flags.len() {
+            if let Some(word) = flags.get(x..x + 8) {
+                if u64::from_ne_bytes(word.try_into().expect("8 bytes")) == 0 {
+                    x += 8;
+                    continue;
+                }
+            }
+            x += 1;
+            if flags[x - 1] != 0 {
+                return Some(x - 1);
+            }
+        }
+        None
+    })
+}
+
 /// Rows of DoG handed to one rayon task while searching extrema.
 const EXTREMA_ROW_STRIP: usize = 8;
 
@@ -581,16 +612,18 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
         if cols <= 2 * SIFT_IMG_BORDER || rows <= 2 * SIFT_IMG_BORDER {
             continue;
         }
-        for i in 1..=nl {
-            let rows_range: Vec<usize> = (SIFT_IMG_BORDER..rows - SIFT_IMG_BORDER).collect();
-            let found: Vec<Vec<Candidate>> = rows_range
-                .par_chunks(EXTREMA_ROW_STRIP)
-                .map(|strip| {
-                    let mut v = Vec::new();
-                    let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
-                    let mut sc = GradScratch::default();
-                    let mut flags = vec![0u8; cols];
-                    for &r in strip {
+        // All layers of a row at once, so that the DoG rows each layer's test shares with the
+        // next are still in cache; the candidates are regrouped by layer below.
+        let rows_range: Vec<usize> = (SIFT_IMG_BORDER..rows - SIFT_IMG_BORDER).collect();
+        let mut found: Vec<Vec<Vec<Candidate>>> = rows_range
+            .par_chunks(EXTREMA_ROW_STRIP)
+            .map(|strip| {
+                let mut v = vec![Vec::new(); nl];
+                let mut hist = [0.0f32; SIFT_ORI_HIST_BINS];
+                let mut sc = GradScratch::default();
+                let mut flags = vec![0u8; cols];
+                for &r in strip {
+                    for (i, v) in (1..=nl).zip(v.iter_mut()) {
                         let cur = &dog[i];
                         let row = cur.row(r);
                         kernels::extremum_pretest(
@@ -602,23 +635,27 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
                             threshold,
                             &mut flags,
                         );
-                        let scan = flags.iter().enumerate().take(cols - SIFT_IMG_BORDER);
-                        for (c, &flag) in scan.skip(SIFT_IMG_BORDER) {
+                        let (lo, hi) = (SIFT_IMG_BORDER, cols - SIFT_IMG_BORDER);
+                        for c in flagged(&flags[..hi], lo) {
                             // The pre-test checks the threshold and some neighbours; the full
                             // test decides (same result as the full test alone).
-                            if flag == 0 || !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
+                            if !is_extremum(&dog[i - 1], cur, &dog[i + 1], c, r, reach) {
                                 continue;
                             }
                             let Some(rf) = adjust_local_extrema(dog, spec, i, r, c) else {
                                 continue;
                             };
-                            orient(pyr, spec, o, &rf, (path, &mut sc), &mut hist, &mut v);
+                            orient(pyr, spec, o, &rf, (path, &mut sc), &mut hist, v);
                         }
                     }
-                    v
-                })
-                .collect();
-            out.extend(found.into_iter().flatten());
+                }
+                v
+            })
+            .collect();
+        for layer in 0..nl {
+            for strip in &mut found {
+                out.append(&mut strip[layer]);
+            }
         }
     }
     out
@@ -697,6 +734,18 @@ fn orient(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn flagged_finds_every_set_flag_in_order() {
+        let mut flags = vec![0u8; 45];
+        for x in [0, 3, 7, 8, 9, 23, 31, 40, 44] {
+            flags[x] = 1;
+        }
+        for from in [0, 1, 5, 8, 30, 44, 45] {
+            let want: Vec<usize> = (from..flags.len()).filter(|&x| flags[x] != 0).collect();
+            assert_eq!(flagged(&flags, from).collect::<Vec<_>>(), want, "from {from}");
+        }
+    }
 
     #[test]
     fn solve_lu_by_hand() {

@@ -146,6 +146,16 @@ dispatch!(
 );
 
 dispatch!(
+    /// [`blur_col`] that also writes the difference of Gaussians `dog[x] = out[x] - lower[x]`
+    /// of the row while it is in registers (`lower` is the less blurred layer's row).
+    #[allow(clippy::too_many_arguments)]
+    blur_col_dog,
+    blur_col_dog_body,
+    (center: &[f32], up: &[&[f32]], down: &[&[f32]], taps: &[f32], lower: &[f32],
+     out: &mut [f32], dog: &mut [f32])
+);
+
+dispatch!(
     /// Gradient magnitude and orientation of a list of gradients: `mag[i] = sqrt(dx² + dy²)`,
     /// `ori[i] = fast_atan2_deg(dy[i], dx[i])` (OpenCV's polynomial) (degrees in [0, 360)). All slices have the same
     /// length.
@@ -202,6 +212,21 @@ fn blur_row_interior_body(row: &[f32], taps: &[f32], step: usize, lo: usize, hi:
 
 #[inline(always)]
 fn blur_col_body(center: &[f32], up: &[&[f32]], down: &[&[f32]], taps: &[f32], out: &mut [f32]) {
+    blur_col_dog_body(center, up, down, taps, &[], out, &mut []);
+}
+
+/// The vertical pass; the difference to `lower` is written to `dog` unless `dog` is empty.
+#[inline(always)]
+fn blur_col_dog_body(
+    center: &[f32],
+    up: &[&[f32]],
+    down: &[&[f32]],
+    taps: &[f32],
+    lower: &[f32],
+    out: &mut [f32],
+    dog: &mut [f32],
+) {
+    let with_dog = !dog.is_empty();
     let r = taps.len() / 2;
     let c = taps[r];
     let w = out.len();
@@ -218,14 +243,23 @@ fn blur_col_body(center: &[f32], up: &[&[f32]], down: &[&[f32]], taps: &[f32], o
             }
         }
         out[x..x + CHUNK].copy_from_slice(&acc);
+        if with_dog {
+            let d: &mut [f32; CHUNK] = (&mut dog[x..x + CHUNK]).try_into().expect("CHUNK elements");
+            for ((o, &b), &a) in d.iter_mut().zip(&acc).zip(chunk(lower, x)) {
+                *o = b - a;
+            }
+        }
         x += CHUNK;
     }
-    for (x, o) in out.iter_mut().enumerate().skip(x) {
+    for x in x..w {
         let mut acc = c * center[x];
         for ((&t, ru), rd) in taps[r + 1..].iter().zip(up).zip(down) {
             acc += t * (ru[x] + rd[x]);
         }
-        *o = acc;
+        out[x] = acc;
+        if with_dog {
+            dog[x] = acc - lower[x];
+        }
     }
 }
 
@@ -399,6 +433,17 @@ mod tests {
                             acc += taps[r + k] * (up[k - 1][x] + down[k - 1][x]);
                         }
                         assert_eq!(acc.to_bits(), o.to_bits(), "{path:?} v {ntaps} {x}");
+                    }
+                    let mut dog = vec![0.0f32; w];
+                    let mut out2 = vec![0.0f32; w];
+                    blur_col_dog(path, &rows[0], &up, &down, &taps, &rows[3], &mut out2, &mut dog);
+                    for x in 0..w {
+                        assert_eq!(out[x].to_bits(), out2[x].to_bits(), "{path:?} v+dog {ntaps} {x}");
+                        assert_eq!(
+                            (out[x] - rows[3][x]).to_bits(),
+                            dog[x].to_bits(),
+                            "{path:?} dog {x}"
+                        );
                     }
                 }
                 let mut flags = vec![9u8; w];

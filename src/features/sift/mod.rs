@@ -330,9 +330,8 @@ pub struct SiftFeatures {
     pub descriptors: Vec<[u8; DESCRIPTOR_LEN]>,
 }
 
-/// Check the size and copy the input into f32 on OpenCV's 0..255 scale.
-fn prepare<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Image<f32>, SiftError> {
-    let (w, h) = (src.width(), src.height());
+/// Check the size of a `w` x `h` input for `spec`.
+fn check_size(w: usize, h: usize, spec: &SiftSpec) -> Result<(), SiftError> {
     if w < MIN_SIZE || h < MIN_SIZE {
         return Err(SiftError::TooSmall {
             width: w,
@@ -340,17 +339,82 @@ fn prepare<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Im
             min: MIN_SIZE,
         });
     }
-    if spec.domain == Domain::Mosaic && (w % 2 != 0 || h % 2 != 0) {
+    if spec.domain == Domain::Mosaic && !(w.is_multiple_of(2) && h.is_multiple_of(2)) {
         return Err(SiftError::OddSize { width: w, height: h });
     }
-    let scale = (detect::INTENSITY_RANGE as f64 / spec.max_value) as f32;
+    Ok(())
+}
+
+/// Scale from the input range to OpenCV's 0..255 (`255 / max_value`).
+fn input_scale(spec: &SiftSpec) -> f32 {
+    (detect::INTENSITY_RANGE as f64 / spec.max_value) as f32
+}
+
+/// Check the size and copy the input into a pooled f32 image on OpenCV's 0..255 scale (rows in
+/// parallel).
+fn prepare<T: Copy + Into<f32> + Sync>(src: ImageView<T>, spec: &SiftSpec) -> Result<Image<f32>, SiftError> {
+    let (w, h) = (src.width(), src.height());
+    check_size(w, h, spec)?;
+    let scale = input_scale(spec);
     let mut img = buffers::take(w, h);
-    for (y, out) in img.as_mut_slice().chunks_mut(w).enumerate() {
-        for (o, &v) in out.iter_mut().zip(src.row(y)) {
-            *o = v.into() * scale;
-        }
-    }
+    img.as_mut_slice()
+        .par_chunks_mut(w)
+        .enumerate()
+        .for_each(|(y, out)| {
+            for (o, &v) in out.iter_mut().zip(src.row(y)) {
+                *o = v.into() * scale;
+            }
+        });
     Ok(img)
+}
+
+/// [`prepare`] of [`normalised_mosaic_from_frame`] in one pass into a pooled image: the same
+/// operations per pixel (normalise, clamp, then scale), so the same values.
+fn prepare_frame(frame: &RawFrame, spec: &SiftSpec) -> Result<Image<f32>, SiftError> {
+    let (w, h) = (frame.width(), frame.height());
+    check_size(w, h, spec)?;
+    let mut img = buffers::take(w, h);
+    fill_normalised(frame, input_scale(spec), &mut img);
+    Ok(img)
+}
+
+/// Fill `out` (the frame's size) with `((v - black(x, y)) / (white - black(x, y))).clamp(0, 1)`,
+/// multiplied by `scale` unless `scale` is `None`; rows in parallel.
+fn fill_normalised(frame: &RawFrame, scale: impl Into<Option<f32>>, out: &mut Image<f32>) {
+    let scale = scale.into();
+    let lv = frame.levels();
+    let white = lv.white as f32;
+    let tile: [(f32, f32); 4] = std::array::from_fn(|i| {
+        let b = frame.black_at(i % 2, i / 2) as f32;
+        (b, 1.0 / (white - b).max(1.0))
+    });
+    // Each row alternates two (black, 1 / range) pairs.
+    fn fill<T: Copy + Into<f32> + Sync>(
+        src: ImageView<'_, T>,
+        tile: &[(f32, f32); 4],
+        scale: Option<f32>,
+        out: &mut Image<f32>,
+    ) {
+        let w = out.width();
+        out.as_mut_slice()
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                let t = &tile[(y % 2) * 2..(y % 2) * 2 + 2];
+                for (x, (o, &v)) in row.iter_mut().zip(src.row(y)).enumerate() {
+                    let (b, inv) = t[x % 2];
+                    let n = ((v.into() - b) * inv).clamp(0.0, 1.0);
+                    *o = match scale {
+                        Some(s) => n * s,
+                        None => n,
+                    };
+                }
+            });
+    }
+    match frame.view() {
+        RawView::U8(v) => fill(v, &tile, scale, out),
+        RawView::U16(v) => fill(v, &tile, scale, out),
+    }
 }
 
 fn sorted_candidates(pyr: &detect::Pyramid, spec: &SiftSpec) -> Vec<detect::Candidate> {
@@ -372,12 +436,22 @@ fn sorted_candidates(pyr: &detect::Pyramid, spec: &SiftSpec) -> Vec<detect::Cand
 
 /// Detect keypoints and compute their descriptors. `src` holds grey values or a mosaic (per
 /// `spec.domain()`) with full scale `spec.max_value()`.
-pub fn detect_and_compute<T: Copy + Into<f32>>(
+pub fn detect_and_compute<T: Copy + Into<f32> + Sync>(
     src: ImageView<T>,
     spec: &SiftSpec,
 ) -> Result<SiftFeatures, SiftError> {
     let t0 = std::time::Instant::now();
     let img = prepare(src, spec)?;
+    compute_prepared(img, spec, t0)
+}
+
+/// Keypoints and descriptors of the prepared (pooled, 0..255) image `img`; `t0` is when the
+/// call started (for the stage times).
+fn compute_prepared(
+    img: Image<f32>,
+    spec: &SiftSpec,
+    t0: std::time::Instant,
+) -> Result<SiftFeatures, SiftError> {
     let pyr = detect::build_pyramid(&img, spec);
     buffers::give(img);
     let pyr = pyr?;
@@ -406,8 +480,15 @@ pub fn detect_and_compute<T: Copy + Into<f32>>(
 }
 
 /// Detect keypoints only (no descriptors).
-pub fn detect<T: Copy + Into<f32>>(src: ImageView<T>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
-    let img = prepare(src, spec)?;
+pub fn detect<T: Copy + Into<f32> + Sync>(
+    src: ImageView<T>,
+    spec: &SiftSpec,
+) -> Result<Vec<Keypoint>, SiftError> {
+    detect_prepared(prepare(src, spec)?, spec)
+}
+
+/// Keypoints of the prepared (pooled, 0..255) image `img`.
+fn detect_prepared(img: Image<f32>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
     let pyr = detect::build_pyramid(&img, spec);
     buffers::give(img);
     let pyr = pyr?;
@@ -422,45 +503,36 @@ pub fn blur_plane(src: &Image<f32>, sigma: f64) -> Result<Image<f32>, SiftError>
     Ok(out)
 }
 
-/// Mosaic keypoints of a raw frame, for the daemon: black level subtracted per tile position,
-/// scaled by the white level, then mosaic SIFT with `spec`'s parameters (its domain and
-/// `max_value` are overridden: the frame is always a mosaic normalised to full scale).
-pub fn keypoints_from_frame(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
+/// The spec `spec` for a frame's normalised mosaic: domain mosaic, full scale 1.
+fn frame_spec(spec: &SiftSpec) -> SiftSpec {
     let mut spec = *spec;
     spec.domain = Domain::Mosaic;
     spec.max_value = 1.0;
-    let img = normalised_mosaic_from_frame(frame);
-    detect(img.view(), &spec)
+    spec
+}
+
+/// Mosaic keypoints of a raw frame, for the daemon: black level subtracted per tile position,
+/// scaled by the white level, then mosaic SIFT with `spec`'s parameters (its domain and
+/// `max_value` are overridden: the frame is always a mosaic normalised to full scale). Equals
+/// [`detect`] of [`normalised_mosaic_from_frame`], without the intermediate image.
+pub fn keypoints_from_frame(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
+    let spec = frame_spec(spec);
+    detect_prepared(prepare_frame(frame, &spec)?, &spec)
+}
+
+/// Mosaic keypoints and descriptors of a raw frame, normalised as [`keypoints_from_frame`]:
+/// equals [`detect_and_compute`] of [`normalised_mosaic_from_frame`] with `max_value` 1, but
+/// normalises straight into the pyramid's (recycled) input image in one parallel pass.
+pub fn features_from_frame(frame: &RawFrame, spec: &SiftSpec) -> Result<SiftFeatures, SiftError> {
+    let t0 = std::time::Instant::now();
+    let spec = frame_spec(spec);
+    compute_prepared(prepare_frame(frame, &spec)?, &spec, t0)
 }
 
 /// The frame's mosaic as f32 on [0, 1]: `(v - black(x, y)) / (white - black(x, y))`, clamped.
 pub fn normalised_mosaic_from_frame(frame: &RawFrame) -> Image<f32> {
-    let lv = frame.levels();
-    let white = lv.white as f32;
-    let tile: [(f32, f32); 4] = std::array::from_fn(|i| {
-        let b = frame.black_at(i % 2, i / 2) as f32;
-        (b, 1.0 / (white - b).max(1.0))
-    });
-    let (w, h) = (frame.width(), frame.height());
-    // Rows in parallel; each row alternates two (black, 1 / range) pairs.
-    fn fill<T: Copy + Into<f32> + Sync>(src: ImageView<'_, T>, tile: &[(f32, f32); 4], out: &mut Image<f32>) {
-        let w = out.width();
-        out.as_mut_slice()
-            .par_chunks_mut(w.max(1))
-            .enumerate()
-            .for_each(|(y, row)| {
-                let t = &tile[(y % 2) * 2..(y % 2) * 2 + 2];
-                for (x, (o, &v)) in row.iter_mut().zip(src.row(y)).enumerate() {
-                    let (b, inv) = t[x % 2];
-                    *o = ((v.into() - b) * inv).clamp(0.0, 1.0);
-                }
-            });
-    }
-    let mut out = Image::new(w, h);
-    match frame.view() {
-        RawView::U8(v) => fill(v, &tile, &mut out),
-        RawView::U16(v) => fill(v, &tile, &mut out),
-    }
+    let mut out = Image::new(frame.width(), frame.height());
+    fill_normalised(frame, None, &mut out);
     out
 }
 
@@ -551,6 +623,19 @@ mod tests {
             assert_eq!(a, b);
             assert!(!a.keypoints.is_empty());
         }
+    }
+
+    #[test]
+    fn frame_functions_equal_the_normalised_mosaic_path() {
+        let img = blobs(128, 96);
+        let data: Vec<u16> = img.as_slice().iter().map(|&v| v as u16 * 13 + 40).collect();
+        let levels = crate::raw::Levels::uniform(40, 3400);
+        let frame = RawFrame::from_u16(128, 96, data, crate::raw::Cfa::Grbg, 12, levels).unwrap();
+        let spec = SiftSpec::mosaic().with_max_value(1.0).unwrap();
+        let want = detect_and_compute(normalised_mosaic_from_frame(&frame).view(), &spec).unwrap();
+        assert!(!want.keypoints.is_empty());
+        assert_eq!(features_from_frame(&frame, &SiftSpec::mosaic()).unwrap(), want);
+        assert_eq!(keypoints_from_frame(&frame, &spec).unwrap(), want.keypoints);
     }
 
     #[test]

@@ -85,8 +85,10 @@ const SYM_ROW_STRIP: usize = 16;
 /// before multiplying. Equals `blur_mosaic` (checked against the oracle kernel in the tests) and
 /// avoids its four plane copies and re-interleaving per layer. `tmp` holds the horizontal pass
 /// (reused between calls); the interior runs through the [`kernels`] of `path`, bit-equal on
-/// every path. With `dog`, each output row's difference `dst - src` is written there while the
-/// row is still in cache (the SIFT pyramid's DoG layer, without another pass over memory).
+/// every path. With `dog`, each output row's difference `dst - src` is written there by the
+/// vertical kernel from its registers (the SIFT pyramid's DoG layer, without another pass over
+/// memory). The reflected border taps of the horizontal pass come from one index table per call
+/// (the same for every row).
 pub(crate) fn blur_symmetric(
     src: &Image<f32>,
     taps: &[f32],
@@ -104,62 +106,70 @@ pub(crate) fn blur_symmetric(
     }
     let r = taps.len() / 2;
     let reach = r * step;
+    let interior = if w > 2 * reach { reach..w - reach } else { 0..0 };
+    // Border pixels only (reflected taps): the two ends, or the whole row when the kernel is
+    // wider than it. Their reflected source columns are the same on every row: one table.
+    let (left, right) = if interior.is_empty() {
+        (w, w)
+    } else {
+        (reach, w - reach)
+    };
+    let border: Vec<usize> = (0..left).chain(right..w).collect();
+    let border_src: Vec<usize> = border
+        .iter()
+        .flat_map(|&x| {
+            let p = x % step;
+            let j = (x / step) as isize;
+            let n = (w + step - 1 - p) / step;
+            (0..taps.len()).map(move |k| reflect(j + k as isize - r as isize, n) * step + p)
+        })
+        .collect();
     tmp.as_mut_slice()
         .par_chunks_mut(w * SYM_ROW_STRIP)
         .enumerate()
         .for_each(|(si, strip)| {
             for (ri, out) in strip.chunks_mut(w).enumerate() {
                 let row = src.row(si * SYM_ROW_STRIP + ri);
-                let interior = if w > 2 * reach { reach..w - reach } else { 0..0 };
                 if !interior.is_empty() {
                     kernels::blur_row_interior(path, row, taps, step, reach, w - reach, out);
                 }
-                // Border pixels only (reflected taps): the two ends, or the whole row when the
-                // kernel is wider than it.
-                let (left, right) = if interior.is_empty() {
-                    (w, w)
-                } else {
-                    (reach, w - reach)
-                };
-                for x in (0..left).chain(right..w) {
-                    let o = &mut out[x];
-                    let p = x % step;
-                    let j = (x / step) as isize;
-                    let n = (w + step - 1 - p) / step;
+                for (&x, cols) in border.iter().zip(border_src.chunks_exact(taps.len())) {
                     let mut acc = 0.0f32;
-                    for (k, &t) in taps.iter().enumerate() {
-                        acc += t * row[reflect(j + k as isize - r as isize, n) * step + p];
+                    for (&t, &c) in taps.iter().zip(cols) {
+                        acc += t * row[c];
                     }
-                    *o = acc;
+                    out[x] = acc;
                 }
             }
         });
     let tmp = &*tmp;
-    let vertical = |si: usize, strip: &mut [f32], dog: Option<&mut [f32]>| {
-        let mut up: Vec<&[f32]> = Vec::with_capacity(r);
-        let mut down: Vec<&[f32]> = Vec::with_capacity(r);
-        for (ri, out) in strip.chunks_mut(w).enumerate() {
-            let y = si * SYM_ROW_STRIP + ri;
-            let p = y % step;
-            let j = (y / step) as isize;
-            let n = (h + step - 1 - p) / step;
-            let row_at = |k: isize| tmp.row(reflect(j + k, n) * step + p);
-            up.clear();
-            down.clear();
+    // Output row `y` from the `r` reflected rows above and below it; with `dog`, also the
+    // difference to the source row written by the same kernel.
+    let vertical_row = |y: usize, out: &mut [f32], dog: Option<&mut [f32]>| {
+        let p = y % step;
+        let j = (y / step) as isize;
+        let n = (h + step - 1 - p) / step;
+        let row_at = |k: isize| tmp.row(reflect(j + k, n) * step + p);
+        let mut up = [&[][..]; MAX_STACK_RADIUS];
+        let mut down = [&[][..]; MAX_STACK_RADIUS];
+        let mut heap: (Vec<&[f32]>, Vec<&[f32]>);
+        let (up, down): (&[&[f32]], &[&[f32]]) = if r <= MAX_STACK_RADIUS {
+            for k in 1..=r {
+                up[k - 1] = row_at(-(k as isize));
+                down[k - 1] = row_at(k as isize);
+            }
+            (&up[..r], &down[..r])
+        } else {
+            heap = (Vec::with_capacity(r), Vec::with_capacity(r));
             for k in 1..=r as isize {
-                up.push(row_at(-k));
-                down.push(row_at(k));
+                heap.0.push(row_at(-k));
+                heap.1.push(row_at(k));
             }
-            kernels::blur_col(path, row_at(0), &up, &down, taps, out);
-        }
-        if let Some(d) = dog {
-            for ((o, &b), &a) in d
-                .iter_mut()
-                .zip(&*strip)
-                .zip(&src.as_slice()[si * SYM_ROW_STRIP * w..])
-            {
-                *o = b - a;
-            }
+            (&heap.0, &heap.1)
+        };
+        match dog {
+            Some(d) => kernels::blur_col_dog(path, row_at(0), up, down, taps, src.row(y), out, d),
+            None => kernels::blur_col(path, row_at(0), up, down, taps, out),
         }
     };
     match dog {
@@ -169,15 +179,27 @@ pub(crate) fn blur_symmetric(
                 .par_chunks_mut(w * SYM_ROW_STRIP)
                 .zip(d.as_mut_slice().par_chunks_mut(w * SYM_ROW_STRIP))
                 .enumerate()
-                .for_each(|(si, (strip, ds))| vertical(si, strip, Some(ds)));
+                .for_each(|(si, (strip, ds))| {
+                    for (ri, (out, dr)) in strip.chunks_mut(w).zip(ds.chunks_mut(w)).enumerate() {
+                        vertical_row(si * SYM_ROW_STRIP + ri, out, Some(dr));
+                    }
+                });
         }
         None => dst
             .as_mut_slice()
             .par_chunks_mut(w * SYM_ROW_STRIP)
             .enumerate()
-            .for_each(|(si, strip)| vertical(si, strip, None)),
+            .for_each(|(si, strip)| {
+                for (ri, out) in strip.chunks_mut(w).enumerate() {
+                    vertical_row(si * SYM_ROW_STRIP + ri, out, None);
+                }
+            }),
     }
 }
+
+/// Kernel radius up to which the vertical pass keeps its row list on the stack (plane sigma
+/// below about 3.9; larger kernels use a heap list).
+const MAX_STACK_RADIUS: usize = 16;
 
 #[cfg(test)]
 /// [`blur_symmetric`] as it was before the kernels (whole-row multiply-adds per tap): the
