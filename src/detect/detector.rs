@@ -30,18 +30,19 @@
 //! No window padding (OpenCV `detectMultiScale` pads by 0 by default for `winStride` 8 as well);
 //! pyramid levels are resized in f32 (OpenCV: 8-bit fixed point), so only level 0 is bit-comparable.
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
-use super::pyramid::{resize_bilinear, resize_mosaic, PyramidError};
+use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    blocks_from_cells, cell_grid, resize_cell_grid, BlockGrid, CellGrid, Exec, HogError, HogInput, HogSpec,
-    HogTimings, CELL_SIZE,
+    blocks_from_cells, cell_grid_from_gamma_planes, gamma_in_place, gamma_plane_into, resize_cell_grid,
+    BlockGrid, CellGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec, HogTimings, CELL_SIZE,
 };
 use crate::image::Image;
 
@@ -212,6 +213,59 @@ pub struct Detector {
     model: LinearModel,
     /// The model's weights laid out for the scoring GEMM.
     score_weights: ScoreWeights,
+    /// Level buffers reused across levels and frames.
+    pool: ScratchPool,
+}
+
+/// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
+/// cost ≈ 40 MB of page faults and zeroing per 1080p level).
+#[derive(Debug, Default)]
+struct LevelScratch {
+    /// Resized, gamma-corrected planes (one, or B, G, R).
+    planes: [Image<f32>; 3],
+    /// Exact cells of the level.
+    cells: CellGrid,
+    /// Resampled cells of approximated levels.
+    approx: CellGrid,
+    /// Normalised blocks.
+    blocks: BlockGrid,
+    /// Window scores.
+    scores: Vec<f32>,
+}
+
+/// Free [`LevelScratch`]es. A level takes one (or makes one when none is free) and returns it;
+/// at most [`ScratchPool::capacity`] are kept, so the memory held is bounded by that many
+/// largest-level buffer sets and does not grow from frame to frame. A cloned detector starts with
+/// an empty pool.
+#[derive(Debug, Default)]
+struct ScratchPool {
+    free: Mutex<Vec<LevelScratch>>,
+}
+
+impl Clone for ScratchPool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl ScratchPool {
+    /// Scratches kept: one per worker thread plus one for a level a blocked worker steals.
+    fn capacity() -> usize {
+        rayon::current_num_threads() + 1
+    }
+    fn take(&self) -> LevelScratch {
+        self.free
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop()
+            .unwrap_or_default()
+    }
+    fn put(&self, s: LevelScratch) {
+        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
+        if free.len() < Self::capacity() {
+            free.push(s);
+        }
+    }
 }
 
 /// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
@@ -248,6 +302,7 @@ impl Detector {
             hog,
             model,
             score_weights,
+            pool: ScratchPool::default(),
         })
     }
     /// The model.
@@ -377,56 +432,43 @@ impl Detector {
         self.detect_with(input, Exec::Serial)
     }
 
-    /// Exact cell grid of one level (resize + gamma + gradients + cells).
+    /// Exact cell grid of one level into `sc.cells` (resize with gamma fused into each output row,
+    /// then gradients + cells).
     fn exact_cells(
         &self,
         linear: &Linear,
         lv: &Level,
         exec: Exec,
         stats: &mut DetectStats,
-    ) -> Result<CellGrid, DetectError> {
+        sc: &mut LevelScratch,
+    ) -> Result<(), DetectError> {
         let t = Instant::now();
-        let resize = |src: &Image<f32>, mosaic: bool| -> Result<Option<Image<f32>>, PyramidError> {
-            if src.dimensions() == (lv.width, lv.height) {
-                return Ok(None);
-            }
-            let mut d = Image::new(0, 0);
-            if mosaic {
-                resize_mosaic(src.view(), lv.width, lv.height, &mut d)?;
-            } else {
-                resize_bilinear(src.view(), lv.width, lv.height, &mut d)?;
-            }
-            Ok(Some(d))
+        let gamma = self.hog.options().gamma_correction;
+        let op = move |row: &mut [f32]| gamma_in_place(row, gamma);
+        let (srcs, mosaic): (&[Image<f32>], bool) = match linear {
+            Linear::Grey(p) => (std::slice::from_ref(p), false),
+            Linear::Mosaic(p) => (std::slice::from_ref(p), true),
+            Linear::Colour(ps) => (&ps[..], false),
         };
-        let mut cells = CellGrid::empty();
-        match linear {
-            Linear::Grey(p) => {
-                let r = resize(p, false)?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = r.as_ref().unwrap_or(p).view();
-                cell_grid(&self.hog, &HogInput::GreyF32(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
-            }
-            Linear::Mosaic(p) => {
-                let r = resize(p, true)?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = r.as_ref().unwrap_or(p).view();
-                cell_grid(&self.hog, &HogInput::Mosaic(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
-            }
-            Linear::Colour(ps) => {
-                let r: Vec<Option<Image<f32>>> =
-                    ps.iter().map(|p| resize(p, false)).collect::<Result<_, _>>()?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = [0, 1, 2].map(|c| r[c].as_ref().unwrap_or(&ps[c]).view());
-                cell_grid(&self.hog, &HogInput::ColourF32(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
+        // HOG takes colour planes in B, G, R order.
+        for (src, dst) in srcs.iter().rev().zip(sc.planes.iter_mut()) {
+            if src.dimensions() == (lv.width, lv.height) {
+                gamma_plane_into(src.view(), gamma, dst);
+            } else {
+                resize_then(src.view(), lv.width, lv.height, mosaic, dst, &op)?;
             }
         }
-        Ok(cells)
+        stats.resize += t.elapsed();
+        let t = Instant::now();
+        let p = &sc.planes;
+        let planes = match linear {
+            Linear::Grey(_) => GammaPlanes::Grey(p[0].view()),
+            Linear::Mosaic(_) => GammaPlanes::Mosaic(p[0].view()),
+            Linear::Colour(_) => GammaPlanes::Colour([p[0].view(), p[1].view(), p[2].view()]),
+        };
+        cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
+        stats.hog.cells += t.elapsed();
+        Ok(())
     }
 
     /// One group of levels: the first is computed exactly, the others (approximate mode) from its
@@ -437,34 +479,46 @@ impl Detector {
         group: &[Level],
         exec: Exec,
     ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let mut sc = self.pool.take();
+        let r = self.detect_group_in(linear, group, exec, &mut sc);
+        self.pool.put(sc);
+        r
+    }
+
+    /// [`Self::detect_group`] with the level buffers `sc`.
+    fn detect_group_in(
+        &self,
+        linear: &Linear,
+        group: &[Level],
+        exec: Exec,
+        sc: &mut LevelScratch,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
         let mut stats = DetectStats::default();
         let mut dets = Vec::new();
         let Some(head) = group.first() else {
             return Ok((dets, stats));
         };
-        let exact = self.exact_cells(linear, head, exec, &mut stats)?;
-        let mut approx = CellGrid::empty();
-        let mut grid = BlockGrid::empty();
+        self.exact_cells(linear, head, exec, &mut stats, sc)?;
         for (i, lv) in group.iter().enumerate() {
             let cells = if i == 0 {
-                &exact
+                &sc.cells
             } else {
                 let t = Instant::now();
                 resize_cell_grid(
-                    &exact,
+                    &sc.cells,
                     lv.width / CELL_SIZE,
                     lv.height / CELL_SIZE,
                     APPROX_GAIN,
                     exec,
-                    &mut approx,
+                    &mut sc.approx,
                 );
                 stats.cell_resample += t.elapsed();
-                &approx
+                &sc.approx
             };
             let t = Instant::now();
-            blocks_from_cells(&self.hog, cells, exec, &mut grid);
+            blocks_from_cells(&self.hog, cells, exec, &mut sc.blocks);
             stats.hog.blocks += t.elapsed();
-            let (d, s) = self.score_level(&grid, lv, exec);
+            let (d, s) = self.score_level(&sc.blocks, lv, exec, &mut sc.scores);
             dets.extend(d);
             stats.svm += s.svm;
             stats.windows += s.windows;
@@ -472,12 +526,19 @@ impl Detector {
         Ok((dets, stats))
     }
 
-    fn score_level(&self, grid: &BlockGrid, lv: &Level, exec: Exec) -> (Vec<Detection>, DetectStats) {
+    fn score_level(
+        &self,
+        grid: &BlockGrid,
+        lv: &Level,
+        exec: Exec,
+        scores: &mut Vec<f32>,
+    ) -> (Vec<Detection>, DetectStats) {
         let mut stats = DetectStats::default();
         let t = Instant::now();
         let (nwx, nwy) = grid.windows(&self.hog);
-        let mut scores = vec![0.0f32; nwx * nwy];
-        window_scores(&self.score_weights, grid, exec, &mut scores);
+        scores.clear();
+        scores.resize(nwx * nwy, 0.0);
+        window_scores(&self.score_weights, grid, exec, scores);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
         let thr = self.spec.opts.hit_threshold;
@@ -525,18 +586,20 @@ impl Detector {
         }
         let linear = linear_from_input(input);
         let mut stats = DetectStats::default();
-        let mut grid = BlockGrid::empty();
+        let mut sc = self.pool.take();
         let mut count = 0;
         for lv in self.levels(w, h, mosaic) {
-            let cells = self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats)?;
-            blocks_from_cells(&self.hog, &cells, Exec::Parallel, &mut grid);
-            let scores = self.score_grid(&grid);
+            self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats, &mut sc)?;
+            blocks_from_cells(&self.hog, &sc.cells, Exec::Parallel, &mut sc.blocks);
+            let grid = &sc.blocks;
+            let scores = self.score_grid(grid);
             let (nwx, _) = grid.windows(&self.hog);
-            for (i, &sc) in scores.iter().enumerate() {
-                f(&lv, &grid, i % nwx, i / nwx, sc);
+            for (i, &s) in scores.iter().enumerate() {
+                f(&lv, grid, i % nwx, i / nwx, s);
             }
             count += scores.len();
         }
+        self.pool.put(sc);
         Ok(count)
     }
 

@@ -113,6 +113,7 @@ fn resize_planes(
     dw: usize,
     dh: usize,
     dst: &mut [f32],
+    row_op: &RowOp,
 ) {
     let tc = column_taps(sw, dw, step);
     let ty = taps(sh, dh);
@@ -150,6 +151,7 @@ fn resize_planes(
                     }
                 }
                 vertical(&sa.1, &sb.1, fy, row, avx2);
+                row_op(row);
             }
         });
 }
@@ -178,13 +180,9 @@ fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], avx2: bool) {
     vertical_row(r0, r1, fy, out)
 }
 
-/// Size `dst` (every pixel is overwritten); a new buffer comes zeroed from the allocator instead
-/// of being `memset`.
-fn fresh(dst: &mut Image<f32>, w: usize, h: usize) {
-    if dst.dimensions() != (w, h) {
-        *dst = Image::new(w, h);
-    }
-}
+/// An operation applied in place to every output row while it is still in cache (e.g. HOG's gamma,
+/// [`crate::features::hog::gamma_in_place`]).
+pub type RowOp = dyn Fn(&mut [f32]) + Sync;
 
 fn have_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -237,18 +235,7 @@ pub fn resize_bilinear(
     new_h: usize,
     dst: &mut Image<f32>,
 ) -> Result<(), PyramidError> {
-    let (w, h) = (src.width(), src.height());
-    if w == 0 || h == 0 || new_w == 0 || new_h == 0 {
-        return Err(PyramidError::Empty {
-            src_w: w,
-            src_h: h,
-            dst_w: new_w,
-            dst_h: new_h,
-        });
-    }
-    fresh(dst, new_w, new_h);
-    resize_planes(src, 1, w, h, new_w, new_h, dst.as_mut_slice());
-    Ok(())
+    resize_then(src, new_w, new_h, false, dst, &|_| {})
 }
 
 /// CFA-preserving resize of a mosaic to `new_w x new_h` (both even).
@@ -258,26 +245,41 @@ pub fn resize_mosaic(
     new_h: usize,
     dst: &mut Image<f32>,
 ) -> Result<(), PyramidError> {
+    resize_then(src, new_w, new_h, true, dst, &|_| {})
+}
+
+/// [`resize_mosaic`] (`mosaic`) or [`resize_bilinear`], then `row_op` on every output row while
+/// it is in cache; `dst`'s allocation is reused.
+pub fn resize_then(
+    src: ImageView<'_, f32>,
+    new_w: usize,
+    new_h: usize,
+    mosaic: bool,
+    dst: &mut Image<f32>,
+    row_op: &RowOp,
+) -> Result<(), PyramidError> {
     let (w, h) = (src.width(), src.height());
-    let e = (w, h, new_w, new_h);
-    if w < 2 || h < 2 || new_w < 2 || new_h < 2 {
+    let step = if mosaic { 2 } else { 1 };
+    let (src_w, src_h, dst_w, dst_h) = (w, h, new_w, new_h);
+    if w < step || h < step || new_w < step || new_h < step {
         return Err(PyramidError::Empty {
-            src_w: e.0,
-            src_h: e.1,
-            dst_w: e.2,
-            dst_h: e.3,
+            src_w,
+            src_h,
+            dst_w,
+            dst_h,
         });
     }
-    if w % 2 + h % 2 + new_w % 2 + new_h % 2 != 0 {
+    if mosaic && w % 2 + h % 2 + new_w % 2 + new_h % 2 != 0 {
         return Err(PyramidError::OddSize {
-            src_w: e.0,
-            src_h: e.1,
-            dst_w: e.2,
-            dst_h: e.3,
+            src_w,
+            src_h,
+            dst_w,
+            dst_h,
         });
     }
-    fresh(dst, new_w, new_h);
-    resize_planes(src, 2, w / 2, h / 2, new_w / 2, new_h / 2, dst.as_mut_slice());
+    dst.reshape(new_w, new_h);
+    let (sw, sh, dw, dh) = (w / step, h / step, new_w / step, new_h / step);
+    resize_planes(src, step, sw, sh, dw, dh, dst.as_mut_slice(), row_op);
     Ok(())
 }
 

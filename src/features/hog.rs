@@ -387,16 +387,46 @@ pub fn fast_atan2_deg(y: f32, x: f32) -> f32 {
 }
 
 /// Gamma-corrected planes in 8-bit units: one plane, or three (B, G, R order as OpenCV) for RGB.
-struct Planes {
+struct Planes<'a> {
     width: usize,
     height: usize,
-    planes: Vec<Image<f32>>,
+    planes: Vec<ImageView<'a, f32>>,
     /// Tap distance of the derivative: 1 for images, 2 for mosaics.
     tap: usize,
 }
 
-fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogError> {
-    let (w, h) = input.dimensions();
+/// [`Planes`] that own their pixels.
+struct OwnedPlanes {
+    planes: Vec<Image<f32>>,
+    tap: usize,
+}
+
+impl OwnedPlanes {
+    fn view(&self) -> Planes<'_> {
+        Planes {
+            width: self.planes[0].width(),
+            height: self.planes[0].height(),
+            planes: self.planes.iter().map(|p| p.view()).collect(),
+            tap: self.tap,
+        }
+    }
+}
+
+/// Gamma-corrected planes handed to [`cell_grid_from_gamma_planes`]: every sample is already
+/// `√max(v, 0)` (`max(v, 0)` when the spec's `gamma_correction` is off), as [`gamma_in_place`]
+/// leaves it.
+#[derive(Debug, Clone, Copy)]
+pub enum GammaPlanes<'a> {
+    /// One grey plane.
+    Grey(ImageView<'a, f32>),
+    /// A Bayer mosaic (even size).
+    Mosaic(ImageView<'a, f32>),
+    /// Three colour planes in OpenCV's B, G, R order (ties resolve towards B).
+    Colour([ImageView<'a, f32>; 3]),
+}
+
+/// `ImageTooSmall` unless a `w x h` image holds one window.
+fn check_fits(spec: &HogSpec, w: usize, h: usize) -> Result<(), HogError> {
     if w < spec.win_width() || h < spec.win_height() {
         return Err(HogError::ImageTooSmall {
             width: w,
@@ -405,6 +435,12 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
             win_height: spec.win_height(),
         });
     }
+    Ok(())
+}
+
+fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<OwnedPlanes, HogError> {
+    let (w, h) = input.dimensions();
+    check_fits(spec, w, h)?;
     let gamma = spec.opts.gamma_correction;
     let g = move |v: f32| if gamma { v.sqrt() } else { v };
     let mut tap = 1;
@@ -420,13 +456,13 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
             let s = UNIT_RANGE / *max_value as f32;
             vec![plane_map(*image, |p| g(p as f32 * s))]
         }
-        HogInput::GreyF32(v) => vec![plane_gamma_f32(*v, gamma)],
+        HogInput::GreyF32(v) => vec![gamma_plane(*v, gamma)],
         HogInput::Mosaic(v) => {
             if w % 2 != 0 || h % 2 != 0 {
                 return Err(HogError::OddMosaic { width: w, height: h });
             }
             tap = 2;
-            vec![plane_gamma_f32(*v, gamma)]
+            vec![gamma_plane(*v, gamma)]
         }
         HogInput::ColourF32(p) => {
             for q in &p[1..] {
@@ -449,54 +485,60 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<Planes, HogErro
                 .collect()
         }
     };
-    Ok(Planes {
-        width: w,
-        height: h,
-        planes,
-        tap,
-    })
+    Ok(OwnedPlanes { planes, tap })
 }
 
-/// `√max(v, 0)` (or `max(v, 0)` without gamma) of a float plane, rows in parallel, vectorised.
-fn plane_gamma_f32(v: ImageView<'_, f32>, gamma: bool) -> Image<f32> {
-    let w = v.width();
-    let mut out = Image::<f32>::new(w, v.height());
-    let avx2 = have_avx2();
-    out.as_mut_slice()
-        .par_chunks_mut(w.max(1))
-        .enumerate()
-        .for_each(|(y, row)| {
-            #[cfg(target_arch = "x86_64")]
-            if avx2 {
-                // SAFETY: AVX2 was detected on this CPU (`have_avx2`).
-                unsafe { gamma_row_avx2(v.row(y), row, gamma) };
-                return;
-            }
-            let _ = avx2;
-            gamma_row(v.row(y), row, gamma)
-        });
+fn gamma_plane(v: ImageView<'_, f32>, gamma: bool) -> Image<f32> {
+    let mut out = Image::new(0, 0);
+    gamma_plane_into(v, gamma, &mut out);
     out
 }
 
-/// [`gamma_row`] compiled for AVX2 (`vsqrtps`, 8 lanes; IEEE square root, same bits as scalar).
+/// `dst` = `√max(v, 0)` (or `max(v, 0)` without gamma) of a float plane, rows in parallel,
+/// vectorised; `dst`'s allocation is reused.
+pub fn gamma_plane_into(v: ImageView<'_, f32>, gamma: bool, dst: &mut Image<f32>) {
+    let w = v.width();
+    dst.reshape(w, v.height());
+    dst.as_mut_slice()
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            row.copy_from_slice(v.row(y));
+            gamma_in_place(row, gamma)
+        });
+}
+
+/// `v ← √max(v, 0)` (or `max(v, 0)` without gamma) for every sample of `row` — HOG's gamma
+/// correction (AVX2 `vsqrtps` when available: IEEE square root, the same bits as scalar code).
+pub fn gamma_in_place(row: &mut [f32], gamma: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if have_avx2() {
+        // SAFETY: AVX2 and FMA were detected on this CPU (`have_avx2`).
+        unsafe { gamma_in_place_avx2(row, gamma) };
+        return;
+    }
+    gamma_in_place_generic(row, gamma)
+}
+
+/// [`gamma_in_place_generic`] compiled for AVX2 (8 lanes; same bits as scalar).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn gamma_row_avx2(src: &[f32], dst: &mut [f32], gamma: bool) {
-    gamma_row(src, dst, gamma)
+unsafe fn gamma_in_place_avx2(row: &mut [f32], gamma: bool) {
+    gamma_in_place_generic(row, gamma)
 }
 
 #[inline(always)]
-fn gamma_row(src: &[f32], dst: &mut [f32], gamma: bool) {
+fn gamma_in_place_generic(row: &mut [f32], gamma: bool) {
     if gamma {
-        for (o, &p) in dst.iter_mut().zip(src) {
-            *o = p.max(0.0).sqrt();
+        for v in row.iter_mut() {
+            *v = v.max(0.0).sqrt();
         }
     } else {
-        for (o, &p) in dst.iter_mut().zip(src) {
-            *o = p.max(0.0);
+        for v in row.iter_mut() {
+            *v = v.max(0.0);
         }
     }
 }
@@ -550,7 +592,7 @@ impl RowScratch {
 /// Derivatives of one plane's row `y` into `dx`, `dy` (reflect-101 at the borders).
 #[inline(always)]
 fn derivatives(
-    plane: &Image<f32>,
+    plane: ImageView<'_, f32>,
     tap: usize,
     y: usize,
     ym: usize,
@@ -590,7 +632,7 @@ fn gradient_row(
     let ym = reflect101(y as isize - t, p.height);
     let yp = reflect101(y as isize + t, p.height);
     let n = bins.len().min(w);
-    derivatives(&p.planes[0], p.tap, y, ym, yp, &mut sc.dx, &mut sc.dy);
+    derivatives(p.planes[0], p.tap, y, ym, yp, &mut sc.dx, &mut sc.dy);
     if p.planes.len() > 1 {
         // OpenCV colour rule: a later plane (B, G, R order) wins only when strictly larger.
         for (d, (a, b)) in sc.m.iter_mut().zip(sc.dx.iter().zip(&sc.dy)) {
@@ -599,7 +641,7 @@ fn gradient_row(
         let mut dx2 = vec![0.0f32; w];
         let mut dy2 = vec![0.0f32; w];
         for plane in &p.planes[1..] {
-            derivatives(plane, p.tap, y, ym, yp, &mut dx2, &mut dy2);
+            derivatives(*plane, p.tap, y, ym, yp, &mut dx2, &mut dy2);
             for x in 0..w {
                 let m = dx2[x] * dx2[x] + dy2[x] * dy2[x];
                 if m > sc.m[x] {
@@ -643,7 +685,7 @@ fn gradient_row(
 
 /// Normalised HOG blocks of one image at one scale: block (bx, by) covers pixels
 /// `[8bx, 8bx+16) x [8by, 8by+16)`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct BlockGrid {
     nbx: usize,
     nby: usize,
@@ -774,7 +816,7 @@ pub fn block_grid(
     let t0 = std::time::Instant::now();
     let planes = planes_from_input(spec, input)?;
     let gamma = t0.elapsed();
-    let (cells, blocks) = block_grid_from_planes(spec, &planes, exec, dst);
+    let (cells, blocks) = block_grid_from_planes(spec, &planes.view(), exec, dst);
     Ok(HogTimings { gamma, cells, blocks })
 }
 
@@ -807,7 +849,7 @@ fn block_grid_from_planes(
 
 /// Per-cell weighted histograms of one image at one scale: for each 8x8 cell, 4 y-profiles x 4
 /// x-profiles x nbins values (see the module docs). Blocks are sums of four cells' entries.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct CellGrid {
     ncx: usize,
     ncy: usize,
@@ -838,7 +880,44 @@ impl CellGrid {
 /// Compute the cell grid of `input` (the expensive, per-pixel part of HOG).
 pub fn cell_grid(spec: &HogSpec, input: &HogInput, exec: Exec, dst: &mut CellGrid) -> Result<(), HogError> {
     let planes = planes_from_input(spec, input)?;
-    cells_from_planes(spec, &planes, exec, dst);
+    cells_from_planes(spec, &planes.view(), exec, dst);
+    Ok(())
+}
+
+/// [`cell_grid`] of planes that are already gamma-corrected (the detector fuses gamma into its
+/// pyramid resize): the same grid, bit for bit, as [`cell_grid`] of the linear input. `dst`'s
+/// buffer is reused.
+pub fn cell_grid_from_gamma_planes(
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    exec: Exec,
+    dst: &mut CellGrid,
+) -> Result<(), HogError> {
+    let (views, tap) = match planes {
+        GammaPlanes::Grey(v) => (vec![*v], 1),
+        GammaPlanes::Mosaic(v) => (vec![*v], 2),
+        GammaPlanes::Colour(p) => (p.to_vec(), 1),
+    };
+    let (w, h) = (views[0].width(), views[0].height());
+    check_fits(spec, w, h)?;
+    if tap == 2 && (w % 2 != 0 || h % 2 != 0) {
+        return Err(HogError::OddMosaic { width: w, height: h });
+    }
+    if let Some(q) = views.iter().find(|q| (q.width(), q.height()) != (w, h)) {
+        return Err(HogError::PlaneSize {
+            width: q.width(),
+            height: q.height(),
+            want_width: w,
+            want_height: h,
+        });
+    }
+    let p = Planes {
+        width: w,
+        height: h,
+        planes: views,
+        tap,
+    };
+    cells_from_planes(spec, &p, exec, dst);
     Ok(())
 }
 
@@ -937,7 +1016,7 @@ fn resample_cell_row(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, r
 }
 
 fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
-    cells_from_planes_with(spec, p, exec, CellKernel::detect(spec.nbins()), out)
+    cells_from_planes_with(spec, p, exec, CellKernel::detect(spec), out)
 }
 
 fn cells_from_planes_with(spec: &HogSpec, p: &Planes, exec: Exec, kernel: CellKernel, out: &mut CellGrid) {
@@ -948,7 +1027,7 @@ fn cells_from_planes_with(spec: &HogSpec, p: &Planes, exec: Exec, kernel: CellKe
     out.ncx = ncx;
     out.ncy = ncy;
     out.cell_len = cl;
-    zeroed(&mut out.data, ncx * ncy * cl);
+    sized(&mut out.data, ncx * ncy * cl);
     let cells = &mut out.data;
     let strip = STRIP_CELL_ROWS * ncx * cl;
     let work = |(s, chunk): (usize, &mut [f32])| cells_strip_with(kernel, spec, p, s, chunk);
@@ -971,24 +1050,26 @@ enum CellKernel {
 }
 
 impl CellKernel {
-    /// Every kernel this CPU runs for `nbins` bins, slowest first.
-    fn available(nbins: usize) -> Vec<Self> {
+    /// Every kernel this CPU runs for `spec`, slowest first.
+    fn available(spec: &HogSpec) -> Vec<Self> {
+        let nbins = spec.nbins();
+        let fixed_zeros = profiles_have_fixed_zeros(&spec.profile);
         #[allow(unused_mut)]
         let mut v = vec![Self::Generic];
         #[cfg(target_arch = "x86_64")]
         {
             if have_avx2() {
                 v.push(Self::Avx2);
-                if std::arch::is_x86_feature_detected!("avx512f") && nbins <= AVX512_MAX_BINS {
+                if std::arch::is_x86_feature_detected!("avx512f") && nbins <= AVX512_MAX_BINS && fixed_zeros {
                     v.push(Self::Avx512);
                 }
             }
         }
-        let _ = nbins;
+        let _ = (nbins, fixed_zeros);
         v
     }
-    fn detect(nbins: usize) -> Self {
-        *Self::available(nbins).last().unwrap_or(&Self::Generic)
+    fn detect(spec: &HogSpec) -> Self {
+        *Self::available(spec).last().unwrap_or(&Self::Generic)
     }
 }
 
@@ -1002,7 +1083,8 @@ fn cells_strip_with(kernel: CellKernel, spec: &HogSpec, p: &Planes, s: usize, ch
         // closure that calls this is not compiled with those features; the strip function is.
         CellKernel::Avx2 => unsafe { cells_strip_avx2(spec, p, s, chunk) },
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above, plus AVX-512F and nbins ≤ 16 checked by `CellKernel::available`.
+        // SAFETY: as above, plus AVX-512F, nbins ≤ 16 and the profiles' fixed zeros checked by
+        // `CellKernel::available`.
         CellKernel::Avx512 => unsafe { cells_strip_avx512(spec, p, s, chunk) },
         _ => cells_strip(spec, p, s, chunk),
     }
@@ -1018,7 +1100,8 @@ fn cells_strip_with(kernel: CellKernel, spec: &HogSpec, p: &Planes, s: usize, ch
 /// scalar scatter, which stalls on store-to-load forwarding.
 ///
 /// # Safety
-/// The CPU must support AVX-512F, AVX2 and FMA, and `spec.nbins() ≤ 16`.
+/// The CPU must support AVX-512F, AVX2 and FMA, `spec.nbins() ≤ 16`, and the profiles of `spec` must
+/// be zero outside [`live_profiles`] ([`profiles_have_fixed_zeros`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
 unsafe fn cells_strip_avx512(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
@@ -1052,40 +1135,50 @@ unsafe fn cells_strip_avx512(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [
         }
         for (cx, cell) in cell_row.chunks_exact_mut(cl).enumerate() {
             let mut cacc = [_mm512_setzero_ps(); PROFILES * PROFILES];
-            for i in 0..CELL_SIZE {
-                let mut acc = [_mm512_setzero_ps(); PROFILES];
-                let o = i * w8 + cx * CELL_SIZE;
-                for j in 0..CELL_SIZE {
-                    let ([b0, b1], [w0, w1]) = (bins[o + j], wts[o + j]);
-                    debug_assert!((b0 as usize) < nb && (b1 as usize) < nb);
-                    // SAFETY: b0, b1 < nb ≤ 16 (gradient_row clamps bins), so both rows exist.
-                    let (e0, e1) = unsafe {
-                        (
-                            _mm512_loadu_ps(units.get_unchecked(b0 as usize).as_ptr()),
-                            _mm512_loadu_ps(units.get_unchecked(b1 as usize).as_ptr()),
-                        )
-                    };
-                    let v = _mm512_mul_ps(e0, _mm512_set1_ps(w0));
-                    let v = _mm512_fmadd_ps(e1, _mm512_set1_ps(w1), v);
-                    for (px, a) in acc.iter_mut().enumerate() {
-                        let pw = prof[px][j];
-                        if pw != 0.0 {
-                            *a = _mm512_fmadd_ps(_mm512_set1_ps(pw), v, *a);
+            // Fully unrolled over the 8 pixel rows and columns so that every accumulator index
+            // is a constant (registers, no spills) and no weight is tested at run time.
+            macro_rules! pixel_row {
+                ($i:literal) => {{
+                    let o = $i * w8 + cx * CELL_SIZE;
+                    let mut acc = [_mm512_setzero_ps(); PROFILES];
+                    pixel_col!(o, acc, 0);
+                    pixel_col!(o, acc, 1);
+                    pixel_col!(o, acc, 2);
+                    pixel_col!(o, acc, 3);
+                    pixel_col!(o, acc, 4);
+                    pixel_col!(o, acc, 5);
+                    pixel_col!(o, acc, 6);
+                    pixel_col!(o, acc, 7);
+                    for py in live_profiles($i) {
+                        let wv = _mm512_set1_ps(prof[py][$i]);
+                        for px in 0..PROFILES {
+                            let c = &mut cacc[py * PROFILES + px];
+                            *c = _mm512_fmadd_ps(wv, acc[px], *c);
                         }
                     }
-                }
-                for py in 0..PROFILES {
-                    let wy = prof[py][i];
-                    if wy == 0.0 {
-                        continue;
-                    }
-                    let wv = _mm512_set1_ps(wy);
-                    for px in 0..PROFILES {
-                        let c = &mut cacc[py * PROFILES + px];
-                        *c = _mm512_fmadd_ps(wv, acc[px], *c);
-                    }
-                }
+                }};
             }
+            macro_rules! pixel_col {
+                ($o:expr, $acc:ident, $j:literal) => {{
+                    let ([b0, b1], [w0, w1]) = (bins[$o + $j], wts[$o + $j]);
+                    debug_assert!((b0 as usize) < nb && (b1 as usize) < nb);
+                    // Lane b0 = w0, lane b1 = w1 (b0 ≠ b1), other lanes +0: the same bits as
+                    // w0·e(b0) + w1·e(b1), since both weights are ≥ +0.
+                    let v = _mm512_maskz_mov_ps(1 << b0, _mm512_set1_ps(w0));
+                    let v = _mm512_mask_mov_ps(v, 1 << b1, _mm512_set1_ps(w1));
+                    for px in live_profiles($j) {
+                        $acc[px] = _mm512_fmadd_ps(_mm512_set1_ps(prof[px][$j]), v, $acc[px]);
+                    }
+                }};
+            }
+            pixel_row!(0);
+            pixel_row!(1);
+            pixel_row!(2);
+            pixel_row!(3);
+            pixel_row!(4);
+            pixel_row!(5);
+            pixel_row!(6);
+            pixel_row!(7);
             debug_assert!(cell.len() == PROFILES * PROFILES * nb);
             for (n, c) in cacc.iter().enumerate() {
                 // SAFETY: the masked store writes lanes 0..nb at n·nb, inside the cell (16·nb).
@@ -1093,6 +1186,26 @@ unsafe fn cells_strip_avx512(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [
             }
         }
     }
+}
+
+/// The profiles that can be non-zero at pixel offset `k` of a cell: a pixel in the left (upper)
+/// half of a cell never votes for the far block cell when its cell is the first of the block
+/// (profile 2), nor in the right half for the near block cell when its cell is the second
+/// (profile 1). [`HogSpec::new`] never writes those entries; [`profiles_have_fixed_zeros`] checks.
+#[inline(always)]
+const fn live_profiles(k: usize) -> [usize; 3] {
+    if k < CELL_SIZE / 2 {
+        [0, 1, 3]
+    } else {
+        [0, 2, 3]
+    }
+}
+
+/// Whether every profile entry outside [`live_profiles`] is exactly zero (true for every spec
+/// [`HogSpec::new`] builds; the AVX-512 cell kernel relies on it). Live entries may be zero too:
+/// adding `0·v` to a non-negative sum leaves its bits unchanged, as skipping it does.
+fn profiles_have_fixed_zeros(profile: &[[f32; CELL_SIZE]; PROFILES]) -> bool {
+    (0..CELL_SIZE).all(|k| (0..PROFILES).all(|p| live_profiles(k).contains(&p) || profile[p][k] == 0.0))
 }
 
 /// [`cells_strip`] compiled for AVX2 + FMA (vectorises the magnitude/atan pass 8 lanes wide).
@@ -1128,6 +1241,7 @@ fn cells_strip(spec: &HogSpec, p: &Planes, s: usize, chunk: &mut [f32]) {
     let mut wts = vec![[0.0f32; 2]; ncx * CELL_SIZE];
     let mut sc = RowScratch::new(p.width);
     let mut rowacc = vec![0.0f32; PROFILES * nb];
+    chunk.fill(0.0);
     for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
         let cy = s * STRIP_CELL_ROWS + k;
         for i in 0..CELL_SIZE {
@@ -1173,7 +1287,7 @@ fn block_rows_with(spec: &HogSpec, cg: &CellGrid, exec: Exec, avx2: bool, dst: &
     dst.nbx = nbx;
     dst.nby = nby;
     dst.block_len = bl;
-    zeroed(&mut dst.data, nbx * nby * bl);
+    sized(&mut dst.data, nbx * nby * bl);
     let row_work = |(by, row): (usize, &mut [f32])| {
         #[cfg(target_arch = "x86_64")]
         if avx2 {
@@ -1203,7 +1317,7 @@ unsafe fn block_row_avx2(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f3
     block_row(spec, cg, by, row)
 }
 
-/// Block row `by` (zero-filled on entry) from the cell grid.
+/// Block row `by` from the cell grid (every value is written).
 #[inline(always)]
 fn block_row(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f32]) {
     let nb = spec.nbins();
@@ -1233,13 +1347,15 @@ fn block_row(spec: &HogSpec, cg: &CellGrid, by: usize, row: &mut [f32]) {
     }
 }
 
-/// `buf` = `n` zeros. A buffer that must grow is allocated zeroed (`calloc`: fresh pages are
-/// already zero, no `memset` pass over tens of MB per pyramid level).
-fn zeroed(buf: &mut Vec<f32>, n: usize) {
+/// `buf` resized to `n` values with unspecified contents (the kernels overwrite every value): a
+/// shrink keeps the allocation without a `memset` pass over tens of MB per pyramid level, a buffer
+/// that must grow is allocated zeroed (`calloc`: fresh pages are already zero).
+fn sized(buf: &mut Vec<f32>, n: usize) {
     if buf.capacity() < n {
         *buf = vec![0.0; n];
+    } else if buf.len() >= n {
+        buf.truncate(n);
     } else {
-        buf.clear();
         buf.resize(n, 0.0);
     }
 }
@@ -1433,12 +1549,13 @@ mod tests {
                 HogInput::Mosaic(mosaic.view()),
                 HogInput::Rgb8(rgb.view()),
             ] {
-                let planes = planes_from_input(&spec, &inp).unwrap();
+                let owned = planes_from_input(&spec, &inp).unwrap();
+                let planes = owned.view();
                 let mut want = CellGrid::empty();
                 cells_from_planes_with(&spec, &planes, Exec::Serial, CellKernel::Generic, &mut want);
                 let mut bw = BlockGrid::empty();
                 block_rows_with(&spec, &want, Exec::Serial, false, &mut bw);
-                for k in CellKernel::available(nbins) {
+                for k in CellKernel::available(&spec) {
                     let mut got = CellGrid::empty();
                     cells_from_planes_with(&spec, &planes, Exec::Parallel, k, &mut got);
                     assert!(
@@ -1476,13 +1593,11 @@ mod tests {
         }
         // Gamma rows.
         let src: Vec<f32> = (0..77).map(|i| i as f32 * 3.3 - 20.0).collect();
-        let mut want = vec![0.0; 77];
-        gamma_row(&src, &mut want, true);
-        #[cfg(target_arch = "x86_64")]
-        if have_avx2() {
-            let mut got = vec![0.0; 77];
-            // SAFETY: AVX2 and FMA were detected just above.
-            unsafe { gamma_row_avx2(&src, &mut got, true) };
+        for gamma in [true, false] {
+            let mut want = src.clone();
+            gamma_in_place_generic(&mut want, gamma);
+            let mut got = src.clone();
+            gamma_in_place(&mut got, gamma);
             assert_eq!(got, want);
         }
     }
