@@ -41,8 +41,9 @@ use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    blocks_from_cells, cell_grid_from_gamma_planes, gamma_in_place, gamma_plane_into, resize_cell_grid,
-    BlockGrid, CellGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec, HogTimings, CELL_SIZE,
+    block_grid_from_gamma_planes, blocks_from_cells, cell_grid_from_gamma_planes, gamma_in_place,
+    gamma_plane_into, resize_cell_grid, BlockGrid, CellGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec,
+    HogTimings, CELL_SIZE,
 };
 use crate::image::Image;
 
@@ -432,16 +433,15 @@ impl Detector {
         self.detect_with(input, Exec::Serial)
     }
 
-    /// Exact cell grid of one level into `sc.cells` (resize with gamma fused into each output row,
-    /// then gradients + cells).
-    fn exact_cells(
+    /// Resize one level into `sc.planes` with gamma fused into each output row; the planes as HOG
+    /// input.
+    fn level_planes<'a>(
         &self,
         linear: &Linear,
         lv: &Level,
-        exec: Exec,
         stats: &mut DetectStats,
-        sc: &mut LevelScratch,
-    ) -> Result<(), DetectError> {
+        planes: &'a mut [Image<f32>; 3],
+    ) -> Result<GammaPlanes<'a>, DetectError> {
         let t = Instant::now();
         let gamma = self.hog.options().gamma_correction;
         let op = move |row: &mut [f32]| gamma_in_place(row, gamma);
@@ -451,7 +451,7 @@ impl Detector {
             Linear::Colour(ps) => (&ps[..], false),
         };
         // HOG takes colour planes in B, G, R order.
-        for (src, dst) in srcs.iter().rev().zip(sc.planes.iter_mut()) {
+        for (src, dst) in srcs.iter().rev().zip(planes.iter_mut()) {
             if src.dimensions() == (lv.width, lv.height) {
                 gamma_plane_into(src.view(), gamma, dst);
             } else {
@@ -459,14 +459,27 @@ impl Detector {
             }
         }
         stats.resize += t.elapsed();
-        let t = Instant::now();
-        let p = &sc.planes;
-        let planes = match linear {
+        let p = planes;
+        Ok(match linear {
             Linear::Grey(_) => GammaPlanes::Grey(p[0].view()),
             Linear::Mosaic(_) => GammaPlanes::Mosaic(p[0].view()),
             Linear::Colour(_) => GammaPlanes::Colour([p[0].view(), p[1].view(), p[2].view()]),
-        };
-        cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
+        })
+    }
+
+    /// Exact block grid of one level into `sc.blocks`, cells and blocks fused (no cell grid); the
+    /// time goes to `stats.hog.cells`.
+    fn exact_blocks(
+        &self,
+        linear: &Linear,
+        lv: &Level,
+        exec: Exec,
+        stats: &mut DetectStats,
+        sc: &mut LevelScratch,
+    ) -> Result<(), DetectError> {
+        let planes = self.level_planes(linear, lv, stats, &mut sc.planes)?;
+        let t = Instant::now();
+        block_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.blocks)?;
         stats.hog.cells += t.elapsed();
         Ok(())
     }
@@ -498,7 +511,17 @@ impl Detector {
         let Some(head) = group.first() else {
             return Ok((dets, stats));
         };
-        self.exact_cells(linear, head, exec, &mut stats, sc)?;
+        if group.len() == 1 {
+            self.exact_blocks(linear, head, exec, &mut stats, sc)?;
+            let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
+            stats.svm += s.svm;
+            stats.windows += s.windows;
+            return Ok((d, stats));
+        }
+        let planes = self.level_planes(linear, head, &mut stats, &mut sc.planes)?;
+        let t = Instant::now();
+        cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
+        stats.hog.cells += t.elapsed();
         for (i, lv) in group.iter().enumerate() {
             let cells = if i == 0 {
                 &sc.cells
@@ -589,8 +612,7 @@ impl Detector {
         let mut sc = self.pool.take();
         let mut count = 0;
         for lv in self.levels(w, h, mosaic) {
-            self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats, &mut sc)?;
-            blocks_from_cells(&self.hog, &sc.cells, Exec::Parallel, &mut sc.blocks);
+            self.exact_blocks(&linear, &lv, Exec::Parallel, &mut stats, &mut sc)?;
             let grid = &sc.blocks;
             let scores = self.score_grid(grid);
             let (nwx, _) = grid.windows(&self.hog);
