@@ -45,7 +45,7 @@ use crate::features::hog::{
     gamma_plane_into, resize_cell_grid, BlockGrid, CellGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec,
     HogTimings, CELL_SIZE,
 };
-use crate::image::Image;
+use crate::image::{Image, ImageView};
 
 /// Gain applied to resampled cells of approximated levels. Cell sums of a coarser level grow
 /// between 1 (step edges) and the scale ratio (smooth ramps); L2-Hys normalisation removes the
@@ -270,26 +270,42 @@ impl ScratchPool {
 }
 
 /// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
-enum Linear {
-    Grey(Image<f32>),
-    Colour([Image<f32>; 3]),
-    Mosaic(Image<f32>),
+enum Linear<'a> {
+    Grey(Plane<'a>),
+    Colour([Plane<'a>; 3]),
+    Mosaic(Plane<'a>),
 }
 
-fn linear_from_input(input: &HogInput) -> Linear {
+/// A linear plane: converted from integer input, or the caller's f32 plane itself (no copy).
+enum Plane<'a> {
+    Owned(Image<f32>),
+    Borrowed(ImageView<'a, f32>),
+}
+
+impl Plane<'_> {
+    fn view(&self) -> ImageView<'_, f32> {
+        match self {
+            Plane::Owned(i) => i.view(),
+            Plane::Borrowed(v) => *v,
+        }
+    }
+}
+
+fn linear_from_input<'a>(input: &HogInput<'a>) -> Linear<'a> {
+    use Plane::{Borrowed, Owned};
     match input {
-        HogInput::GreyU8(v) => Linear::Grey(v.to_image().map(|p| p as f32)),
+        HogInput::GreyU8(v) => Linear::Grey(Owned(v.to_image().map(|p| p as f32))),
         HogInput::GreyU16 { image, max_value } => {
             let s = 255.0 / (*max_value).max(1) as f32;
-            Linear::Grey(image.to_image().map(|p| p as f32 * s))
+            Linear::Grey(Owned(image.to_image().map(|p| p as f32 * s)))
         }
-        HogInput::GreyF32(v) => Linear::Grey(v.to_image()),
-        HogInput::Mosaic(v) => Linear::Mosaic(v.to_image()),
+        HogInput::GreyF32(v) => Linear::Grey(Borrowed(*v)),
+        HogInput::Mosaic(v) => Linear::Mosaic(Borrowed(*v)),
         HogInput::Rgb8(v) => {
             let img = v.to_image();
-            Linear::Colour([0, 1, 2].map(|c| img.map(|p| p[c] as f32)))
+            Linear::Colour([0, 1, 2].map(|c| Owned(img.map(|p| p[c] as f32))))
         }
-        HogInput::ColourF32(p) => Linear::Colour([p[0].to_image(), p[1].to_image(), p[2].to_image()]),
+        HogInput::ColourF32(p) => Linear::Colour(p.map(Borrowed)),
     }
 }
 
@@ -445,17 +461,18 @@ impl Detector {
         let t = Instant::now();
         let gamma = self.hog.options().gamma_correction;
         let op = move |row: &mut [f32]| gamma_in_place(row, gamma);
-        let (srcs, mosaic): (&[Image<f32>], bool) = match linear {
+        let (srcs, mosaic): (&[Plane], bool) = match linear {
             Linear::Grey(p) => (std::slice::from_ref(p), false),
             Linear::Mosaic(p) => (std::slice::from_ref(p), true),
             Linear::Colour(ps) => (&ps[..], false),
         };
         // HOG takes colour planes in B, G, R order.
         for (src, dst) in srcs.iter().rev().zip(planes.iter_mut()) {
-            if src.dimensions() == (lv.width, lv.height) {
-                gamma_plane_into(src.view(), gamma, dst);
+            let src = src.view();
+            if (src.width(), src.height()) == (lv.width, lv.height) {
+                gamma_plane_into(src, gamma, dst);
             } else {
-                resize_then(src.view(), lv.width, lv.height, mosaic, dst, &op)?;
+                resize_then(src, lv.width, lv.height, mosaic, dst, &op)?;
             }
         }
         stats.resize += t.elapsed();
