@@ -41,9 +41,9 @@ use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    block_grid_from_gamma_planes, blocks_from_cells, cell_grid_from_gamma_planes, gamma_in_place,
-    gamma_plane_into, resize_cell_grid, BlockGrid, CellGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec,
-    HogTimings, CELL_SIZE,
+    block_grid_from_gamma_planes, blocks_from_cells, blocks_from_resampled_cells,
+    cell_grid_from_gamma_planes, gamma_in_place, gamma_plane_into, BlockGrid, CellGrid, Exec, GammaPlanes,
+    HogError, HogInput, HogSpec, HogTimings, CELL_SIZE,
 };
 use crate::image::{Image, ImageView};
 
@@ -226,8 +226,6 @@ struct LevelScratch {
     planes: [Image<f32>; 3],
     /// Exact cells of the level.
     cells: CellGrid,
-    /// Resampled cells of approximated levels.
-    approx: CellGrid,
     /// Normalised blocks.
     blocks: BlockGrid,
     /// Window scores.
@@ -540,24 +538,24 @@ impl Detector {
         cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
         stats.hog.cells += t.elapsed();
         for (i, lv) in group.iter().enumerate() {
-            let cells = if i == 0 {
-                &sc.cells
+            let t = Instant::now();
+            if i == 0 {
+                blocks_from_cells(&self.hog, &sc.cells, exec, &mut sc.blocks);
+                stats.hog.blocks += t.elapsed();
             } else {
-                let t = Instant::now();
-                resize_cell_grid(
+                // Resampled cells go straight into blocks (no resampled cell grid).
+                let (ncx, ncy) = (lv.width / CELL_SIZE, lv.height / CELL_SIZE);
+                blocks_from_resampled_cells(
+                    &self.hog,
                     &sc.cells,
-                    lv.width / CELL_SIZE,
-                    lv.height / CELL_SIZE,
+                    ncx,
+                    ncy,
                     APPROX_GAIN,
                     exec,
-                    &mut sc.approx,
+                    &mut sc.blocks,
                 );
                 stats.cell_resample += t.elapsed();
-                &sc.approx
-            };
-            let t = Instant::now();
-            blocks_from_cells(&self.hog, cells, exec, &mut sc.blocks);
-            stats.hog.blocks += t.elapsed();
+            }
             let (d, s) = self.score_level(&sc.blocks, lv, exec, &mut sc.scores);
             dets.extend(d);
             stats.svm += s.svm;

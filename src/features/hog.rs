@@ -946,21 +946,39 @@ fn blocks_in_bands(
     avx2: bool,
     dst: &mut BlockGrid,
 ) {
-    let cl = cell_len(spec.nbins());
-    let ncx = p.width / CELL_SIZE;
-    let row_len = ncx * cl;
-    let Some(row_size) = block_grid_shape(spec, ncx, p.height / CELL_SIZE, dst) else {
+    let (ncx, ncy) = (p.width / CELL_SIZE, p.height / CELL_SIZE);
+    let scratch = || CellScratch::new(p.width);
+    let fill =
+        |cy: usize, row: &mut [f32], cs: &mut CellScratch| cells_strip_with(kernel, spec, p, cy, row, cs);
+    blocks_in_bands_with(spec, ncx, ncy, exec, avx2, dst, scratch, fill);
+}
+
+/// The blocks of `ncx x ncy` cells in bands of [`BAND_BLOCK_ROWS`] block rows: `fill(cy, row,
+/// scratch)` writes cell row `cy` into `row`, each band keeps two cell rows in a ring.
+#[allow(clippy::too_many_arguments)]
+fn blocks_in_bands_with<S>(
+    spec: &HogSpec,
+    ncx: usize,
+    ncy: usize,
+    exec: Exec,
+    avx2: bool,
+    dst: &mut BlockGrid,
+    scratch: impl Fn() -> S + Sync,
+    fill: impl Fn(usize, &mut [f32], &mut S) + Sync,
+) {
+    let row_len = ncx * cell_len(spec.nbins());
+    let Some(row_size) = block_grid_shape(spec, ncx, ncy, dst) else {
         return;
     };
     let band_work = |(b, band): (usize, &mut [f32])| {
         let by0 = b * BAND_BLOCK_ROWS;
-        let mut cs = CellScratch::new(p.width);
+        let mut cs = scratch();
         let mut ring = vec![0.0f32; 2 * row_len];
-        cells_strip_with(kernel, spec, p, by0, &mut ring[..row_len], &mut cs);
+        fill(by0, &mut ring[..row_len], &mut cs);
         for (r, out) in band.chunks_mut(row_size).enumerate() {
             let (a, b) = ring.split_at_mut(row_len);
             let (top, bottom) = if r % 2 == 0 { (a, b) } else { (b, a) };
-            cells_strip_with(kernel, spec, p, by0 + r + 1, bottom, &mut cs);
+            fill(by0 + r + 1, bottom, &mut cs);
             block_row_with(spec, ncx, top, bottom, avx2, out);
         }
     };
@@ -1020,34 +1038,70 @@ pub fn resize_cell_grid(
     if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
         return;
     }
-    let taps = |n: usize, m: usize| -> Vec<(usize, usize, f32)> {
-        let sc = n as f32 / m as f32;
-        (0..m)
-            .map(|d| {
-                let s = ((d as f32 + 0.5) * sc - 0.5).clamp(0.0, (n - 1) as f32);
-                let i = s.floor() as usize;
-                (i, (i + 1).min(n - 1), s - i as f32)
-            })
-            .collect()
-    };
-    let tx = taps(src.ncx, new_ncx);
-    let ty = taps(src.ncy, new_ncy);
+    let (tx, ty) = (cell_taps(src.ncx, new_ncx), cell_taps(src.ncy, new_ncy));
     let avx2 = have_avx2();
-    let work = |(y, row): (usize, &mut [f32])| {
-        #[cfg(target_arch = "x86_64")]
-        if avx2 {
-            // SAFETY: AVX2 and FMA were detected on this CPU (`have_avx2`); the closure is not
-            // compiled with them, the row function is.
-            unsafe { resample_cell_row_avx2(src, &tx, ty[y], gain, row) };
-            return;
-        }
-        let _ = avx2;
-        resample_cell_row(src, &tx, ty[y], gain, row)
-    };
+    let work = |(y, row): (usize, &mut [f32])| resample_cell_row_with(avx2, src, &tx, ty[y], gain, row);
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
         Exec::Serial => dst.data.chunks_mut(new_ncx * cl).enumerate().for_each(work),
     }
+}
+
+/// The block grid of [`resize_cell_grid`]`(src, …)` without the resampled cell grid: bands of
+/// [`BAND_BLOCK_ROWS`] block rows resample their cell rows into a two-row ring and assemble each
+/// block row from it (as [`block_grid_from_gamma_planes`]). Bit for bit [`resize_cell_grid`] then
+/// [`blocks_from_cells`]. `dst`'s buffer is reused.
+pub fn blocks_from_resampled_cells(
+    spec: &HogSpec,
+    src: &CellGrid,
+    new_ncx: usize,
+    new_ncy: usize,
+    gain: f32,
+    exec: Exec,
+    dst: &mut BlockGrid,
+) {
+    if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
+        block_grid_shape(spec, 0, 0, dst);
+        return;
+    }
+    debug_assert_eq!(src.cell_len, cell_len(spec.nbins()));
+    let (tx, ty) = (cell_taps(src.ncx, new_ncx), cell_taps(src.ncy, new_ncy));
+    let avx2 = have_avx2();
+    let fill =
+        |cy: usize, row: &mut [f32], _: &mut ()| resample_cell_row_with(avx2, src, &tx, ty[cy], gain, row);
+    blocks_in_bands_with(spec, new_ncx, new_ncy, exec, avx2, dst, || (), fill);
+}
+
+/// [`CellTaps`] of every output cell along one axis (`n` source cells, `m` output cells).
+fn cell_taps(n: usize, m: usize) -> Vec<CellTaps> {
+    let sc = n as f32 / m as f32;
+    (0..m)
+        .map(|d| {
+            let s = ((d as f32 + 0.5) * sc - 0.5).clamp(0.0, (n - 1) as f32);
+            let i = s.floor() as usize;
+            (i, (i + 1).min(n - 1), s - i as f32)
+        })
+        .collect()
+}
+
+/// [`resample_cell_row`], the AVX2 + FMA build when `avx2` (which must then be supported).
+fn resample_cell_row_with(
+    avx2: bool,
+    src: &CellGrid,
+    tx: &[CellTaps],
+    ty: CellTaps,
+    gain: f32,
+    row: &mut [f32],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected (`have_avx2`);
+        // the calling closures are not compiled with them, the row function is.
+        unsafe { resample_cell_row_avx2(src, tx, ty, gain, row) };
+        return;
+    }
+    let _ = avx2;
+    resample_cell_row(src, tx, ty, gain, row)
 }
 
 /// Whether the AVX2 + FMA builds of the kernels can run on this CPU.
@@ -1690,6 +1744,20 @@ mod tests {
         let tx: Vec<CellTaps> = (0..19)
             .map(|x| (x, (x + 1).min(24), (x % 7) as f32 / 7.0))
             .collect();
+        // Resampled cells fused with blocks (two bands) equal resample, then blocks.
+        let (big, mut rs, mut want_b, mut got_b) = (
+            Image::<u8>::from_fn(280, 330, |x, y| ((x * x + 5 * y) % 256) as u8),
+            CellGrid::empty(),
+            BlockGrid::empty(),
+            BlockGrid::empty(),
+        );
+        cell_grid(&spec, &HogInput::GreyU8(big.view()), Exec::Serial, &mut rs).unwrap();
+        let src = rs.clone();
+        resize_cell_grid(&src, 31, 37, 1.0, Exec::Serial, &mut rs);
+        blocks_from_cells(&spec, &rs, Exec::Serial, &mut want_b);
+        blocks_from_resampled_cells(&spec, &src, 31, 37, 1.0, Exec::Parallel, &mut got_b);
+        assert!(want_b.nby > BAND_BLOCK_ROWS && same_bits(&got_b.data, &want_b.data));
+        assert_eq!(got_b, want_b);
         let mut want = vec![0.0; 19 * cg.cell_len];
         resample_cell_row(&cg, &tx, (3, 4, 0.3), 1.0, &mut want);
         #[cfg(target_arch = "x86_64")]
