@@ -846,6 +846,21 @@ pub fn block_grid_from_input(spec: &HogSpec, input: &HogInput) -> Result<BlockGr
     Ok(g)
 }
 
+/// `$fast` (an AVX2 + FMA build) when `$avx2`, else `$generic`. Callers pass `$avx2` = true only
+/// when AVX2 and FMA were detected ([`have_avx2`]).
+macro_rules! avx2_or_generic {
+    ($avx2:expr, $fast:expr, $generic:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        if $avx2 {
+            // SAFETY: `$avx2` is true only when AVX2 and FMA were detected (`have_avx2`); the
+            // calling closures are not compiled with them, the `#[target_feature]` function is.
+            return unsafe { $fast };
+        }
+        let _ = $avx2;
+        $generic
+    }};
+}
+
 /// Values per cell: PROFILES (y) x PROFILES (x) x nbins.
 fn cell_len(nbins: usize) -> usize {
     PROFILES * PROFILES * nbins
@@ -1093,15 +1108,11 @@ fn resample_cell_row_with(
     gain: f32,
     row: &mut [f32],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected (`have_avx2`);
-        // the calling closures are not compiled with them, the row function is.
-        unsafe { resample_cell_row_avx2(src, tx, ty, gain, row) };
-        return;
-    }
-    let _ = avx2;
-    resample_cell_row(src, tx, ty, gain, row)
+    avx2_or_generic!(
+        avx2,
+        resample_cell_row_avx2(src, tx, ty, gain, row),
+        resample_cell_row(src, tx, ty, gain, row)
+    )
 }
 
 /// Whether the AVX2 + FMA builds of the kernels can run on this CPU.
@@ -1458,15 +1469,11 @@ fn block_grid_shape(spec: &HogSpec, ncx: usize, ncy: usize, dst: &mut BlockGrid)
 
 /// [`block_row`], the AVX2 + FMA build when `avx2` (which must then be supported by the CPU).
 fn block_row_with(spec: &HogSpec, ncx: usize, top: &[f32], bottom: &[f32], avx2: bool, row: &mut [f32]) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected (`have_avx2`);
-        // the calling closures are not compiled with them, the row function is.
-        unsafe { block_row_avx2(spec, ncx, top, bottom, row) };
-        return;
-    }
-    let _ = avx2;
-    block_row(spec, ncx, top, bottom, row)
+    avx2_or_generic!(
+        avx2,
+        block_row_avx2(spec, ncx, top, bottom, row),
+        block_row(spec, ncx, top, bottom, row)
+    )
 }
 
 /// [`block_row`] compiled for AVX2 + FMA.
