@@ -778,6 +778,39 @@ mod tests {
     }
 
     #[test]
+    fn level_buffer_pool_is_bounded_and_stops_growing() {
+        let d = Detector::new(model(2), &DetectorOptions::default()).unwrap();
+        let img = Image::<f32>::from_fn(320, 260, |x, y| ((x * 7 + y * 3) % 200) as f32);
+        let inp = HogInput::Mosaic(img.view());
+        let held = |d: &Detector| {
+            let free = d.pool.free.lock().unwrap();
+            let bytes: usize = free
+                .iter()
+                .map(|s| {
+                    let planes: usize = s.planes.iter().map(|p| p.as_slice().len()).sum();
+                    let b = &s.blocks;
+                    planes
+                        + s.cells.cells_x() * s.cells.cells_y()
+                        + b.blocks_x() * b.blocks_y() * b.block_len()
+                })
+                .sum();
+            (free.len(), bytes)
+        };
+        let first = d.detect(&inp).unwrap();
+        let after_one = held(&d);
+        for _ in 0..3 {
+            assert_eq!(d.detect(&inp).unwrap().0, first.0);
+        }
+        let after_four = held(&d);
+        assert!(after_four.0 >= 1 && after_four.0 <= ScratchPool::capacity());
+        assert!(after_four.1 <= after_one.1 * ScratchPool::capacity().max(1));
+        // A clone starts empty and detects the same.
+        let c = d.clone();
+        assert_eq!(held(&c).0, 0);
+        assert_eq!(c.detect(&inp).unwrap().0, first.0);
+    }
+
+    #[test]
     fn parallel_equals_serial_all_domains() {
         let o = DetectorOptions {
             hit_threshold: -1e9,
