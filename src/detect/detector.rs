@@ -30,20 +30,22 @@
 //! No window padding (OpenCV `detectMultiScale` pads by 0 by default for `winStride` 8 as well);
 //! pyramid levels are resized in f32 (OpenCV: 8-bit fixed point), so only level 0 is bit-comparable.
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
-use super::pyramid::{resize_bilinear, resize_mosaic, PyramidError};
+use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    blocks_from_cells, cell_grid, resize_cell_grid, BlockGrid, CellGrid, Exec, HogError, HogInput, HogSpec,
-    HogTimings, CELL_SIZE,
+    block_grid_from_gamma_planes, blocks_from_cells, blocks_from_resampled_cells,
+    cell_grid_from_gamma_planes, gamma_in_place, gamma_plane_into, BlockGrid, CellGrid, Exec, GammaPlanes,
+    HogError, HogInput, HogSpec, HogTimings, CELL_SIZE,
 };
-use crate::image::Image;
+use crate::image::{Image, ImageView};
 
 /// Gain applied to resampled cells of approximated levels. Cell sums of a coarser level grow
 /// between 1 (step edges) and the scale ratio (smooth ramps); L2-Hys normalisation removes the
@@ -212,29 +214,96 @@ pub struct Detector {
     model: LinearModel,
     /// The model's weights laid out for the scoring GEMM.
     score_weights: ScoreWeights,
+    /// Level buffers reused across levels and frames.
+    pool: ScratchPool,
+}
+
+/// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
+/// cost ≈ 40 MB of page faults and zeroing per 1080p level).
+#[derive(Debug, Default)]
+struct LevelScratch {
+    /// Resized, gamma-corrected planes (one, or B, G, R).
+    planes: [Image<f32>; 3],
+    /// Exact cells of the level.
+    cells: CellGrid,
+    /// Normalised blocks.
+    blocks: BlockGrid,
+    /// Window scores.
+    scores: Vec<f32>,
+}
+
+/// Free [`LevelScratch`]es. A level takes one (or makes one when none is free) and returns it;
+/// at most [`ScratchPool::capacity`] are kept, so the memory held is bounded by that many
+/// largest-level buffer sets and does not grow from frame to frame. A cloned detector starts with
+/// an empty pool.
+#[derive(Debug, Default)]
+struct ScratchPool {
+    free: Mutex<Vec<LevelScratch>>,
+}
+
+impl Clone for ScratchPool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl ScratchPool {
+    /// Scratches kept: one per worker thread plus one for a level a blocked worker steals.
+    fn capacity() -> usize {
+        rayon::current_num_threads() + 1
+    }
+    fn take(&self) -> LevelScratch {
+        self.free
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop()
+            .unwrap_or_default()
+    }
+    fn put(&self, s: LevelScratch) {
+        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
+        if free.len() < Self::capacity() {
+            free.push(s);
+        }
+    }
 }
 
 /// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
-enum Linear {
-    Grey(Image<f32>),
-    Colour([Image<f32>; 3]),
-    Mosaic(Image<f32>),
+enum Linear<'a> {
+    Grey(Plane<'a>),
+    Colour([Plane<'a>; 3]),
+    Mosaic(Plane<'a>),
 }
 
-fn linear_from_input(input: &HogInput) -> Linear {
+/// A linear plane: converted from integer input, or the caller's f32 plane itself (no copy).
+enum Plane<'a> {
+    Owned(Image<f32>),
+    Borrowed(ImageView<'a, f32>),
+}
+
+impl Plane<'_> {
+    fn view(&self) -> ImageView<'_, f32> {
+        match self {
+            Plane::Owned(i) => i.view(),
+            Plane::Borrowed(v) => *v,
+        }
+    }
+}
+
+fn linear_from_input<'a>(input: &HogInput<'a>) -> Linear<'a> {
+    use Plane::{Borrowed, Owned};
     match input {
-        HogInput::GreyU8(v) => Linear::Grey(v.to_image().map(|p| p as f32)),
+        HogInput::GreyU8(v) => Linear::Grey(Owned(v.to_image().map(|p| p as f32))),
         HogInput::GreyU16 { image, max_value } => {
             let s = 255.0 / (*max_value).max(1) as f32;
-            Linear::Grey(image.to_image().map(|p| p as f32 * s))
+            Linear::Grey(Owned(image.to_image().map(|p| p as f32 * s)))
         }
-        HogInput::GreyF32(v) => Linear::Grey(v.to_image()),
-        HogInput::Mosaic(v) => Linear::Mosaic(v.to_image()),
+        HogInput::GreyF32(v) => Linear::Grey(Borrowed(*v)),
+        HogInput::Mosaic(v) => Linear::Mosaic(Borrowed(*v)),
         HogInput::Rgb8(v) => {
             let img = v.to_image();
-            Linear::Colour([0, 1, 2].map(|c| img.map(|p| p[c] as f32)))
+            Linear::Colour([0, 1, 2].map(|c| Owned(img.map(|p| p[c] as f32))))
         }
-        HogInput::ColourF32(p) => Linear::Colour([p[0].to_image(), p[1].to_image(), p[2].to_image()]),
+        HogInput::ColourF32(p) => Linear::Colour(p.map(Borrowed)),
     }
 }
 
@@ -248,6 +317,7 @@ impl Detector {
             hog,
             model,
             score_weights,
+            pool: ScratchPool::default(),
         })
     }
     /// The model.
@@ -377,56 +447,56 @@ impl Detector {
         self.detect_with(input, Exec::Serial)
     }
 
-    /// Exact cell grid of one level (resize + gamma + gradients + cells).
-    fn exact_cells(
+    /// Resize one level into `sc.planes` with gamma fused into each output row; the planes as HOG
+    /// input.
+    fn level_planes<'a>(
+        &self,
+        linear: &Linear,
+        lv: &Level,
+        stats: &mut DetectStats,
+        planes: &'a mut [Image<f32>; 3],
+    ) -> Result<GammaPlanes<'a>, DetectError> {
+        let t = Instant::now();
+        let gamma = self.hog.options().gamma_correction;
+        let op = move |row: &mut [f32]| gamma_in_place(row, gamma);
+        let (srcs, mosaic): (&[Plane], bool) = match linear {
+            Linear::Grey(p) => (std::slice::from_ref(p), false),
+            Linear::Mosaic(p) => (std::slice::from_ref(p), true),
+            Linear::Colour(ps) => (&ps[..], false),
+        };
+        // HOG takes colour planes in B, G, R order.
+        for (src, dst) in srcs.iter().rev().zip(planes.iter_mut()) {
+            let src = src.view();
+            if (src.width(), src.height()) == (lv.width, lv.height) {
+                gamma_plane_into(src, gamma, dst);
+            } else {
+                resize_then(src, lv.width, lv.height, mosaic, dst, &op)?;
+            }
+        }
+        stats.resize += t.elapsed();
+        let p = planes;
+        Ok(match linear {
+            Linear::Grey(_) => GammaPlanes::Grey(p[0].view()),
+            Linear::Mosaic(_) => GammaPlanes::Mosaic(p[0].view()),
+            Linear::Colour(_) => GammaPlanes::Colour([p[0].view(), p[1].view(), p[2].view()]),
+        })
+    }
+
+    /// Exact block grid of one level into `sc.blocks`, cells and blocks fused (no cell grid); the
+    /// time goes to `stats.hog.cells`.
+    fn exact_blocks(
         &self,
         linear: &Linear,
         lv: &Level,
         exec: Exec,
         stats: &mut DetectStats,
-    ) -> Result<CellGrid, DetectError> {
+        sc: &mut LevelScratch,
+    ) -> Result<(), DetectError> {
+        let planes = self.level_planes(linear, lv, stats, &mut sc.planes)?;
         let t = Instant::now();
-        let resize = |src: &Image<f32>, mosaic: bool| -> Result<Option<Image<f32>>, PyramidError> {
-            if src.dimensions() == (lv.width, lv.height) {
-                return Ok(None);
-            }
-            let mut d = Image::new(0, 0);
-            if mosaic {
-                resize_mosaic(src.view(), lv.width, lv.height, &mut d)?;
-            } else {
-                resize_bilinear(src.view(), lv.width, lv.height, &mut d)?;
-            }
-            Ok(Some(d))
-        };
-        let mut cells = CellGrid::empty();
-        match linear {
-            Linear::Grey(p) => {
-                let r = resize(p, false)?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = r.as_ref().unwrap_or(p).view();
-                cell_grid(&self.hog, &HogInput::GreyF32(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
-            }
-            Linear::Mosaic(p) => {
-                let r = resize(p, true)?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = r.as_ref().unwrap_or(p).view();
-                cell_grid(&self.hog, &HogInput::Mosaic(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
-            }
-            Linear::Colour(ps) => {
-                let r: Vec<Option<Image<f32>>> =
-                    ps.iter().map(|p| resize(p, false)).collect::<Result<_, _>>()?;
-                stats.resize += t.elapsed();
-                let t = Instant::now();
-                let v = [0, 1, 2].map(|c| r[c].as_ref().unwrap_or(&ps[c]).view());
-                cell_grid(&self.hog, &HogInput::ColourF32(v), exec, &mut cells)?;
-                stats.hog.cells += t.elapsed();
-            }
-        }
-        Ok(cells)
+        block_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.blocks)?;
+        stats.hog.cells += t.elapsed();
+        Ok(())
     }
 
     /// One group of levels: the first is computed exactly, the others (approximate mode) from its
@@ -437,34 +507,56 @@ impl Detector {
         group: &[Level],
         exec: Exec,
     ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let mut sc = self.pool.take();
+        let r = self.detect_group_in(linear, group, exec, &mut sc);
+        self.pool.put(sc);
+        r
+    }
+
+    /// [`Self::detect_group`] with the level buffers `sc`.
+    fn detect_group_in(
+        &self,
+        linear: &Linear,
+        group: &[Level],
+        exec: Exec,
+        sc: &mut LevelScratch,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
         let mut stats = DetectStats::default();
         let mut dets = Vec::new();
         let Some(head) = group.first() else {
             return Ok((dets, stats));
         };
-        let exact = self.exact_cells(linear, head, exec, &mut stats)?;
-        let mut approx = CellGrid::empty();
-        let mut grid = BlockGrid::empty();
+        if group.len() == 1 {
+            self.exact_blocks(linear, head, exec, &mut stats, sc)?;
+            let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
+            stats.svm += s.svm;
+            stats.windows += s.windows;
+            return Ok((d, stats));
+        }
+        let planes = self.level_planes(linear, head, &mut stats, &mut sc.planes)?;
+        let t = Instant::now();
+        cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
+        stats.hog.cells += t.elapsed();
         for (i, lv) in group.iter().enumerate() {
-            let cells = if i == 0 {
-                &exact
+            let t = Instant::now();
+            if i == 0 {
+                blocks_from_cells(&self.hog, &sc.cells, exec, &mut sc.blocks);
+                stats.hog.blocks += t.elapsed();
             } else {
-                let t = Instant::now();
-                resize_cell_grid(
-                    &exact,
-                    lv.width / CELL_SIZE,
-                    lv.height / CELL_SIZE,
+                // Resampled cells go straight into blocks (no resampled cell grid).
+                let (ncx, ncy) = (lv.width / CELL_SIZE, lv.height / CELL_SIZE);
+                blocks_from_resampled_cells(
+                    &self.hog,
+                    &sc.cells,
+                    ncx,
+                    ncy,
                     APPROX_GAIN,
                     exec,
-                    &mut approx,
+                    &mut sc.blocks,
                 );
                 stats.cell_resample += t.elapsed();
-                &approx
-            };
-            let t = Instant::now();
-            blocks_from_cells(&self.hog, cells, exec, &mut grid);
-            stats.hog.blocks += t.elapsed();
-            let (d, s) = self.score_level(&grid, lv, exec);
+            }
+            let (d, s) = self.score_level(&sc.blocks, lv, exec, &mut sc.scores);
             dets.extend(d);
             stats.svm += s.svm;
             stats.windows += s.windows;
@@ -472,12 +564,19 @@ impl Detector {
         Ok((dets, stats))
     }
 
-    fn score_level(&self, grid: &BlockGrid, lv: &Level, exec: Exec) -> (Vec<Detection>, DetectStats) {
+    fn score_level(
+        &self,
+        grid: &BlockGrid,
+        lv: &Level,
+        exec: Exec,
+        scores: &mut Vec<f32>,
+    ) -> (Vec<Detection>, DetectStats) {
         let mut stats = DetectStats::default();
         let t = Instant::now();
         let (nwx, nwy) = grid.windows(&self.hog);
-        let mut scores = vec![0.0f32; nwx * nwy];
-        window_scores(&self.score_weights, grid, exec, &mut scores);
+        scores.clear();
+        scores.resize(nwx * nwy, 0.0);
+        window_scores(&self.score_weights, grid, exec, scores);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
         let thr = self.spec.opts.hit_threshold;
@@ -525,18 +624,19 @@ impl Detector {
         }
         let linear = linear_from_input(input);
         let mut stats = DetectStats::default();
-        let mut grid = BlockGrid::empty();
+        let mut sc = self.pool.take();
         let mut count = 0;
         for lv in self.levels(w, h, mosaic) {
-            let cells = self.exact_cells(&linear, &lv, Exec::Parallel, &mut stats)?;
-            blocks_from_cells(&self.hog, &cells, Exec::Parallel, &mut grid);
-            let scores = self.score_grid(&grid);
+            self.exact_blocks(&linear, &lv, Exec::Parallel, &mut stats, &mut sc)?;
+            let grid = &sc.blocks;
+            let scores = self.score_grid(grid);
             let (nwx, _) = grid.windows(&self.hog);
-            for (i, &sc) in scores.iter().enumerate() {
-                f(&lv, &grid, i % nwx, i / nwx, sc);
+            for (i, &s) in scores.iter().enumerate() {
+                f(&lv, grid, i % nwx, i / nwx, s);
             }
             count += scores.len();
         }
+        self.pool.put(sc);
         Ok(count)
     }
 
@@ -675,6 +775,39 @@ mod tests {
                 assert!((scores[wy * nwx + wx] as f64 - want).abs() < 1e-4);
             }
         }
+    }
+
+    #[test]
+    fn level_buffer_pool_is_bounded_and_stops_growing() {
+        let d = Detector::new(model(2), &DetectorOptions::default()).unwrap();
+        let img = Image::<f32>::from_fn(320, 260, |x, y| ((x * 7 + y * 3) % 200) as f32);
+        let inp = HogInput::Mosaic(img.view());
+        let held = |d: &Detector| {
+            let free = d.pool.free.lock().unwrap();
+            let bytes: usize = free
+                .iter()
+                .map(|s| {
+                    let planes: usize = s.planes.iter().map(|p| p.as_slice().len()).sum();
+                    let b = &s.blocks;
+                    planes
+                        + s.cells.cells_x() * s.cells.cells_y()
+                        + b.blocks_x() * b.blocks_y() * b.block_len()
+                })
+                .sum();
+            (free.len(), bytes)
+        };
+        let first = d.detect(&inp).unwrap();
+        let after_one = held(&d);
+        for _ in 0..3 {
+            assert_eq!(d.detect(&inp).unwrap().0, first.0);
+        }
+        let after_four = held(&d);
+        assert!(after_four.0 >= 1 && after_four.0 <= ScratchPool::capacity());
+        assert!(after_four.1 <= after_one.1 * ScratchPool::capacity().max(1));
+        // A clone starts empty and detects the same.
+        let c = d.clone();
+        assert_eq!(held(&c).0, 0);
+        assert_eq!(c.detect(&inp).unwrap().0, first.0);
     }
 
     #[test]
