@@ -155,35 +155,78 @@ fn resize_planes(
                         slot.0 = r;
                     }
                 }
+                // Ask for the next output row's new source row now: its loads (a full-resolution
+                // row, usually not in cache) then overlap the vertical pass and the row op.
+                let yn = y + 1;
+                if yn < dh * step {
+                    let (on, dn) = (yn % step, yn / step);
+                    let iyn = ty[dn].0;
+                    let next = [on + iyn * step, on + (iyn + 1).min(sh - 1) * step];
+                    let held = [cache[on][0].0, cache[on][1].0];
+                    if let Some(&r) = next.iter().find(|r| !held.contains(r)) {
+                        prefetch_row(src.row(r));
+                    }
+                }
+                let slots = &cache[oy];
+                let (sa, sb) = if slots[0].0 == ra {
+                    (&slots[0], &slots[1])
+                } else {
+                    (&slots[1], &slots[0])
+                };
                 vertical(&sa.1, &sb.1, fy, row, avx2);
                 row_op(row);
             }
         });
 }
 
-/// The column taps of 16 consecutive outputs whose sources all lie in the 32 values from `base`:
-/// the AVX-512 horizontal pass loads those 32 values and picks each output's two taps with
-/// `vpermt2ps` (no gathers).
+/// Prefetch every cache line of `row` into L2 (no effect on results).
+fn prefetch_row(row: &[f32]) {
+    #[cfg(target_arch = "x86_64")]
+    for k in (0..row.len()).step_by(16) {
+        // SAFETY: prefetching a valid address has no side effects.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T1 }>(row.as_ptr().add(k).cast())
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = row;
+}
+
+/// Most 32-value source windows a [`Perm16`] may span (128 values: scale ≲ 3.9 for a mosaic,
+/// ≲ 7.9 for a plane).
+const MAX_PAIRS: u32 = 4;
+
+/// The column taps of 16 consecutive outputs whose sources all lie in the `32·pairs` values from
+/// `base`: the AVX-512 horizontal pass loads those values (`2·pairs` registers) and picks each
+/// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
+/// tap (no gathers).
 #[derive(Debug, Clone, Copy)]
 struct Perm16 {
     base: u32,
+    pairs: u32,
     p: [u32; 16],
     q: [u32; 16],
     fx: [f32; 16],
 }
 
 /// [`Perm16`] of every 16 outputs of `tc` (source rows of `row_len` values), `None` where the taps
-/// span 32 values or more (scale ≳ 1.8) or the 32 values would run past the row.
+/// span more than `32·MAX_PAIRS` values, the row is shorter than the window, or the chunk is short.
 fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
     tc.chunks(16)
         .map(|c| {
-            let base = c.iter().map(|t| t.0.min(t.1)).min()?;
+            let lo = c.iter().map(|t| t.0.min(t.1)).min()?;
             let top = c.iter().map(|t| t.0.max(t.1)).max()?;
-            if c.len() < 16 || top - base >= 32 || base as usize + 32 > row_len {
+            let pairs = (top - lo) / 32 + 1;
+            let span = 32 * pairs as usize;
+            if c.len() < 16 || pairs > MAX_PAIRS || span > row_len {
                 return None;
             }
+            // Slide the window left where it would run past the row (top < row_len keeps every
+            // tap inside it).
+            let base = (lo as usize).min(row_len - span) as u32;
             let mut pm = Perm16 {
                 base,
+                pairs,
                 p: [0; 16],
                 q: [0; 16],
                 fx: [0.0; 16],
@@ -194,6 +237,32 @@ fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
             Some(pm)
         })
         .collect()
+}
+
+/// The 16 source values at the offsets `idx` (< `32·pairs`) from `src`: one `vpermt2ps` per pair
+/// of registers, each lane kept from the pair its offset falls in.
+///
+/// # Safety
+/// The CPU must support AVX-512F and `src` must be readable for `32·pairs` values.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn pick16(src: *const f32, pairs: u32, idx: std::arch::x86_64::__m512i) -> std::arch::x86_64::__m512 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees 32·pairs readable values; vpermt2ps uses the low 5 index bits.
+    unsafe {
+        let mut v = _mm512_permutex2var_ps(_mm512_loadu_ps(src), idx, _mm512_loadu_ps(src.add(16)));
+        for k in 1..pairs as usize {
+            let t = _mm512_permutex2var_ps(
+                _mm512_loadu_ps(src.add(32 * k)),
+                idx,
+                _mm512_loadu_ps(src.add(32 * k + 16)),
+            );
+            let m = _mm512_cmpge_epu32_mask(idx, _mm512_set1_epi32(32 * k as i32));
+            v = _mm512_mask_blend_ps(m, v, t);
+        }
+        v
+    }
 }
 
 /// [`horizontal_row`] with AVX-512 permutes for the outputs that have a [`Perm16`] (same
@@ -210,16 +279,13 @@ unsafe fn horizontal_avx512(a: &[f32], tc: &[(u32, u32, f32)], perms: &[Option<P
         match pm {
             Some(pm) if o.len() == 16 => {
                 let base = pm.base as usize;
-                debug_assert!(base + 32 <= a.len());
-                // SAFETY: perm_taps only made this Perm16 when base + 32 ≤ the row length, which
-                // the caller guarantees is ≤ a.len(); indices are < 32; `o` holds 16 values.
+                debug_assert!(base + 32 * pm.pairs as usize <= a.len());
+                // SAFETY: perm_taps only made this Perm16 when base + 32·pairs ≤ the row length,
+                // which the caller guarantees is ≤ a.len(); indices are < 32·pairs; `o` holds 16.
                 unsafe {
-                    let lo = _mm512_loadu_ps(a.as_ptr().add(base));
-                    let hi = _mm512_loadu_ps(a.as_ptr().add(base + 16));
-                    let ip = _mm512_loadu_si512(pm.p.as_ptr().cast());
-                    let iq = _mm512_loadu_si512(pm.q.as_ptr().cast());
-                    let vp = _mm512_permutex2var_ps(lo, ip, hi);
-                    let vq = _mm512_permutex2var_ps(lo, iq, hi);
+                    let src = a.as_ptr().add(base);
+                    let vp = pick16(src, pm.pairs, _mm512_loadu_si512(pm.p.as_ptr().cast()));
+                    let vq = pick16(src, pm.pairs, _mm512_loadu_si512(pm.q.as_ptr().cast()));
                     let fx = _mm512_loadu_ps(pm.fx.as_ptr());
                     let r = _mm512_add_ps(vp, _mm512_mul_ps(_mm512_sub_ps(vq, vp), fx));
                     _mm512_storeu_ps(o.as_mut_ptr(), r);
@@ -436,20 +502,28 @@ mod tests {
     #[test]
     fn permute_horizontal_pass_equals_the_generic_one_bit_for_bit() {
         let a: Vec<f32> = (0..400).map(|i| ((i * 37 % 101) as f32).sqrt() * 3.7).collect();
-        // Plain and mosaic taps at scales 1.05 … 2.5 (above ≈1.8 every chunk falls back).
+        // Plain and mosaic taps at scales 1.05 … 8.5 (one to four register pairs; above ≈3.9
+        // for a mosaic and ≈7.9 for a plane the chunks fall back).
         let cases = [
             (400, 381, 1),
             (400, 296, 1),
+            (400, 130, 1),
+            (400, 57, 1),
+            (400, 47, 1),
             (200, 190, 2),
             (200, 120, 2),
             (200, 80, 2),
+            (200, 61, 2),
+            (200, 52, 2),
+            (200, 40, 2),
+            (200, 23, 2),
         ];
         for (sw, dw, step) in cases {
             let tc = column_taps(sw, dw, step);
             let mut want = vec![0.0; dw * step];
             horizontal(&a, &tc, &[], &mut want, false);
             let perms = perm_taps(&tc, a.len());
-            if sw * step == 400 && dw * 5 > sw * 4 {
+            if sw < dw * 3 {
                 assert!(perms.iter().filter(|p| p.is_some()).count() > perms.len() / 2);
             }
             if have_avx512() {
