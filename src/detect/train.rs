@@ -587,17 +587,6 @@ pub fn evaluate_windows_via(
     })
 }
 
-/// Train a model on the seeded split of the shared data; `progress` receives one line per step.
-pub fn train(
-    data_root: &Path,
-    o: &TrainOptions,
-    progress: &mut dyn FnMut(&str),
-) -> Result<(LinearModel, Split), TrainError> {
-    let split = split_data(data_root, o.seed, o.val_fraction)?;
-    let model = train_on(&split, o, progress)?;
-    Ok((model, split))
-}
-
 /// One candidate of [`select_c`]: the cost and its inner-validation result.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CCandidate {
@@ -652,7 +641,8 @@ pub fn select_c(
     Ok((best, results))
 }
 
-/// Train a model on `split`'s training files.
+/// Train a model on `split`'s training files (e.g. [`split_data`]'s); `progress` receives one
+/// line per step.
 pub fn train_on(
     split: &Split,
     o: &TrainOptions,
