@@ -529,20 +529,9 @@ pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64
     pos.iter().filter(|&&s| s <= thr).count() as f64 / pos.len() as f64
 }
 
-/// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol), with the
-/// inputs sampled as in training ([`InputPipeline::Sampled`]).
-pub fn evaluate_windows(
-    model: &LinearModel,
-    split: &Split,
-    domain: Domain,
-    cfa: Cfa,
-    progress: &mut dyn FnMut(&str),
-) -> Result<WindowEval, TrainError> {
-    evaluate_windows_via(model, split, domain, cfa, &InputPipeline::Sampled, progress)
-}
-
-/// [`evaluate_windows`] with the validation images brought into `domain` through `pipeline`
-/// (e.g. the reverse ISP with one of the paper's noise levels).
+/// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol), the images
+/// brought into `domain` through `pipeline` (as in training, or e.g. the reverse ISP with one of
+/// the paper's noise levels).
 pub fn evaluate_windows_via(
     model: &LinearModel,
     split: &Split,
