@@ -39,9 +39,23 @@ pub struct EvalSiftArgs {
     /// plane resampled at its pixels' true mosaic positions).
     #[arg(long, value_enum, default_value_t = WarpArg::Lattice)]
     pub plane_warp: WarpArg,
+    /// The mosaic's octave step: `centred` (default: mean of each 2x2 block of same-colour
+    /// samples, symmetric under quarter turns) or `pick` (every other super-pixel, as OpenCV
+    /// picks every other pixel).
+    #[arg(long, value_enum, default_value_t = OctaveArg::Centred)]
+    pub mosaic_octaves: OctaveArg,
     /// Rotation of the Fig. 10 picture, degrees.
     #[arg(long, default_value_t = 20.0)]
     pub fig10_angle: f64,
+}
+
+/// Command-line names of the octave step ([`mosaicd::features::sift::SiftOptions::centred_octaves`]).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OctaveArg {
+    /// Mean of each 2x2 block of same-colour samples.
+    Centred,
+    /// Every other sample (OpenCV's step).
+    Pick,
 }
 
 /// Command-line names of [`PlaneWarp`].
@@ -83,7 +97,9 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
     anyhow::ensure!(!paths.is_empty(), "no PNG images in {}", dir.display());
     std::fs::create_dir_all(&args.out)?;
     let grey_spec = SiftSpec::grey();
-    let mosaic_spec = SiftSpec::mosaic().with_double_image(args.mosaic_double);
+    let mosaic_spec = SiftSpec::mosaic()
+        .with_double_image(args.mosaic_double)
+        .with_centred_octaves(args.mosaic_octaves == OctaveArg::Centred);
     let transforms = default_transforms();
     let warp = PlaneWarp::from(args.plane_warp);
     eprintln!(
@@ -100,7 +116,7 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
         args.out.join("summary.json"),
         serde_json::to_string_pretty(&summary)?,
     )?;
-    let md = markdown(&summary, paths.len(), args.mosaic_double, warp);
+    let md = markdown(&summary, paths.len(), &mosaic_spec, warp);
     std::fs::write(args.out.join("summary.md"), &md)?;
     println!("{md}");
     plotters::style::register_font("sans-serif", FontStyle::Normal, font()?)
@@ -126,11 +142,13 @@ fn font() -> anyhow::Result<&'static [u8]> {
     Ok(Box::leak(bytes.into_boxed_slice()))
 }
 
-fn markdown(summary: &[LevelSummary], n: usize, doubled: bool, warp: PlaneWarp) -> String {
+fn markdown(summary: &[LevelSummary], n: usize, mosaic: &SiftSpec, warp: PlaneWarp) -> String {
     let mut s = format!(
-        "SIFT repeatability on {n} Kodak images (t = {MATCH_THRESHOLD_PX} px, ratio 0.8 + mutual; mosaic doubled: {doubled}; plane warp: {})\n\n\
+        "SIFT repeatability on {n} Kodak images (t = {MATCH_THRESHOLD_PX} px, ratio 0.8 + mutual; mosaic doubled: {}; mosaic octaves: {}; plane warp: {})\n\n\
          | transform | level | grey mean | mosaic mean | mosaic - grey | grey median [25-75 %] | mosaic median [25-75 %] |\n\
          |---|---|---|---|---|---|---|\n",
+        mosaic.double_image(),
+        if mosaic.centred_octaves() { "centred" } else { "pick" },
         warp.name()
     );
     for l in summary {

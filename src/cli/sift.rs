@@ -37,6 +37,10 @@ pub struct SiftArgs {
     /// Double the image (each colour plane for a mosaic) first; default: yes for grey, no for mosaic.
     #[arg(long)]
     pub double: Option<bool>,
+    /// Octave step: centred 2x2 means (true) or every other sample as OpenCV (false); default:
+    /// centred for the mosaic, OpenCV's for grey.
+    #[arg(long)]
+    pub centred_octaves: Option<bool>,
     /// Contrast threshold (OpenCV `contrastThreshold`).
     #[arg(long, default_value_t = 0.04)]
     pub contrast_threshold: f64,
@@ -99,6 +103,9 @@ pub fn run(args: SiftArgs) -> anyhow::Result<()> {
     opts.edge_threshold = args.edge_threshold;
     if let Some(d) = args.double {
         opts.double_image = d;
+    }
+    if let Some(c) = args.centred_octaves {
+        opts.centred_octaves = c;
     }
     let spec = opts.build()?;
     let t0 = std::time::Instant::now();

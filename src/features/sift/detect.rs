@@ -141,7 +141,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
             let prev: &Image<f32> = &gauss[o - 1][nl];
             let (pw, ph) = prev.dimensions();
             let mut d = buffers::take(step * ((pw / step) / 2), step * ((ph / step) / 2));
-            downsample2_step_into(prev, step, &mut d)?;
+            downsample2_step_into(prev, step, spec.centred_octaves(), &mut d)?;
             d
         });
         let (lw, lh) = layers[0].dimensions();
@@ -554,10 +554,17 @@ pub(crate) fn fast_atan2_deg(y: f32, x: f32) -> f32 {
 /// mosaic the keypoint lives on the colour plane of the pixel it was found at (phase `p`): plane
 /// coordinate `u = (c - p) / 2 + xc` at octave `o` is `u * 2^o` at the pyramid base, undone from
 /// the x2 plane upsampling when doubled (`(u + 0.5) / 2 - 0.5`), then `2 u + p` in the mosaic.
+/// With centred octaves an octave sample `u` sits at `(u + 0.5) 2^o - 0.5` of the base (of its
+/// plane for the mosaic) instead of `u 2^o`.
 fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
     let scale = (1u64 << o) as f32;
+    let centre = if spec.centred_octaves() {
+        0.5 * (scale - 1.0)
+    } else {
+        0.0
+    };
     if spec.step() == 1 {
-        let v = (c as f32 + xc) * scale;
+        let v = (c as f32 + xc) * scale + centre;
         if spec.double_image {
             v * 0.5
         } else {
@@ -566,7 +573,7 @@ fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
     } else {
         let p = c % 2;
         let mut u = ((c - p) / 2) as f32 + xc;
-        u *= scale;
+        u = u * scale + centre;
         if spec.double_image {
             u = (u + 0.5) * 0.5 - 0.5;
         }
@@ -788,9 +795,15 @@ mod tests {
 
     #[test]
     fn mosaic_coordinates_map_back_to_the_phase() {
-        let spec = SiftSpec::mosaic();
+        let spec = SiftSpec::mosaic().with_centred_octaves(false);
         // Pixel 9 (plane index 4, phase 1) at octave 1 sits at plane 8 of the base: mosaic 17.
         assert_eq!(to_input(9, 0.0, 1, &spec), 17.0);
+        assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
+        // Centred octaves: plane index 4 at octave 1 is the mean of base planes 8 and 9 (8.5),
+        // mosaic 2 * 8.5 + 1 = 18; at octave 2, of base planes 16..=19 (17.5): mosaic 36.
+        let spec = SiftSpec::mosaic();
+        assert_eq!(to_input(9, 0.0, 1, &spec), 18.0);
+        assert_eq!(to_input(9, 0.0, 2, &spec), 36.0);
         assert_eq!(to_input(8, 0.5, 0, &spec), 9.0);
         // Doubled planes: plane index 8 of the doubled plane is plane coordinate 3.75 originally.
         let spec = SiftSpec::mosaic().with_double_image(true);

@@ -13,8 +13,13 @@
 //!   holds).
 //! - **Mosaic SIFT** ([`Domain::Mosaic`], `step = 2`, the paper's §III-B): the Gaussian pyramid
 //!   is built on the 2x2 super-pixel structure: each colour plane (R, G1, G2, B) is blurred with
-//!   the mosaic sigma halved (one plane pixel = two mosaic pixels) and the octave step keeps every
-//!   other super-pixel, so every level is still a mosaic of the same pattern. The DoG is taken on
+//!   the mosaic sigma halved (one plane pixel = two mosaic pixels), and the octave step takes the
+//!   mean of each 2x2 block of same-colour samples, so every level is still a mosaic of the same
+//!   pattern. **Where we differ from OpenCV's step** (every other sample): octave sample `i` sits
+//!   at `(i + 0.5) 2^o - 0.5` of its plane, centred between the samples it averages, so the
+//!   octave grids are symmetric under flips and quarter turns and the keypoints of a frame turned
+//!   by 90° are the turned keypoints exactly ([`SiftOptions::centred_octaves`]; OpenCV's
+//!   every-other-super-pixel step is still available). The DoG is taken on
 //!   the mosaic, extrema are searched in a **5x5** (space) x 3 (scale) neighbourhood, refinement
 //!   and the edge test use same-colour differences two pixels apart, and orientation and descriptor
 //!   use the mosaic gradient `I(x+2) - I(x-2)` (the `[-1, 0, 1]` operator on same-colour taps).
@@ -153,6 +158,12 @@ pub struct SiftOptions {
     /// pixels, i.e. twice as large in mosaic pixels, so every colour plane is blurred exactly as
     /// grey SIFT blurs an image of the plane's size. Default true; false means mosaic pixels.
     pub sigma_in_super_pixels: bool,
+    /// The octave step takes the mean of each 2x2 block of same-colour samples, centred between
+    /// them, instead of every other sample (OpenCV). Centred octaves are symmetric under flips
+    /// and quarter turns of an image whose sides are multiples of `2^octaves`; picking every other
+    /// sample shifts the coarse grid by one sample under such a turn. Default false for grey
+    /// (OpenCV parity), true for the mosaic.
+    pub centred_octaves: bool,
 }
 
 impl SiftOptions {
@@ -167,6 +178,7 @@ impl SiftOptions {
             double_image: true,
             max_value: 255.0,
             sigma_in_super_pixels: true,
+            centred_octaves: false,
         }
     }
 
@@ -177,6 +189,7 @@ impl SiftOptions {
         Self {
             domain: Domain::Mosaic,
             double_image: false,
+            centred_octaves: true,
             ..Self::grey()
         }
     }
@@ -211,6 +224,7 @@ impl SiftOptions {
             double_image: self.double_image,
             max_value: self.max_value,
             sigma_in_super_pixels: self.sigma_in_super_pixels,
+            centred_octaves: self.centred_octaves,
         })
     }
 }
@@ -226,6 +240,7 @@ pub struct SiftSpec {
     double_image: bool,
     max_value: f64,
     sigma_in_super_pixels: bool,
+    centred_octaves: bool,
 }
 
 impl SiftSpec {
@@ -278,6 +293,12 @@ impl SiftSpec {
         self
     }
 
+    /// The same spec with centred octaves ([`SiftOptions::centred_octaves`]) on or off.
+    pub fn with_centred_octaves(mut self, centred: bool) -> Self {
+        self.centred_octaves = centred;
+        self
+    }
+
     /// Grey or mosaic.
     pub fn domain(&self) -> Domain {
         self.domain
@@ -291,6 +312,11 @@ impl SiftSpec {
     /// Full-scale value of the input.
     pub fn max_value(&self) -> f64 {
         self.max_value
+    }
+
+    /// Whether octaves are centred 2x2 means (see [`SiftOptions::centred_octaves`]).
+    pub fn centred_octaves(&self) -> bool {
+        self.centred_octaves
     }
 
     /// Same-colour sample distance: 1 for grey, 2 for a mosaic.

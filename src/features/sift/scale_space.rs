@@ -295,21 +295,60 @@ pub(crate) fn upsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>
 /// The octave step: every other pixel, or every other super-pixel.
 pub(crate) fn downsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>, SuperPixelError> {
     let mut dst = Image::new(0, 0);
-    downsample2_step_into(src, step, &mut dst)?;
+    downsample2_step_into(src, step, false, &mut dst)?;
     Ok(dst)
 }
 
-/// [`downsample2_step`] into `dst` (reshaped; every pixel written).
+/// [`downsample2_step`] into `dst` (reshaped; every pixel written); with `centred`, the mean of
+/// each 2x2 block of same-colour samples instead ([`downsample2_centred_into`]).
 pub(crate) fn downsample2_step_into(
     src: &Image<f32>,
     step: usize,
+    centred: bool,
     dst: &mut Image<f32>,
 ) -> Result<(), SuperPixelError> {
-    if step == 1 {
+    if centred {
+        downsample2_centred_into(src, step, dst)
+    } else if step == 1 {
         sp_downsample2(src.view(), dst)
     } else {
         downsample2_mosaic(src.view(), dst)
     }
+}
+
+/// The centred octave step: output sample `i` (per colour plane for `step = 2`) is the mean of
+/// the same-colour samples `2i` and `2i + 1` of its plane in both directions, so it sits at plane
+/// position `2i + 0.5`. Every input sample of a `2 * step`-aligned region is used once: the grid
+/// is symmetric under flips and quarter turns when the plane sides are even, which picking every
+/// other sample is not. Sizes as [`downsample2_step`]; needs at least `2 * step` pixels each way.
+pub(crate) fn downsample2_centred_into(
+    src: &Image<f32>,
+    step: usize,
+    dst: &mut Image<f32>,
+) -> Result<(), SuperPixelError> {
+    let (w, h) = src.dimensions();
+    let (ow, oh) = (step * ((w / step) / 2), step * ((h / step) / 2));
+    if ow == 0 || oh == 0 {
+        return Err(SuperPixelError::TooSmall {
+            what: "octave step input",
+            width: w,
+            height: h,
+            min_width: 2 * step,
+            min_height: 2 * step,
+        });
+    }
+    dst.reshape(ow, oh);
+    // Output column x takes input columns 2x - p and 2x - p + step, p = x % step (its phase).
+    let map = |x: usize| 2 * x - x % step;
+    for y in 0..oh {
+        let (r0, r1) = (src.row(map(y)), src.row(map(y) + step));
+        let o = dst.row_mut(y);
+        for (x, v) in o.iter_mut().enumerate() {
+            let (a, b) = (map(x), map(x) + step);
+            *v = ((r0[a] + r0[b]) + (r1[a] + r1[b])) * 0.25;
+        }
+    }
+    Ok(())
 }
 
 /// Rows handed to one rayon task by the separable blur.
@@ -550,6 +589,46 @@ mod tests {
         assert_eq!(d.dimensions(), (4, 2));
         assert_eq!(d.row(0), &[0.0, 1.0, 4.0, 5.0]);
         assert_eq!(d.row(1), &[10.0, 11.0, 14.0, 15.0]);
+    }
+
+    #[test]
+    fn centred_downsample_by_hand() {
+        let img = Image::from_fn(8, 4, |x, y| (x + 10 * y) as f32);
+        let mut d = Image::new(0, 0);
+        downsample2_centred_into(&img, 2, &mut d).unwrap();
+        assert_eq!(d.dimensions(), (4, 2));
+        // Plane (0, 0) samples at columns 0, 2 and rows 0, 2: mean (0 + 2 + 20 + 22) / 4 = 11.
+        assert_eq!(d.row(0), &[11.0, 12.0, 15.0, 16.0]);
+        assert_eq!(d.row(1), &[21.0, 22.0, 25.0, 26.0]);
+        downsample2_centred_into(&img, 1, &mut d).unwrap();
+        assert_eq!(d.dimensions(), (4, 2));
+        assert_eq!(d.row(0), &[5.5, 7.5, 9.5, 11.5]);
+        assert!(downsample2_centred_into(&Image::new(3, 8), 2, &mut d).is_err());
+    }
+
+    /// A quarter turn (x, y) -> (h - 1 - y, x) of the pixel array.
+    fn quarter_turn(img: &Image<f32>) -> Image<f32> {
+        let (w, h) = img.dimensions();
+        Image::from_fn(h, w, |x, y| img.get(y, h - 1 - x))
+    }
+
+    #[test]
+    fn centred_octaves_commute_with_quarter_turns_and_picked_ones_do_not() {
+        // Plane sides even: 24x16 (planes 12x8) for the mosaic, 12x8 for grey.
+        for (step, w, h) in [(2, 24, 16), (1, 12, 8)] {
+            let img = Image::from_fn(w, h, |x, y| {
+                ((x * 7 + y * 13) % 17) as f32 + 0.25 * (x % 2) as f32
+            });
+            let (mut a, mut b) = (Image::new(0, 0), Image::new(0, 0));
+            downsample2_centred_into(&quarter_turn(&img), step, &mut a).unwrap();
+            downsample2_centred_into(&img, step, &mut b).unwrap();
+            assert_eq!(a, quarter_turn(&b), "step {step}");
+            // Picking every other sample: the turned image's grid is one sample off.
+            assert_ne!(
+                downsample2(&quarter_turn(&img), step),
+                quarter_turn(&downsample2(&img, step))
+            );
+        }
     }
 
     #[test]
