@@ -5,7 +5,7 @@ CARGO ?= cargo
 export MOSAICD_DATA ?= $(abspath ../shared/data)
 ORACLE_DIR := target/oracle
 
-.PHONY: setup demo recording test oracle lint doc bench
+.PHONY: setup demo recording test oracle skimage-negatives lint doc bench
 
 setup:
 	@bash scripts/setup.sh
@@ -26,6 +26,11 @@ recording: setup
 # Reference fixtures from OpenCV / scikit-image / colour-demosaicing (tests/oracle/gen_*.py).
 oracle: setup
 	python3 tests/oracle/generate.py --out $(ORACLE_DIR)
+
+# scikit-image's person-free sample photographs (from the installed wheel, no download) as PNGs, for
+# `mosaicd train --negatives-dir target/skimage_negatives` (docs/detection.md, "The shipped models").
+skimage-negatives: setup
+	python3 scripts/skimage_negatives.py --out target/skimage_negatives
 
 lint:
 	$(CARGO) fmt --check

@@ -1,12 +1,15 @@
 //! `mosaicd train` on the real INRIA positives and a few real negative images: training through
 //! the paper's reverse ISP is deterministic for any thread count, records its input pipeline in
-//! the model's provenance, yields a model that loads and scores, and bad options are clear errors.
+//! the model's provenance, yields a model that loads and scores, extra negatives (mirrored, raw
+//! scenes, `--negatives-dir`) join the training set and are recorded, and bad options are clear
+//! errors.
 //! The full training runs that rebuilt `models/` are in docs/detection.md "Models".
 
 use std::path::Path;
 use std::process::{Command, Output};
 
 use mosaicd::detect::model::{Domain, LinearModel};
+use mosaicd::detect::train::split_data;
 
 fn mosaicd(args: &[&str]) -> Output {
     mosaicd::data::require("pedestrian/inria_pos_96x160");
@@ -97,6 +100,90 @@ fn mirrored_and_raw_scene_negatives_join_the_training_set() {
     assert_eq!(random_negatives(&plain_log), 40);
     assert_eq!(random_negatives(&log), 130);
     assert_ne!(plain.weights, more.weights);
+}
+
+/// Two synthetic 160x256 PNGs (a seeded texture with a few edges) in `dir`.
+fn write_negatives(dir: &Path) {
+    for (k, name) in ["b.png", "a.png"].iter().enumerate() {
+        let mut state = 0x9e37_79b9_u32.wrapping_mul(k as u32 + 1);
+        let img = image::RgbImage::from_fn(160, 256, |x, y| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let n = (state >> 26) as u8;
+            let v = if (x / 24 + y / 40 + k as u32).is_multiple_of(2) {
+                60
+            } else {
+                170
+            };
+            image::Rgb([v + n, v / 2 + n, 255 - v - n])
+        });
+        img.save(dir.join(name)).unwrap();
+    }
+    std::fs::write(dir.join("notes.txt"), "not an image").unwrap();
+}
+
+#[test]
+fn negatives_dir_images_are_training_only_recorded_and_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let negs = dir.path().join("negs");
+    std::fs::create_dir(&negs).unwrap();
+    write_negatives(&negs);
+    let extra = ["--negatives-dir", negs.to_str().unwrap(), "--mirror-negatives"];
+    let (a, log) = train_with(&dir.path().join("a.json"), "sampled", "1", &extra);
+    let (b, _) = train_with(&dir.path().join("b.json"), "sampled", "2", &extra);
+    assert!(log.contains("2 training-only images"), "{log}");
+    // Bit-identical for 1 and 2 threads.
+    assert_eq!(a.weights, b.weights);
+    assert_eq!(a.bias, b.bias);
+    // 4 split images + 2 training-only ones, each mirrored, 10 random windows each: 120.
+    let svm_line = log
+        .lines()
+        .find(|l| l.contains("svm:"))
+        .expect("svm progress line");
+    assert!(svm_line.ends_with(", 120 negatives"), "{svm_line}");
+    let p = &a.provenance;
+    assert_eq!(p["training_only_negative_images"], 2);
+    assert_eq!(p["negatives_dirs"][0], negs.to_str().unwrap());
+    let files = p["training_only_negatives"].as_array().unwrap();
+    // Sorted by name, each with its size, pixel digest and random windows (20: mirror included).
+    assert_eq!(files[0]["file"], "a.png");
+    assert_eq!(files[1]["file"], "b.png");
+    assert!(files.iter().all(|f| f["width"] == 160 && f["height"] == 256));
+    assert!(files.iter().all(|f| f["random_windows"] == 20));
+    assert_ne!(files[0]["rgb_fnv1a64"], files[1]["rgb_fnv1a64"]);
+    assert_eq!(
+        p["training_only_negatives"],
+        b.provenance["training_only_negatives"]
+    );
+    // The split's own negatives are those of the plain split (nothing of the new ones held out).
+    let split = split_data(&mosaicd::data::data_root(), 1, 0.2).unwrap();
+    assert_eq!(p["train_negative_images"], split.train_neg.len());
+}
+
+#[test]
+fn bad_negatives_dirs_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.json");
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let missing = dir.path().join("missing");
+    for (bad, what) in [(&missing, "No such file"), (&empty, "no PNG or JPEG images")] {
+        let o = mosaicd(&[
+            "train",
+            "--domain",
+            "mosaic",
+            "--negatives-dir",
+            bad.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("--negatives-dir") && err.contains(bad.to_str().unwrap()) && err.contains(what),
+            "{err}"
+        );
+        assert!(!out.exists(), "no model may be written on error");
+    }
 }
 
 #[test]

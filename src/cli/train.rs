@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use mosaicd::detect::train::{
-    evaluate_windows_via, select_c, split_data, train_on, InputPipeline, TrainOptions,
+    evaluate_windows_via, list_negative_dirs, select_c, split_data, train_on, InputPipeline, TrainOptions,
 };
 use mosaicd::raw::Cfa;
 
@@ -57,6 +57,11 @@ pub struct TrainArgs {
     /// Also train on the five person-free Infinite-ISP raw scenes (rendered by the forward ISP).
     #[arg(long)]
     pub raw_negatives: bool,
+    /// Also train on the PNG/JPEG images of this directory (repeatable), e.g. scikit-image's
+    /// person-free photographs written by `scripts/skimage_negatives.py`. Training only: never
+    /// held out, so the validation split is the same with or without them.
+    #[arg(long, value_name = "DIR")]
+    pub negatives_dir: Vec<PathBuf>,
     /// Choose C among these values (comma-separated) on an inner split of the training files
     /// (the held-out validation split is not looked at), then train with it; overrides `--c`.
     #[arg(long, value_delimiter = ',')]
@@ -92,7 +97,9 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
     let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
-    let split = split_data(&root, o.seed, o.val_fraction)?;
+    let mut split = split_data(&root, o.seed, o.val_fraction)?;
+    split.extra_train_neg =
+        list_negative_dirs(&a.negatives_dir).map_err(|e| anyhow::anyhow!("--negatives-dir: {e}"))?;
     let mut selection = None;
     if !a.select_c.is_empty() {
         anyhow::ensure!(
@@ -114,6 +121,9 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     }
     let cmd: Vec<String> = std::env::args().collect();
     model.provenance["command"] = serde_json::json!(cmd.join(" "));
+    if !a.negatives_dir.is_empty() {
+        model.provenance["negatives_dirs"] = serde_json::json!(a.negatives_dir);
+    }
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
     if !a.no_eval {
         let ev = pool

@@ -12,13 +12,17 @@
 //! Positives: `pedestrian/inria_pos_96x160` (the 64x128 window at (16, 16)); the validation split
 //! holds out whole photos (file prefix without the trailing letter, which also groups the
 //! mirrors). Negatives: person-free photos (`neg_inria/`, `neg/`, Kodak without 04 05 12 14 15 18),
-//! split by a seeded shuffle. Every image is brought into the model's input domain: colour (RGB),
-//! grey (OpenCV's RGB→grey), or mosaic, through [`TrainOptions::pipeline`]: either sampled
-//! straight from the sRGB image ([`InputPipeline::Sampled`]: through the CFA for the mosaic, no
-//! linearisation or white balance; `models/mosaic.json` and `models/colour.json`) or the paper's
-//! way through the reverse ISP to raw ([`InputPipeline::ReverseIsp`], optionally noisy;
-//! `models/mosaic_raw.json`, `models/colour_raw.json`). Training images use noise streams of
-//! their own (the pipeline's seed and the image's index), never those of the evaluation.
+//! split by a seeded shuffle; optionally also training-only negatives that are never held out (the
+//! five Infinite-ISP raw scenes, [`TrainOptions::raw_negatives`]; the images of
+//! [`Split::extra_train_neg`], e.g. scikit-image's person-free photographs written by
+//! `scripts/skimage_negatives.py`), so the held-out split is the same with or without them. Every
+//! image is brought into the model's input domain: colour (RGB), grey (OpenCV's RGB→grey), or
+//! mosaic, through [`TrainOptions::pipeline`]: either sampled straight from the sRGB image
+//! ([`InputPipeline::Sampled`]: through the CFA for the mosaic, no linearisation or white balance;
+//! `models/mosaic.json` and `models/colour.json`) or the paper's way through the reverse ISP to
+//! raw ([`InputPipeline::ReverseIsp`], optionally noisy; `models/mosaic_raw.json`,
+//! `models/colour_raw.json`). Training images use noise streams of their own (the pipeline's seed
+//! and the image's index), never those of the evaluation.
 //!
 //! # Input pipelines of the evaluation
 //! [`InputPipeline::Sampled`] is the training convention above. [`InputPipeline::ReverseIsp`] is the
@@ -66,6 +70,8 @@ const MIRROR_SEED_OFFSET: u64 = 1 << 31;
 const INNER_SPLIT_SALT: u64 = 0x696e_6e65_725f_7631;
 /// Added to [`NEG_SEED_OFFSET`] for the raw scenes.
 const RAW_SCENE_SEED_OFFSET: u64 = 1 << 30;
+/// Added to [`NEG_SEED_OFFSET`] for the training-only negatives of [`Split::extra_train_neg`].
+const EXTRA_NEG_SEED_OFFSET: u64 = 1 << 29;
 /// Most points kept of a DET curve in [`WindowEval::det`] (enough for a plot).
 const DET_PLOT_POINTS: usize = 400;
 
@@ -149,6 +155,14 @@ fn image_seed(seed: u64, index: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// 64-bit FNV-1a of `bytes`: a digest of a training image's decoded pixels for the provenance
+/// (not cryptographic; it tells whether two runs trained on the same pixels).
+fn fnv1a64(bytes: impl IntoIterator<Item = u8>) -> u64 {
+    bytes.into_iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
 /// Training options.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrainOptions {
@@ -168,7 +182,8 @@ pub struct TrainOptions {
     pub max_hard_per_round: usize,
     /// Fraction of photos (positives) and negative images held out for validation.
     pub val_fraction: f64,
-    /// Use at most this many training negative images (0 = all) — a speed knob.
+    /// Use at most this many of the split's training negative images (0 = all) — a speed knob;
+    /// the raw scenes and [`Split::extra_train_neg`] are always used in full.
     pub max_neg_images: usize,
     /// How the sRGB training images become inputs: sampled through the CFA (the shipped
     /// models), or the paper's reverse ISP to raw (optionally with noise).
@@ -210,12 +225,34 @@ pub struct Split {
     pub train_neg: Vec<PathBuf>,
     /// Validation negative images.
     pub val_neg: Vec<PathBuf>,
+    /// Training-only negative images (`mosaicd train --negatives-dir`, e.g. scikit-image's
+    /// person-free photographs): never split, never held out, so the validation files stay those of
+    /// [`split_data`] with or without them. [`inner_split`] keeps them on its training side.
+    pub extra_train_neg: Vec<PathBuf>,
 }
 
 /// Photo prefix of an INRIA crop file name: the stem without its trailing letter.
 pub fn photo_prefix(name: &str) -> &str {
     let stem = name.rsplit_once('.').map_or(name, |(s, _)| s);
     stem.trim_end_matches(|c: char| c.is_ascii_alphabetic())
+}
+
+/// The PNG and JPEG files of `dirs`, each directory's sorted by name, in the order of `dirs`: the
+/// training-only negatives of [`Split::extra_train_neg`]. A directory that cannot be read or holds
+/// no image is an error.
+pub fn list_negative_dirs(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, TrainError> {
+    let mut out = Vec::new();
+    for dir in dirs {
+        let v = list(dir)?;
+        if v.is_empty() {
+            return Err(TrainError::Data {
+                path: dir.clone(),
+                what: "no PNG or JPEG images in this directory".into(),
+            });
+        }
+        out.extend(v);
+    }
+    Ok(out)
 }
 
 fn list(dir: &Path) -> Result<Vec<PathBuf>, TrainError> {
@@ -250,14 +287,18 @@ pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Spli
 }
 
 /// Split the *training* part of `split` once more, the same way (positives by photo prefix,
-/// negatives by image), for model selection; `split`'s own validation files are not used.
+/// negatives by image), for model selection; `split`'s own validation files are not used, and its
+/// training-only negatives stay training-only.
 pub fn inner_split(split: &Split, seed: u64, val_fraction: f64) -> Split {
-    split_lists(
-        split.train_pos.clone(),
-        split.train_neg.clone(),
-        seed ^ INNER_SPLIT_SALT,
-        val_fraction,
-    )
+    Split {
+        extra_train_neg: split.extra_train_neg.clone(),
+        ..split_lists(
+            split.train_pos.clone(),
+            split.train_neg.clone(),
+            seed ^ INNER_SPLIT_SALT,
+            val_fraction,
+        )
+    }
 }
 
 /// Seeded split of positives (`pos` sorted by name, grouped by photo prefix) and negatives.
@@ -654,36 +695,37 @@ pub fn train_on(
     } else {
         split.train_neg.clone()
     };
-    // Training negatives in a fixed order: each image (and its mirror), then the raw scenes.
-    // Noise-stream indices: image i → NEG_SEED_OFFSET + i, its mirror + MIRROR_SEED_OFFSET,
-    // raw scene k → NEG_SEED_OFFSET + RAW_SCENE_SEED_OFFSET + k.
+    // Training negatives in a fixed order: each image (and its mirror), then the raw scenes, then
+    // the training-only images (and their mirrors). Noise-stream indices: image i →
+    // NEG_SEED_OFFSET + i, its mirror + MIRROR_SEED_OFFSET, raw scene k → NEG_SEED_OFFSET +
+    // RAW_SCENE_SEED_OFFSET + k, training-only image j → NEG_SEED_OFFSET + EXTRA_NEG_SEED_OFFSET + j
+    // (its mirror + MIRROR_SEED_OFFSET). Without training-only images the order (and so the random
+    // windows) is that of earlier versions.
     let mut neg_imgs = Vec::new();
+    // `mirror`: also add the image mirrored left-right if `o.mirror_negatives`.
     let mut add_negative = |rgb: &Image<[u8; 3]>,
                             index: u64,
+                            mirror: bool,
                             x: &mut Vec<Vec<f32>>,
                             y: &mut Vec<i8>|
      -> Result<(), TrainError> {
-        let img = DomainImage::from_rgb_via(rgb, o.domain, o.cfa, &o.pipeline, index)?;
-        for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
-            x.push(d);
-            y.push(-1);
+        let (w, h) = rgb.dimensions();
+        let mirrored =
+            (mirror && o.mirror_negatives).then(|| Image::from_fn(w, h, |xx, yy| rgb.get(w - 1 - xx, yy)));
+        for (img, index) in
+            std::iter::once((rgb, index)).chain(mirrored.as_ref().map(|m| (m, index + MIRROR_SEED_OFFSET)))
+        {
+            let img = DomainImage::from_rgb_via(img, o.domain, o.cfa, &o.pipeline, index)?;
+            for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
+                x.push(d);
+                y.push(-1);
+            }
+            neg_imgs.push(img);
         }
-        neg_imgs.push(img);
         Ok(())
     };
     for (i, p) in negs.iter().enumerate() {
-        let rgb = load_rgb(p)?;
-        add_negative(&rgb, NEG_SEED_OFFSET + i as u64, &mut x, &mut y)?;
-        if o.mirror_negatives {
-            let (w, h) = rgb.dimensions();
-            let m = Image::from_fn(w, h, |xx, yy| rgb.get(w - 1 - xx, yy));
-            add_negative(
-                &m,
-                NEG_SEED_OFFSET + MIRROR_SEED_OFFSET + i as u64,
-                &mut x,
-                &mut y,
-            )?;
-        }
+        add_negative(&load_rgb(p)?, NEG_SEED_OFFSET + i as u64, true, &mut x, &mut y)?;
         if i % 50 == 0 {
             progress(&format!(
                 "random negatives: image {}/{} ({} windows)",
@@ -699,6 +741,7 @@ pub fn train_on(
             add_negative(
                 &rgb,
                 NEG_SEED_OFFSET + RAW_SCENE_SEED_OFFSET + k as u64,
+                false,
                 &mut x,
                 &mut y,
             )?;
@@ -706,6 +749,32 @@ pub fn train_on(
         progress(&format!(
             "random negatives: {} raw scenes ({} windows)",
             INFINITE_ISP_SCENES.len(),
+            y.iter().filter(|&&v| v < 0).count()
+        ));
+    }
+    // What the training-only images were, for the provenance: name, size, pixel digest.
+    let mut extra = Vec::new();
+    for (j, p) in split.extra_train_neg.iter().enumerate() {
+        let rgb = load_rgb(p)?;
+        let before = y.len();
+        add_negative(
+            &rgb,
+            NEG_SEED_OFFSET + EXTRA_NEG_SEED_OFFSET + j as u64,
+            true,
+            &mut x,
+            &mut y,
+        )?;
+        extra.push(serde_json::json!({
+            "file": p.file_name().map(|n| n.to_string_lossy()),
+            "width": rgb.width(), "height": rgb.height(),
+            "rgb_fnv1a64": format!("{:016x}", fnv1a64(rgb.as_slice().iter().flatten().copied())),
+            "random_windows": y.len() - before,
+        }));
+    }
+    if !split.extra_train_neg.is_empty() {
+        progress(&format!(
+            "random negatives: {} training-only images ({} windows)",
+            split.extra_train_neg.len(),
             y.iter().filter(|&&v| v < 0).count()
         ));
     }
@@ -774,7 +843,11 @@ pub fn train_on(
         w = r.0;
         b = r.1;
     }
-    Ok(model_from(w, b, o, split, x.len()))
+    let mut m = model_from(w, b, o, split, x.len());
+    if !extra.is_empty() {
+        m.provenance["training_only_negatives"] = serde_json::json!(extra);
+    }
+    Ok(m)
 }
 
 fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) -> LinearModel {
@@ -788,6 +861,7 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) ->
         "max_neg_images": o.max_neg_images,
         "mirror_negatives": o.mirror_negatives, "raw_negatives": o.raw_negatives,
         "train_positives": split.train_pos.len(), "train_negative_images": split.train_neg.len(),
+        "training_only_negative_images": split.extra_train_neg.len(),
         "training_vectors": n,
         "input_pipeline": o.pipeline.name(),
         "input_note": match o.pipeline {
@@ -904,8 +978,13 @@ mod tests {
             .flat_map(|k| ["a", "b"].map(|m| PathBuf::from(format!("crop{k:03}{m}.png"))))
             .collect();
         let neg: Vec<PathBuf> = (0..30).map(|k| PathBuf::from(format!("neg{k}.jpg"))).collect();
-        let outer = split_lists(pos, neg, 1, 0.2);
+        let outer = Split {
+            extra_train_neg: vec![PathBuf::from("extra.png")],
+            ..split_lists(pos, neg, 1, 0.2)
+        };
         let inner = inner_split(&outer, 1, 0.2);
+        // Training-only negatives stay on the training side.
+        assert_eq!(inner.extra_train_neg, outer.extra_train_neg);
         let sorted = |v: &[PathBuf]| {
             let mut v = v.to_vec();
             v.sort();
@@ -929,6 +1008,36 @@ mod tests {
         }
         // Deterministic.
         assert_eq!(inner_split(&outer, 1, 0.2).val_pos, inner.val_pos);
+    }
+
+    #[test]
+    fn negative_dirs_list_images_in_order_and_reject_empty_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let (d1, d2, empty) = (dir.path().join("1"), dir.path().join("2"), dir.path().join("e"));
+        for d in [&d1, &d2, &empty] {
+            std::fs::create_dir(d).unwrap();
+        }
+        for f in [
+            d1.join("b.png"),
+            d1.join("a.jpg"),
+            d2.join("c.png"),
+            d1.join("x.txt"),
+        ] {
+            std::fs::write(f, b"").unwrap();
+        }
+        let names: Vec<PathBuf> = list_negative_dirs(&[d2.clone(), d1.clone()]).unwrap();
+        assert_eq!(names, [d2.join("c.png"), d1.join("a.jpg"), d1.join("b.png")]);
+        let e = list_negative_dirs(&[d1.clone(), empty.clone()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no PNG or JPEG") && e.contains(empty.to_str().unwrap()),
+            "{e}"
+        );
+        let e = list_negative_dirs(&[dir.path().join("missing")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing"), "{e}");
     }
 
     #[test]
