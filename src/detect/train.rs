@@ -98,6 +98,16 @@ pub enum TrainError {
     /// DET curve failure (no samples).
     #[error(transparent)]
     Metrics(#[from] crate::metrics::MetricsError),
+    /// A training option out of range.
+    #[error("training option {what} = {value} is out of range ({allowed})")]
+    BadOption {
+        /// Option name.
+        what: &'static str,
+        /// The value given.
+        value: String,
+        /// What is allowed.
+        allowed: &'static str,
+    },
 }
 
 /// How an sRGB data image becomes a model's input (see the module docs).
@@ -636,6 +646,17 @@ pub fn select_c(
     candidates: &[f64],
     progress: &mut dyn FnMut(&str),
 ) -> Result<(f64, Vec<CCandidate>), TrainError> {
+    let bad = |value: String, allowed| TrainError::BadOption {
+        what: "C candidates",
+        value,
+        allowed,
+    };
+    if candidates.is_empty() {
+        return Err(bad("[]".into(), "at least one"));
+    }
+    if let Some(c) = candidates.iter().find(|c| !(c.is_finite() && **c > 0.0)) {
+        return Err(bad(c.to_string(), "finite and > 0"));
+    }
     let inner = inner_split(split, o.seed, o.val_fraction);
     let mut results = Vec::new();
     for &c in candidates {
@@ -664,10 +685,7 @@ pub fn select_c(
                 .then(ka.2.total_cmp(&kb.2))
         })
         .map(|r| r.c)
-        .ok_or_else(|| TrainError::Data {
-            path: PathBuf::new(),
-            what: "no C candidates".into(),
-        })?;
+        .expect("at least one candidate, checked above");
     Ok((best, results))
 }
 
@@ -1008,6 +1026,27 @@ mod tests {
         }
         // Deterministic.
         assert_eq!(inner_split(&outer, 1, 0.2).val_pos, inner.val_pos);
+    }
+
+    #[test]
+    fn select_c_rejects_empty_and_non_positive_candidates_before_training() {
+        // The files do not exist: a candidate list that got past the check would fail on them.
+        let split = split_lists(
+            vec![PathBuf::from("crop001a.png")],
+            vec![PathBuf::from("neg.jpg")],
+            1,
+            0.2,
+        );
+        let o = TrainOptions::default();
+        for (cands, shown) in [(&[][..], "[]"), (&[0.1, 0.0][..], "0"), (&[f64::NAN][..], "NaN")] {
+            match select_c(&split, &o, cands, &mut |_| {}) {
+                Err(TrainError::BadOption { what, value, .. }) => {
+                    assert_eq!(what, "C candidates");
+                    assert_eq!(value, shown);
+                }
+                other => panic!("{cands:?}: {other:?}"),
+            }
+        }
     }
 
     #[test]
