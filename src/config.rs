@@ -221,7 +221,8 @@ pub struct ComputeConfig {
     /// Start the pyramid magnified (`0.5..=4.0`; 2 finds people ~64 px tall).
     pub upsample: f64,
     /// Feature-pyramid approximation (Dollár et al. 2014): every n-th level is computed exactly,
-    /// the levels between resample its cells (`1..=64`; 1 = exact, 14 ≈ one exact level per octave).
+    /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
+    /// exact level per octave).
     pub approx_levels: usize,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,

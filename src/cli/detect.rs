@@ -79,8 +79,9 @@ pub struct DetectorArgs {
     /// Suppression: `group` (OpenCV groupRectangles, threshold 2, eps 0.2), `greedy` (IoU 0.5), `none`.
     #[arg(long, value_enum, default_value_t = NmsArg::Group)]
     pub nms: NmsArg,
-    /// Feature-pyramid approximation: compute every N-th level exactly and resample cells in
-    /// between (1 = exact, OpenCV-equivalent; 14 ≈ one exact level per octave at step 1.05).
+    /// Feature-pyramid approximation: compute every N-th level exactly and approximate the levels
+    /// in between from its 2x2-pixel micro-cells (1 = exact, OpenCV-equivalent; 14 ≈ one exact
+    /// level per octave at step 1.05).
     #[arg(long, default_value_t = 1)]
     pub approx: usize,
 }

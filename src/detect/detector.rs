@@ -41,16 +41,18 @@ use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    block_grid_from_gamma_planes, blocks_from_cells, blocks_from_resampled_cells,
-    cell_grid_from_gamma_planes, gamma_in_place, gamma_plane_into, BlockGrid, CellGrid, Exec, GammaPlanes,
-    HogError, HogInput, HogSpec, HogTimings, CELL_SIZE,
+    block_grid_from_gamma_planes, blocks_from_micro_grid, gamma_in_place, gamma_plane_into,
+    micro_grid_from_gamma_planes, BlockGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec, HogTimings,
+    MicroGrid, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::{Image, ImageView};
 
-/// Gain applied to resampled cells of approximated levels. Cell sums of a coarser level grow
-/// between 1 (step edges) and the scale ratio (smooth ramps); L2-Hys normalisation removes the
-/// difference except for its epsilon, so we use 1.
-const APPROX_GAIN: f32 = 1.0;
+/// Gain of the cells of level `lv` approximated from the micro-cells of `head`: the linear size
+/// ratio `√(r_x r_y)` (summed gradient magnitudes measure edge length, which shrinks with the
+/// level; see [`crate::features::hog::blocks_from_micro_grid`]).
+fn approx_gain(head: &Level, lv: &Level) -> f32 {
+    ((lv.width * lv.height) as f64 / (head.width * head.height) as f64).sqrt() as f32
+}
 
 /// Errors of the detector.
 #[derive(Debug, thiserror::Error)]
@@ -109,8 +111,10 @@ pub struct DetectorOptions {
     /// Suppression.
     pub nms: NmsMethod,
     /// Feature-pyramid approximation (Dollár et al. 2014): levels are taken in groups of this many;
-    /// the first of each group is computed exactly, the others resample its cell grid. 1 = every
-    /// level exact (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
+    /// the first of each group is computed exactly, the others are approximated from its
+    /// orientation votes pooled into 2x2-pixel micro-cells
+    /// ([`crate::features::hog::blocks_from_micro_grid`]). 1 = every level exact
+    /// (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
     pub approx_levels: usize,
 }
 
@@ -185,7 +189,7 @@ pub struct DetectStats {
     pub resize: Duration,
     /// HOG stage times.
     pub hog: HogTimings,
-    /// Cell-grid resampling of approximated levels.
+    /// Approximated levels: their cells from the exact level's micro-cells, and their blocks.
     pub cell_resample: Duration,
     /// SVM scoring.
     pub svm: Duration,
@@ -224,8 +228,8 @@ pub struct Detector {
 struct LevelScratch {
     /// Resized, gamma-corrected planes (one, or B, G, R).
     planes: [Image<f32>; 3],
-    /// Exact cells of the level.
-    cells: CellGrid,
+    /// Micro-cells of the group's exact level (approximate pyramid).
+    micro: MicroGrid,
     /// Normalised blocks.
     blocks: BlockGrid,
     /// Window scores.
@@ -500,7 +504,8 @@ impl Detector {
     }
 
     /// One group of levels: the first is computed exactly, the others (approximate mode) from its
-    /// cells.
+    /// micro-cells (the micro-cell pass recomputes the exact level's gradients; its time goes to
+    /// `stats.hog.cells`).
     fn detect_group(
         &self,
         linear: &Linear,
@@ -535,22 +540,18 @@ impl Detector {
         }
         let planes = self.level_planes(linear, head, &mut stats, &mut sc.planes)?;
         let t = Instant::now();
-        cell_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.cells)?;
+        block_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.blocks)?;
+        micro_grid_from_gamma_planes(&self.hog, &planes, MICRO_CELL, exec, &mut sc.micro)?;
         stats.hog.cells += t.elapsed();
         for (i, lv) in group.iter().enumerate() {
-            let t = Instant::now();
-            if i == 0 {
-                blocks_from_cells(&self.hog, &sc.cells, exec, &mut sc.blocks);
-                stats.hog.blocks += t.elapsed();
-            } else {
-                // Resampled cells go straight into blocks (no resampled cell grid).
-                let (ncx, ncy) = (lv.width / CELL_SIZE, lv.height / CELL_SIZE);
-                blocks_from_resampled_cells(
+            if i > 0 {
+                let t = Instant::now();
+                blocks_from_micro_grid(
                     &self.hog,
-                    &sc.cells,
-                    ncx,
-                    ncy,
-                    APPROX_GAIN,
+                    &sc.micro,
+                    lv.width,
+                    lv.height,
+                    approx_gain(head, lv),
                     exec,
                     &mut sc.blocks,
                 );
@@ -790,7 +791,7 @@ mod tests {
                     let planes: usize = s.planes.iter().map(|p| p.as_slice().len()).sum();
                     let b = &s.blocks;
                     planes
-                        + s.cells.cells_x() * s.cells.cells_y()
+                        + s.micro.cells_x() * s.micro.cells_y()
                         + b.blocks_x() * b.blocks_y() * b.block_len()
                 })
                 .sum();

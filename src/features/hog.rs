@@ -21,6 +21,10 @@
 //! assert_eq!(d.len(), 3780);
 //! ```
 //!
+//! Levels of an approximate feature pyramid come from another level's orientation votes pooled
+//! into micro-cells ([`micro_grid_from_gamma_planes`], [`blocks_from_micro_grid`]; the math and
+//! how it differs from Dollár et al. and from our previous cell resampling: [`approx`]).
+//!
 //! # The math (as OpenCV `hog.cpp` computes it)
 //!
 //! 1. **Gamma**: every sample `v` (in 8-bit units, u16 inputs scaled by 255/max) becomes `√v`
@@ -132,6 +136,9 @@ pub enum HogError {
         /// Height.
         height: usize,
     },
+    /// A micro-cell side outside 1..=8 ([`micro_grid_from_gamma_planes`]).
+    #[error("micro-cell size must be in 1..=8 pixels, got {0}")]
+    BadMicroCell(usize),
     /// A u16 input with a zero maximum.
     #[error("u16 input maximum value must be positive, got {0}")]
     BadMaxValue(u16),
@@ -861,6 +868,10 @@ macro_rules! avx2_or_generic {
     }};
 }
 
+// After the macro: the submodule uses it.
+pub mod approx;
+pub use approx::{blocks_from_micro_grid, micro_grid_from_gamma_planes, MicroGrid, MICRO_CELL};
+
 /// Values per cell: PROFILES (y) x PROFILES (x) x nbins.
 fn cell_len(nbins: usize) -> usize {
     PROFILES * PROFILES * nbins
@@ -1032,89 +1043,6 @@ fn planes_of<'a>(spec: &HogSpec, planes: &GammaPlanes<'a>) -> Result<Planes<'a>,
     })
 }
 
-/// Bilinear resampling of a cell grid to `new_ncx x new_ncy` cells, times `gain` — the
-/// feature-pyramid approximation of Dollár et al. (2014): the cells of a level between exact
-/// levels are predicted from the nearest finer exact level. Cell centres are aligned with
-/// half-cell offsets (as `cv2.resize`).
-pub fn resize_cell_grid(
-    src: &CellGrid,
-    new_ncx: usize,
-    new_ncy: usize,
-    gain: f32,
-    exec: Exec,
-    dst: &mut CellGrid,
-) {
-    let cl = src.cell_len;
-    dst.ncx = new_ncx;
-    dst.ncy = new_ncy;
-    dst.cell_len = cl;
-    dst.data.clear();
-    dst.data.resize(new_ncx * new_ncy * cl, 0.0);
-    if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
-        return;
-    }
-    let (tx, ty) = (cell_taps(src.ncx, new_ncx), cell_taps(src.ncy, new_ncy));
-    let avx2 = have_avx2();
-    let work = |(y, row): (usize, &mut [f32])| resample_cell_row_with(avx2, src, &tx, ty[y], gain, row);
-    match exec {
-        Exec::Parallel => dst.data.par_chunks_mut(new_ncx * cl).enumerate().for_each(work),
-        Exec::Serial => dst.data.chunks_mut(new_ncx * cl).enumerate().for_each(work),
-    }
-}
-
-/// The block grid of [`resize_cell_grid`]`(src, …)` without the resampled cell grid: bands of
-/// [`BAND_BLOCK_ROWS`] block rows resample their cell rows into a two-row ring and assemble each
-/// block row from it (as [`block_grid_from_gamma_planes`]). Bit for bit [`resize_cell_grid`] then
-/// [`blocks_from_cells`]. `dst`'s buffer is reused.
-pub fn blocks_from_resampled_cells(
-    spec: &HogSpec,
-    src: &CellGrid,
-    new_ncx: usize,
-    new_ncy: usize,
-    gain: f32,
-    exec: Exec,
-    dst: &mut BlockGrid,
-) {
-    if src.ncx == 0 || src.ncy == 0 || new_ncx == 0 || new_ncy == 0 {
-        block_grid_shape(spec, 0, 0, dst);
-        return;
-    }
-    debug_assert_eq!(src.cell_len, cell_len(spec.nbins()));
-    let (tx, ty) = (cell_taps(src.ncx, new_ncx), cell_taps(src.ncy, new_ncy));
-    let avx2 = have_avx2();
-    let fill =
-        |cy: usize, row: &mut [f32], _: &mut ()| resample_cell_row_with(avx2, src, &tx, ty[cy], gain, row);
-    blocks_in_bands_with(spec, new_ncx, new_ncy, exec, avx2, dst, || (), fill);
-}
-
-/// [`CellTaps`] of every output cell along one axis (`n` source cells, `m` output cells).
-fn cell_taps(n: usize, m: usize) -> Vec<CellTaps> {
-    let sc = n as f32 / m as f32;
-    (0..m)
-        .map(|d| {
-            let s = ((d as f32 + 0.5) * sc - 0.5).clamp(0.0, (n - 1) as f32);
-            let i = s.floor() as usize;
-            (i, (i + 1).min(n - 1), s - i as f32)
-        })
-        .collect()
-}
-
-/// [`resample_cell_row`], the AVX2 + FMA build when `avx2` (which must then be supported).
-fn resample_cell_row_with(
-    avx2: bool,
-    src: &CellGrid,
-    tx: &[CellTaps],
-    ty: CellTaps,
-    gain: f32,
-    row: &mut [f32],
-) {
-    avx2_or_generic!(
-        avx2,
-        resample_cell_row_avx2(src, tx, ty, gain, row),
-        resample_cell_row(src, tx, ty, gain, row)
-    )
-}
-
 /// Whether the AVX2 + FMA builds of the kernels can run on this CPU.
 #[inline]
 fn have_avx2() -> bool {
@@ -1124,38 +1052,6 @@ fn have_avx2() -> bool {
     }
     #[cfg(not(target_arch = "x86_64"))]
     false
-}
-
-/// Taps of one axis of [`resize_cell_grid`]: (lower cell, upper cell, weight of the upper).
-type CellTaps = (usize, usize, f32);
-
-/// [`resample_cell_row`] compiled for AVX2 + FMA (same bits: no fused operations).
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn resample_cell_row_avx2(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
-    resample_cell_row(src, tx, ty, gain, row)
-}
-
-/// One output row of [`resize_cell_grid`].
-#[inline(always)]
-fn resample_cell_row(src: &CellGrid, tx: &[CellTaps], ty: CellTaps, gain: f32, row: &mut [f32]) {
-    let cl = src.cell_len;
-    let (y0, y1, fy) = ty;
-    for (x, out) in row.chunks_mut(cl).enumerate() {
-        let (x0, x1, fx) = tx[x];
-        let c = |cx: usize, cy: usize| &src.data[(cy * src.ncx + cx) * cl..][..cl];
-        let (a, b, c2, d) = (c(x0, y0), c(x1, y0), c(x0, y1), c(x1, y1));
-        let w00 = (1.0 - fx) * (1.0 - fy) * gain;
-        let w10 = fx * (1.0 - fy) * gain;
-        let w01 = (1.0 - fx) * fy * gain;
-        let w11 = fx * fy * gain;
-        for k in 0..cl {
-            out[k] = a[k] * w00 + b[k] * w10 + c2[k] * w01 + d[k] * w11;
-        }
-    }
 }
 
 fn cells_from_planes(spec: &HogSpec, p: &Planes, exec: Exec, out: &mut CellGrid) {
@@ -1743,36 +1639,6 @@ mod tests {
                     assert!(same_bits(&bf.data, &bw.data), "bands {k:?} nbins {nbins}");
                 }
             }
-        }
-        // Cell-grid resampling rows.
-        let spec = HogSpec::new(&HogOptions::default()).unwrap();
-        let mut cg = CellGrid::empty();
-        cell_grid(&spec, &HogInput::GreyU8(grey.view()), Exec::Serial, &mut cg).unwrap();
-        let tx: Vec<CellTaps> = (0..19)
-            .map(|x| (x, (x + 1).min(24), (x % 7) as f32 / 7.0))
-            .collect();
-        // Resampled cells fused with blocks (two bands) equal resample, then blocks.
-        let (big, mut rs, mut want_b, mut got_b) = (
-            Image::<u8>::from_fn(280, 330, |x, y| ((x * x + 5 * y) % 256) as u8),
-            CellGrid::empty(),
-            BlockGrid::empty(),
-            BlockGrid::empty(),
-        );
-        cell_grid(&spec, &HogInput::GreyU8(big.view()), Exec::Serial, &mut rs).unwrap();
-        let src = rs.clone();
-        resize_cell_grid(&src, 31, 37, 1.0, Exec::Serial, &mut rs);
-        blocks_from_cells(&spec, &rs, Exec::Serial, &mut want_b);
-        blocks_from_resampled_cells(&spec, &src, 31, 37, 1.0, Exec::Parallel, &mut got_b);
-        assert!(want_b.nby > BAND_BLOCK_ROWS && same_bits(&got_b.data, &want_b.data));
-        assert_eq!(got_b, want_b);
-        let mut want = vec![0.0; 19 * cg.cell_len];
-        resample_cell_row(&cg, &tx, (3, 4, 0.3), 1.0, &mut want);
-        #[cfg(target_arch = "x86_64")]
-        if have_avx2() {
-            let mut got = vec![0.0; 19 * cg.cell_len];
-            // SAFETY: AVX2 and FMA were detected just above.
-            unsafe { resample_cell_row_avx2(&cg, &tx, (3, 4, 0.3), 1.0, &mut got) };
-            assert_eq!(got, want);
         }
         // Gamma rows.
         let src: Vec<f32> = (0..77).map(|i| i as f32 * 3.3 - 20.0).collect();

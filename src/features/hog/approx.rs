@@ -1,0 +1,724 @@
+//! Approximate HOG block grids of other scales from one exactly computed level: the
+//! feature-pyramid approximation of Dollár, Appel, Belongie & Perona (2014), done on
+//! orientation channels *before* they are spatially pooled.
+//!
+//! # Method
+//!
+//! An exact level `L` (`W x H` pixels, gamma-corrected) is pooled once into a [`MicroGrid`]:
+//! `m x m`-pixel micro-cells (the detector uses `m` = [`MICRO_CELL`] = 2), each holding the sum
+//! of its pixels' orientation votes per bin (the same two interpolated votes `|g|(1−f)`, `|g|f` as the
+//! exact cells, no spatial weight). For a level `L'` of `W' x H'` pixels, `r_x = W'/W`,
+//! `r_y = H'/H`, a micro-cell whose centre is the pixel coordinate `(u, v)` of `L` stands at
+//! `(u', v') = ((u+½)·r_x − ½, (v+½)·r_y − ½)` in `L'` (the half-pixel convention of the pyramid's
+//! bilinear resize, so `L'` pixel centres and the mapped micro-cells agree). It then votes into the
+//! cell of `L'` that contains `(u', v')` exactly as a pixel at that point would: with the cell's
+//! 4 x-profiles and 4 y-profiles (OpenCV's Gaussian block window times the bilinear weight of the
+//! block's cell centres, see the parent module) evaluated at the *continuous* offset in the cell,
+//! times a gain `√(r_x r_y)`. Blocks are assembled from those cells and L2-Hys-normalised as for
+//! an exact level.
+//!
+//! The gain: gradient magnitudes summed over an area measure the length of the edges in it (a
+//! `[−1, 0, 1]` step response integrates to the same value at any scale), and lengths shrink by
+//! `r` from `L` to `L'`, so an `L'` cell holds about `r` times what the micro-cells mapped into it
+//! hold. L2-Hys removes any global factor but for its first epsilon (`0.1·36` added to the block
+//! norm), so the gain only matters for faint blocks.
+//!
+//! # Where we differ
+//!
+//! - Dollár et al. resample per-pixel channels and pool them afterwards at the coarse scale with
+//!   a box filter, and correct magnitudes with a fitted power law `r^−λ`. We keep OpenCV's pooling
+//!   (Gaussian-windowed, bilinear over cell centres) by evaluating its weights at the mapped
+//!   micro-cell positions, and use the edge-length gain `r` (no fitted λ; on USC, gain `1`
+//!   instead of `r` gave the same AP within noise, 0.646 vs 0.643 at `--approx 14`).
+//! - Levels are only approximated downwards (from the finer exact level): approximating a level
+//!   from the next *coarser* exact level gave larger window-score errors at every distance but
+//!   the last two levels of a group of 14.
+//! - Micro-cells are placed at their centre: a vote's position inside its micro-cell is lost
+//!   (at `m` = 2, ≤ ½ pixel), which is why `m` = 4 loses more than `m` = 2.
+//! - Gradients (and their orientations) are those of `L`, not of the coarser `L'`: texture finer
+//!   than `L'` resolves keeps its votes. That is the approximation's residual error.
+//! - The previous approximation (until commit 07aa828) resampled the *pooled* 8x8 cells
+//!   bilinearly, which mixes neighbouring cells' Gaussian-weighted histograms and lost ≈ 6 AP
+//!   points on USC at any spacing of exact levels; this one is within ≈ 0.5 (docs/detection.md).
+//! - At `r = 1` and `m = 1` this is the exact grid up to summation order (tested).
+
+use rayon::prelude::*;
+
+use super::{
+    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, planes_of, BlockGrid, Exec,
+    GammaPlanes, HogError, HogSpec, Planes, RowScratch, BLOCK_CELLS, CELL_SIZE, PROFILES,
+};
+
+/// Micro-cell side the detector uses, in pixels. Dollár et al. shrink channels by 4; on USC
+/// (docs/detection.md) 4 costs ≈ 1 AP point more than 2 at `--approx 14` for ≈ 20 % less time,
+/// 1 gains nothing over 2.
+pub const MICRO_CELL: usize = 2;
+/// Micro-cell rows per parallel task.
+const MICRO_ROWS_PER_TASK: usize = 4;
+
+/// Orientation histograms of `m x m`-pixel micro-cells of one level (no spatial weights): the
+/// source of [`blocks_from_micro_grid`]. Pixels beyond the last whole micro-cell are left out.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MicroGrid {
+    nmx: usize,
+    nmy: usize,
+    size: usize,
+    width: usize,
+    height: usize,
+    nbins: usize,
+    data: Vec<f32>,
+}
+
+impl MicroGrid {
+    /// An empty grid (fill with [`micro_grid_from_gamma_planes`]).
+    pub fn empty() -> Self {
+        Self::default()
+    }
+    /// Micro-cells across.
+    pub fn cells_x(&self) -> usize {
+        self.nmx
+    }
+    /// Micro-cells down.
+    pub fn cells_y(&self) -> usize {
+        self.nmy
+    }
+    /// Micro-cell side in pixels.
+    pub fn cell_size(&self) -> usize {
+        self.size
+    }
+    /// Width of the level the grid was pooled from, in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    /// Height of that level.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+    /// The `nbins` votes of micro-cell (mx, my).
+    pub fn cell(&self, mx: usize, my: usize) -> &[f32] {
+        &self.data[(my * self.nmx + mx) * self.nbins..][..self.nbins]
+    }
+}
+
+/// Pool gamma-corrected planes into `size x size`-pixel micro-cells (`size` in 1..=8): the same
+/// gradients and orientation votes as the exact cells, summed per micro-cell and bin. `dst`'s
+/// buffer is reused. Errors as [`super::cell_grid_from_gamma_planes`], plus
+/// [`HogError::BadMicroCell`].
+pub fn micro_grid_from_gamma_planes(
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    size: usize,
+    exec: Exec,
+    dst: &mut MicroGrid,
+) -> Result<(), HogError> {
+    if !(1..=CELL_SIZE).contains(&size) {
+        return Err(HogError::BadMicroCell(size));
+    }
+    let p = planes_of(spec, planes)?;
+    let nb = spec.nbins();
+    let (nmx, nmy) = (p.width / size, p.height / size);
+    *dst = MicroGrid {
+        nmx,
+        nmy,
+        size,
+        width: p.width,
+        height: p.height,
+        nbins: nb,
+        data: std::mem::take(&mut dst.data),
+    };
+    super::sized(&mut dst.data, nmx * nmy * nb);
+    let row_len = nmx * nb;
+    if row_len == 0 {
+        return Ok(());
+    }
+    let avx2 = have_avx2();
+    let work =
+        |(t, chunk): (usize, &mut [f32])| micro_rows_with(avx2, &p, nb, size, t * MICRO_ROWS_PER_TASK, chunk);
+    let task = MICRO_ROWS_PER_TASK * row_len;
+    match exec {
+        Exec::Parallel => dst.data.par_chunks_mut(task).enumerate().for_each(work),
+        Exec::Serial => dst.data.chunks_mut(task).enumerate().for_each(work),
+    }
+    Ok(())
+}
+
+/// [`micro_rows`], the AVX2 + FMA build when `avx2` (which must then be supported).
+fn micro_rows_with(avx2: bool, p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [f32]) {
+    avx2_or_generic!(
+        avx2,
+        micro_rows_avx2(p, nb, size, my0, chunk),
+        micro_rows(p, nb, size, my0, chunk)
+    )
+}
+
+/// [`micro_rows`] compiled for AVX2 + FMA (vectorises the gradient pass).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn micro_rows_avx2(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [f32]) {
+    micro_rows(p, nb, size, my0, chunk)
+}
+
+/// Micro-cell rows from `my0` on (as many as `chunk` holds, every value written).
+#[inline(always)]
+fn micro_rows(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [f32]) {
+    let nmx = p.width / size;
+    let used = nmx * size;
+    let mut sc = RowScratch::new(p.width);
+    let mut bins = vec![[0u8; 2]; used];
+    let mut wts = vec![[0.0f32; 2]; used];
+    chunk.fill(0.0);
+    for (k, row) in chunk.chunks_mut(nmx * nb).enumerate() {
+        let my = my0 + k;
+        for y in my * size..(my + 1) * size {
+            gradient_row(p, y, nb, &mut sc, &mut bins, &mut wts);
+            for (cell, (b, w)) in row
+                .chunks_exact_mut(nb)
+                .zip(bins.chunks_exact(size).zip(wts.chunks_exact(size)))
+            {
+                for (&[b0, b1], &[w0, w1]) in b.iter().zip(w) {
+                    cell[b0 as usize] += w0;
+                    cell[b1 as usize] += w1;
+                }
+            }
+        }
+    }
+}
+
+/// Where one micro-cell row or column lands in the target level: its cell and the weights of the
+/// 4 profiles at its continuous offset in that cell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct AxisTap {
+    cell: usize,
+    w: [f32; PROFILES],
+}
+
+/// Profile `p` (block cell · 2 + offset of the image cell in the block) at the continuous pixel
+/// offset `k ∈ [−½, 8−½)` in the cell: OpenCV's Gaussian window times the bilinear (tent) weight
+/// of the block cell's centre, zero outside the block. At integer `k` it is [`HogSpec`]'s
+/// discrete profile.
+fn profile_at(spec: &HogSpec, p: usize, k: f32) -> f32 {
+    let (bc, off) = (p / BLOCK_CELLS, p % BLOCK_CELLS);
+    let j = (off * CELL_SIZE) as f32 + k;
+    let sigma = spec.win_sigma();
+    let scale = 1.0 / (sigma * sigma * 2.0);
+    let d = j - (BLOCK_CELLS * CELL_SIZE) as f32 * 0.5;
+    let g = (-(d * d) * scale).exp();
+    let cell = (j + 0.5) / CELL_SIZE as f32 - 0.5;
+    g * (1.0 - (cell - bc as f32).abs()).max(0.0)
+}
+
+/// Taps of `n` micro-cells of `size` pixels along one axis into `cells` cells of a level `ratio`
+/// times as large; `None` for micro-cells that land outside the cells.
+fn axis_taps(spec: &HogSpec, n: usize, size: usize, ratio: f64, cells: usize) -> Vec<Option<AxisTap>> {
+    (0..n)
+        .map(|i| {
+            let centre = (i * size) as f64 + (size as f64 - 1.0) * 0.5;
+            let u = (centre + 0.5) * ratio - 0.5;
+            let c = ((u + 0.5) / CELL_SIZE as f64).floor();
+            if c < 0.0 || c >= cells as f64 {
+                return None;
+            }
+            let k = (u - c * CELL_SIZE as f64) as f32;
+            Some(AxisTap {
+                cell: c as usize,
+                w: std::array::from_fn(|p| profile_at(spec, p, k)),
+            })
+        })
+        .collect()
+}
+
+/// The normalised block grid of a `width x height` level approximated from `micro` (pooled from
+/// another level of the same image), with cell values times `gain` (see the module docs; the
+/// detector passes `√(r_x r_y)`). Bands of block rows run in parallel as in
+/// [`super::block_grid_from_gamma_planes`]; the result does not depend on the thread count.
+/// `dst`'s buffer is reused.
+pub fn blocks_from_micro_grid(
+    spec: &HogSpec,
+    micro: &MicroGrid,
+    width: usize,
+    height: usize,
+    gain: f32,
+    exec: Exec,
+    dst: &mut BlockGrid,
+) {
+    let (ncx, ncy) = (width / CELL_SIZE, height / CELL_SIZE);
+    let nb = spec.nbins();
+    if micro.nmx == 0 || micro.nmy == 0 || ncx == 0 || ncy == 0 {
+        super::block_grid_shape(spec, 0, 0, dst);
+        return;
+    }
+    debug_assert_eq!(micro.nbins, nb);
+    let rx = width as f64 / micro.width as f64;
+    let ry = height as f64 / micro.height as f64;
+    let xt = axis_taps(spec, micro.nmx, micro.size, rx, ncx);
+    let yt = axis_taps(spec, micro.nmy, micro.size, ry, ncy);
+    let rows = row_ranges(&yt, ncy);
+    let taps = Taps {
+        xt: &xt,
+        yt: &yt,
+        rows: &rows,
+        ncx,
+        gain,
+    };
+    let kernel = FillKernel::detect();
+    let scratch = || FillScratch {
+        h: vec![0.0; ncx * PROFILES * nb],
+        t: vec![0.0; PROFILES * ncx * PROFILES * nb],
+    };
+    let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| fill_with(kernel, micro, &taps, cy, row, s);
+    blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), dst, scratch, fill);
+}
+
+/// The micro rows `[lo, hi)` landing in each of `ncy` cell rows (contiguous, since the mapping
+/// is monotonic).
+fn row_ranges(yt: &[Option<AxisTap>], ncy: usize) -> Vec<(usize, usize)> {
+    let mut rows = vec![(0usize, 0usize); ncy];
+    for (my, t) in yt.iter().enumerate() {
+        if let Some(t) = t {
+            let r = &mut rows[t.cell];
+            if r.1 == r.0 {
+                *r = (my, my + 1);
+            } else {
+                r.1 = my + 1;
+            }
+        }
+    }
+    rows
+}
+
+/// The taps of one approximated level.
+struct Taps<'a> {
+    xt: &'a [Option<AxisTap>],
+    yt: &'a [Option<AxisTap>],
+    /// Micro rows `[lo, hi)` landing in each cell row.
+    rows: &'a [(usize, usize)],
+    ncx: usize,
+    gain: f32,
+}
+
+/// Per-band buffers of [`fill_cell_row`].
+struct FillScratch {
+    /// One micro row pooled horizontally: `[cell][x-profile][bin]`.
+    h: Vec<f32>,
+    /// The cell row being built: `[y-profile][cell][x-profile][bin]`.
+    t: Vec<f32>,
+}
+
+/// Which build of [`fill_cell_row`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum FillKernel {
+    Generic,
+    Avx2,
+    Avx512,
+}
+
+impl FillKernel {
+    fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if have_avx2() {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Self::Avx512;
+            }
+            return Self::Avx2;
+        }
+        Self::Generic
+    }
+}
+
+/// [`fill_cell_row`] with `kernel` (same arithmetic, no fused operations: the same bits).
+fn fill_with(
+    kernel: FillKernel,
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+    s: &mut FillScratch,
+) {
+    match kernel {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `FillKernel::detect` saw AVX2 and FMA.
+        FillKernel::Avx2 => unsafe { fill_cell_row_avx2(micro, taps, cy, row, s) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `FillKernel::detect` saw AVX-512F, AVX2 and FMA.
+        FillKernel::Avx512 => unsafe { fill_cell_row_avx512(micro, taps, cy, row, s) },
+        _ => fill_cell_row(micro, taps, cy, row, s, hpass),
+    }
+}
+
+/// [`fill_cell_row`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn fill_cell_row_avx2(
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+    s: &mut FillScratch,
+) {
+    fill_cell_row(micro, taps, cy, row, s, hpass)
+}
+
+/// [`fill_cell_row`] compiled for AVX-512F.
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn fill_cell_row_avx512(
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+    s: &mut FillScratch,
+) {
+    if micro.nbins <= 16 {
+        // SAFETY: this function's target features; nbins ≤ 16 checked.
+        let hp = |nb: usize, xt: &[Option<AxisTap>], src: &[f32], h: &mut [f32]| unsafe {
+            hpass_avx512(nb, xt, src, h)
+        };
+        fill_cell_row(micro, taps, cy, row, s, hp)
+    } else {
+        fill_cell_row(micro, taps, cy, row, s, hpass)
+    }
+}
+
+/// [`hpass`] with each cell's run of micro-cells summed in four 16-lane registers (one per
+/// x-profile, bins in lanes) and stored once, and cells without micro-cells zeroed (so `h` needs
+/// no zeroing): the same additions in the same order, so the same bits.
+///
+/// # Safety
+/// The CPU must support AVX-512F; `nb ≤ 16`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn hpass_avx512(nb: usize, xt: &[Option<AxisTap>], src: &[f32], h: &mut [f32]) {
+    use std::arch::x86_64::*;
+    debug_assert!(nb <= 16);
+    let mask = ((1u32 << nb) - 1) as __mmask16;
+    let hl = PROFILES * nb;
+    let mut acc = [_mm512_setzero_ps(); PROFILES];
+    let mut cur: Option<usize> = None;
+    // Cells before `next` are written; the ones a run skips are zeroed here (no memset of `h`).
+    let mut next = 0;
+    let mut flush = |cell: usize, acc: &[__m512; PROFILES]| {
+        h[next * hl..cell * hl].fill(0.0);
+        next = cell + 1;
+        let hc = &mut h[cell * hl..][..hl];
+        for (px, a) in acc.iter().enumerate() {
+            // SAFETY: `nb` lanes at px·nb, inside the cell's `hl` values.
+            unsafe { _mm512_mask_storeu_ps(hc.as_mut_ptr().add(px * nb), mask, *a) };
+        }
+    };
+    for (tx, v) in xt.iter().zip(src.chunks_exact(nb)) {
+        let Some(tx) = tx else { continue };
+        if cur != Some(tx.cell) {
+            if let Some(c) = cur {
+                flush(c, &acc);
+            }
+            cur = Some(tx.cell);
+            acc = [_mm512_setzero_ps(); PROFILES];
+        }
+        // SAFETY: `nb` lanes of the micro-cell's `nb` values.
+        let vv = unsafe { _mm512_maskz_loadu_ps(mask, v.as_ptr()) };
+        for (a, &w) in acc.iter_mut().zip(&tx.w) {
+            *a = _mm512_add_ps(*a, _mm512_mul_ps(_mm512_set1_ps(w), vv));
+        }
+    }
+    if let Some(c) = cur {
+        flush(c, &acc);
+    }
+    h[next * hl..].fill(0.0);
+}
+
+/// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
+/// written): every micro-cell adds its histogram times its four x-profile weights to its cell.
+#[inline(always)]
+fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[f32], h: &mut [f32]) {
+    let hl = PROFILES * nb;
+    h.fill(0.0);
+    for (tx, v) in xt.iter().zip(src.chunks_exact(nb)) {
+        let Some(tx) = tx else { continue };
+        let hc = &mut h[tx.cell * hl..][..hl];
+        // All four x-profiles (zero weights add +0).
+        for (hp, &wx) in hc.chunks_exact_mut(nb).zip(&tx.w) {
+            for (d, &s) in hp.iter_mut().zip(v) {
+                *d += wx * s;
+            }
+        }
+    }
+}
+
+/// Cell row `cy` of the approximated level (cell layout of [`super::CellGrid`], every value
+/// written): each micro row landing in it is pooled horizontally into (cell, x-profile)
+/// histograms, which are added with the row's y-profile weights (times the gain) into a
+/// `[y-profile][cell][x-profile][bin]` buffer — one contiguous multiply-add per y-profile — and
+/// that buffer is finally permuted into the cells' slots.
+#[inline(always)]
+fn fill_cell_row(
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+    s: &mut FillScratch,
+    hpass: impl Fn(usize, &[Option<AxisTap>], &[f32], &mut [f32]),
+) {
+    // A literal bin count lets the compiler unroll and vectorise the default geometry.
+    if micro.nbins == 9 {
+        fill_cell_row_nb(9, micro, taps, cy, row, s, hpass)
+    } else {
+        fill_cell_row_nb(micro.nbins, micro, taps, cy, row, s, hpass)
+    }
+}
+
+/// [`fill_cell_row`] for `nb` = `micro.nbins` bins.
+#[inline(always)]
+fn fill_cell_row_nb(
+    nb: usize,
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+    s: &mut FillScratch,
+    hpass: impl Fn(usize, &[Option<AxisTap>], &[f32], &mut [f32]),
+) {
+    let hl = PROFILES * nb;
+    let plane = taps.ncx * hl;
+    let FillScratch { h, t } = s;
+    let (lo, hi) = taps.rows[cy];
+    let mut first = true;
+    for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
+        let Some(ty) = ty else { continue };
+        hpass(
+            nb,
+            taps.xt,
+            &micro.data[my * micro.nmx * nb..][..micro.nmx * nb],
+            h,
+        );
+        for (py, &wy) in ty.w.iter().enumerate() {
+            let wy = wy * taps.gain;
+            let tp = &mut t[py * plane..][..plane];
+            if first {
+                // `wy·s` is `0 + wy·s` to the bit (both ≥ +0): no zeroing pass.
+                for (d, &s) in tp.iter_mut().zip(h.iter()) {
+                    *d = wy * s;
+                }
+            } else if wy != 0.0 {
+                for (d, &s) in tp.iter_mut().zip(h.iter()) {
+                    *d += wy * s;
+                }
+            }
+        }
+        first = false;
+    }
+    if first {
+        t.fill(0.0);
+    }
+    let cl = cell_len(nb);
+    for (cx, cell) in row.chunks_exact_mut(cl).enumerate() {
+        for py in 0..PROFILES {
+            for px in 0..PROFILES {
+                let src = &t[py * plane + cx * hl + px * nb..][..nb];
+                let dst = &mut cell[cell_slot(py, px) * nb..][..nb];
+                for (d, &v) in dst.iter_mut().zip(src) {
+                    *d = v;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::hog::{blocks_from_cells, cell_grid_from_gamma_planes, CellGrid, HogOptions};
+    use crate::image::Image;
+
+    fn spec() -> HogSpec {
+        HogSpec::new(&HogOptions::default()).unwrap()
+    }
+
+    fn plane(w: usize, h: usize) -> Image<f32> {
+        Image::from_fn(w, h, |x, y| {
+            let v = ((x * 7 + y * 3 + (x * y) / 5) % 97) as f32 + 40.0 * ((x as f32) * 0.05).sin();
+            v.max(0.0).sqrt()
+        })
+    }
+
+    /// The micro-cells of the grey plane `img`.
+    fn micro(img: &Image<f32>, size: usize, exec: Exec) -> MicroGrid {
+        let mut m = MicroGrid::empty();
+        micro_grid_from_gamma_planes(&spec(), &GammaPlanes::Grey(img.view()), size, exec, &mut m).unwrap();
+        m
+    }
+
+    #[test]
+    fn continuous_profiles_match_the_discrete_ones() {
+        let s = spec();
+        for p in 0..PROFILES {
+            for k in 0..CELL_SIZE {
+                assert!(
+                    (profile_at(&s, p, k as f32) - s.profile[p][k]).abs() < 1e-7,
+                    "p {p} k {k}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn unit_micro_cells_at_ratio_one_give_the_exact_blocks() {
+        let s = spec();
+        let img = plane(83, 150);
+        let gp = GammaPlanes::Grey(img.view());
+        let mut cells = CellGrid::empty();
+        cell_grid_from_gamma_planes(&s, &gp, Exec::Serial, &mut cells).unwrap();
+        let mut exact = BlockGrid::empty();
+        blocks_from_cells(&s, &cells, Exec::Serial, &mut exact);
+        let m = micro(&img, 1, Exec::Parallel);
+        let mut got = BlockGrid::empty();
+        blocks_from_micro_grid(&s, &m, 83, 150, 1.0, Exec::Parallel, &mut got);
+        assert_eq!(
+            (got.blocks_x(), got.blocks_y()),
+            (exact.blocks_x(), exact.blocks_y())
+        );
+        let worst = got
+            .data
+            .iter()
+            .zip(&exact.data)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(worst < 1e-4, "{worst}");
+    }
+
+    #[test]
+    fn coarser_micro_cells_stay_close_to_exact_at_ratio_one() {
+        let s = spec();
+        let img = plane(96, 160);
+        let gp = GammaPlanes::Grey(img.view());
+        let mut exact = BlockGrid::empty();
+        crate::features::hog::block_grid_from_gamma_planes(&s, &gp, Exec::Serial, &mut exact).unwrap();
+        let m = micro(&img, 2, Exec::Serial);
+        let mut got = BlockGrid::empty();
+        blocks_from_micro_grid(&s, &m, 96, 160, 1.0, Exec::Serial, &mut got);
+        let bl = s.block_len();
+        let mut cos = 0.0;
+        let n = got.data.len() / bl;
+        for (a, b) in got.data.chunks(bl).zip(exact.data.chunks(bl)) {
+            let dot: f32 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+            let na: f32 = a.iter().map(|x| x * x).sum::<f32>().sqrt();
+            let nb: f32 = b.iter().map(|x| x * x).sum::<f32>().sqrt();
+            cos += dot / (na * nb).max(1e-12);
+        }
+        assert!(cos / n as f32 > 0.97, "{}", cos / n as f32);
+    }
+
+    #[test]
+    fn approximation_does_not_depend_on_threads() {
+        let s = spec();
+        let img = plane(200, 260);
+        let (a, b) = (
+            micro(&img, MICRO_CELL, Exec::Parallel),
+            micro(&img, MICRO_CELL, Exec::Serial),
+        );
+        assert_eq!(a, b);
+        let (mut ga, mut gb) = (BlockGrid::empty(), BlockGrid::empty());
+        blocks_from_micro_grid(&s, &a, 131, 171, 0.7, Exec::Parallel, &mut ga);
+        blocks_from_micro_grid(&s, &a, 131, 171, 0.7, Exec::Serial, &mut gb);
+        assert_eq!(ga, gb);
+        assert_eq!((ga.blocks_x(), ga.blocks_y()), (131 / 8 - 1, 171 / 8 - 1));
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let mut gc = BlockGrid::empty();
+        pool.install(|| blocks_from_micro_grid(&s, &a, 131, 171, 0.7, Exec::Parallel, &mut gc));
+        assert_eq!(ga, gc);
+    }
+
+    #[test]
+    fn every_fill_kernel_gives_the_same_bits() {
+        let s = spec();
+        let img = plane(150, 170);
+        let m = micro(&img, 2, Exec::Serial);
+        for (w, h) in [(150, 170), (119, 133), (80, 128)] {
+            let (ncx, ncy) = (w / CELL_SIZE, h / CELL_SIZE);
+            let rx = w as f64 / m.width as f64;
+            let ry = h as f64 / m.height as f64;
+            let xt = axis_taps(&s, m.nmx, m.size, rx, ncx);
+            let yt = axis_taps(&s, m.nmy, m.size, ry, ncy);
+            let rows = row_ranges(&yt, ncy);
+            let taps = Taps {
+                xt: &xt,
+                yt: &yt,
+                rows: &rows,
+                ncx,
+                gain: 0.8,
+            };
+            let run = |k: FillKernel| {
+                let mut sc = FillScratch {
+                    h: vec![0.0; ncx * PROFILES * 9],
+                    t: vec![0.0; PROFILES * ncx * PROFILES * 9],
+                };
+                let mut out = vec![f32::NAN; ncx * cell_len(9) * ncy];
+                for (cy, row) in out.chunks_mut(ncx * cell_len(9)).enumerate() {
+                    fill_with(k, &m, &taps, cy, row, &mut sc);
+                }
+                out
+            };
+            let want = run(FillKernel::Generic);
+            assert!(want.iter().all(|v| v.is_finite()));
+            let got = run(FillKernel::detect());
+            assert!(
+                want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{w}x{h}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_micro_kernel_gives_the_same_bits() {
+        let s = spec();
+        let img = plane(150, 170);
+        let gp = GammaPlanes::Grey(img.view());
+        let p = planes_of(&s, &gp).unwrap();
+        let run = |avx2: bool| {
+            let mut out = vec![f32::NAN; (150 / 2) * 9 * 5];
+            micro_rows_with(avx2, &p, 9, 2, 7, &mut out);
+            out
+        };
+        let want = run(false);
+        assert!(want.iter().all(|v| v.is_finite()));
+        assert_eq!(want, micro(&img, 2, Exec::Serial).data[7 * 75 * 9..12 * 75 * 9]);
+        let got = run(have_avx2());
+        assert!(want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let s = spec();
+        let img = plane(64, 128);
+        let gp = GammaPlanes::Grey(img.view());
+        let mut m = MicroGrid::empty();
+        for size in [0, 9] {
+            assert_eq!(
+                micro_grid_from_gamma_planes(&s, &gp, size, Exec::Serial, &mut m),
+                Err(HogError::BadMicroCell(size))
+            );
+        }
+        let small = plane(60, 128);
+        assert!(matches!(
+            micro_grid_from_gamma_planes(&s, &GammaPlanes::Grey(small.view()), 4, Exec::Serial, &mut m),
+            Err(HogError::ImageTooSmall { .. })
+        ));
+        let odd = plane(65, 128);
+        assert!(matches!(
+            micro_grid_from_gamma_planes(&s, &GammaPlanes::Mosaic(odd.view()), 4, Exec::Serial, &mut m),
+            Err(HogError::OddMosaic { .. })
+        ));
+        // An empty micro grid gives an empty block grid.
+        let mut g = BlockGrid::empty();
+        blocks_from_micro_grid(&s, &MicroGrid::empty(), 64, 128, 1.0, Exec::Serial, &mut g);
+        assert_eq!((g.blocks_x(), g.blocks_y()), (0, 0));
+    }
+}
