@@ -251,23 +251,9 @@ pub fn blocks_from_micro_grid(
         return;
     }
     debug_assert_eq!(micro.nbins, nb);
-    let rx = width as f64 / micro.width as f64;
-    let ry = height as f64 / micro.height as f64;
-    let xt = axis_taps(spec, micro.nmx, micro.size, rx, ncx);
-    let yt = axis_taps(spec, micro.nmy, micro.size, ry, ncy);
-    let rows = row_ranges(&yt, ncy);
-    let taps = Taps {
-        xt: &xt,
-        yt: &yt,
-        rows: &rows,
-        ncx,
-        gain,
-    };
+    let taps = Taps::new(spec, micro, width, height, gain);
     let kernel = FillKernel::detect();
-    let scratch = || FillScratch {
-        h: vec![0.0; ncx * PROFILES * nb],
-        t: vec![0.0; PROFILES * ncx * PROFILES * nb],
-    };
+    let scratch = || FillScratch::new(ncx, nb);
     let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| fill_with(kernel, micro, &taps, cy, row, s);
     blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), dst, scratch, fill);
 }
@@ -290,13 +276,32 @@ fn row_ranges(yt: &[Option<AxisTap>], ncy: usize) -> Vec<(usize, usize)> {
 }
 
 /// The taps of one approximated level.
-struct Taps<'a> {
-    xt: &'a [Option<AxisTap>],
-    yt: &'a [Option<AxisTap>],
+struct Taps {
+    xt: Vec<Option<AxisTap>>,
+    yt: Vec<Option<AxisTap>>,
     /// Micro rows `[lo, hi)` landing in each cell row.
-    rows: &'a [(usize, usize)],
+    rows: Vec<(usize, usize)>,
     ncx: usize,
     gain: f32,
+}
+
+impl Taps {
+    /// The taps of the `width x height` level approximated from `micro`, cell values times `gain`.
+    fn new(spec: &HogSpec, micro: &MicroGrid, width: usize, height: usize, gain: f32) -> Self {
+        let (ncx, ncy) = (width / CELL_SIZE, height / CELL_SIZE);
+        let rx = width as f64 / micro.width as f64;
+        let ry = height as f64 / micro.height as f64;
+        let xt = axis_taps(spec, micro.nmx, micro.size, rx, ncx);
+        let yt = axis_taps(spec, micro.nmy, micro.size, ry, ncy);
+        let rows = row_ranges(&yt, ncy);
+        Self {
+            xt,
+            yt,
+            rows,
+            ncx,
+            gain,
+        }
+    }
 }
 
 /// Per-band buffers of [`fill_cell_row`].
@@ -305,6 +310,16 @@ struct FillScratch {
     h: Vec<f32>,
     /// The cell row being built: `[y-profile][cell][x-profile][bin]`.
     t: Vec<f32>,
+}
+
+impl FillScratch {
+    /// Buffers for cell rows of `ncx` cells of `nb` bins.
+    fn new(ncx: usize, nb: usize) -> Self {
+        Self {
+            h: vec![0.0; ncx * PROFILES * nb],
+            t: vec![0.0; PROFILES * ncx * PROFILES * nb],
+        }
+    }
 }
 
 /// Which build of [`fill_cell_row`] runs.
@@ -495,7 +510,7 @@ fn fill_cell_row_nb(
         let Some(ty) = ty else { continue };
         hpass(
             nb,
-            taps.xt,
+            &taps.xt,
             &micro.data[my * micro.nmx * nb..][..micro.nmx * nb],
             h,
         );
@@ -643,23 +658,9 @@ mod tests {
         let m = micro(&img, 2, Exec::Serial);
         for (w, h) in [(150, 170), (119, 133), (80, 128)] {
             let (ncx, ncy) = (w / CELL_SIZE, h / CELL_SIZE);
-            let rx = w as f64 / m.width as f64;
-            let ry = h as f64 / m.height as f64;
-            let xt = axis_taps(&s, m.nmx, m.size, rx, ncx);
-            let yt = axis_taps(&s, m.nmy, m.size, ry, ncy);
-            let rows = row_ranges(&yt, ncy);
-            let taps = Taps {
-                xt: &xt,
-                yt: &yt,
-                rows: &rows,
-                ncx,
-                gain: 0.8,
-            };
+            let taps = Taps::new(&s, &m, w, h, 0.8);
             let run = |k: FillKernel| {
-                let mut sc = FillScratch {
-                    h: vec![0.0; ncx * PROFILES * 9],
-                    t: vec![0.0; PROFILES * ncx * PROFILES * 9],
-                };
+                let mut sc = FillScratch::new(ncx, 9);
                 let mut out = vec![f32::NAN; ncx * cell_len(9) * ncy];
                 for (cy, row) in out.chunks_mut(ncx * cell_len(9)).enumerate() {
                     fill_with(k, &m, &taps, cy, row, &mut sc);
