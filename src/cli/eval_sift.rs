@@ -145,15 +145,15 @@ fn font() -> anyhow::Result<&'static [u8]> {
 fn markdown(summary: &[LevelSummary], n: usize, mosaic: &SiftSpec, warp: PlaneWarp) -> String {
     let mut s = format!(
         "SIFT repeatability on {n} Kodak images (t = {MATCH_THRESHOLD_PX} px, ratio 0.8 + mutual; mosaic doubled: {}; mosaic octaves: {}; plane warp: {})\n\n\
-         | transform | level | grey mean | mosaic mean | mosaic - grey | grey median [25-75 %] | mosaic median [25-75 %] |\n\
-         |---|---|---|---|---|---|---|\n",
+         | transform | level | grey mean | mosaic mean | mosaic - grey | grey median [25-75 %] | mosaic median [25-75 %] | interior: grey | interior: mosaic | interior: mosaic - grey |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
         mosaic.double_image(),
         if mosaic.centred_octaves() { "centred" } else { "pick" },
         warp.name()
     );
     for l in summary {
         s.push_str(&format!(
-            "| {} | {} | {:.3} | {:.3} | {:+.3} | {:.3} [{:.3}-{:.3}] | {:.3} [{:.3}-{:.3}] |\n",
+            "| {} | {} | {:.3} | {:.3} | {:+.3} | {:.3} [{:.3}-{:.3}] | {:.3} [{:.3}-{:.3}] | {:.3} | {:.3} | {:+.3} |\n",
             l.family,
             l.level,
             l.grey_mean,
@@ -164,7 +164,10 @@ fn markdown(summary: &[LevelSummary], n: usize, mosaic: &SiftSpec, warp: PlaneWa
             l.grey_q[2],
             l.mosaic_q[1],
             l.mosaic_q[0],
-            l.mosaic_q[2]
+            l.mosaic_q[2],
+            l.grey_interior_mean,
+            l.mosaic_interior_mean,
+            l.mosaic_interior_mean - l.grey_interior_mean
         ));
     }
     s
