@@ -220,6 +220,8 @@ pub struct Detector {
     score_weights: ScoreWeights,
     /// Level buffers reused across levels and frames.
     pool: ScratchPool,
+    /// Buffers of approximated levels (blocks and scores only), reused the same way.
+    approx_pool: Pool<ApproxScratch>,
 }
 
 /// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
@@ -236,18 +238,51 @@ struct LevelScratch {
     scores: Vec<f32>,
 }
 
-/// Free [`LevelScratch`]es. A level takes one (or makes one when none is free) and returns it;
-/// at most [`ScratchPool::capacity`] are kept, so the memory held is bounded by that many
-/// largest-level buffer sets and does not grow from frame to frame. A cloned detector starts with
-/// an empty pool.
+/// The buffers of one approximated level: its blocks (from the group's micro-cells) and scores.
 #[derive(Debug, Default)]
-struct ScratchPool {
-    free: Mutex<Vec<LevelScratch>>,
+struct ApproxScratch {
+    blocks: BlockGrid,
+    scores: Vec<f32>,
 }
 
-impl Clone for ScratchPool {
+/// Free buffer sets. A level takes one (or makes one when none is free) and returns it; at most
+/// `capacity` are kept, so the memory held is bounded by that many largest-level buffer sets and
+/// does not grow from frame to frame. A cloned detector starts with an empty pool.
+#[derive(Debug)]
+struct Pool<T> {
+    free: Mutex<Vec<T>>,
+}
+
+/// The pool of whole level buffers (planes, micro-cells, blocks, scores).
+type ScratchPool = Pool<LevelScratch>;
+
+impl<T> Default for Pool<T> {
+    fn default() -> Self {
+        Self {
+            free: Mutex::new(Vec::new()),
+        }
+    }
+}
+
+impl<T> Clone for Pool<T> {
     fn clone(&self) -> Self {
         Self::default()
+    }
+}
+
+impl<T: Default> Pool<T> {
+    fn take(&self) -> T {
+        self.free
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop()
+            .unwrap_or_default()
+    }
+    fn put_bounded(&self, s: T, capacity: usize) {
+        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
+        if free.len() < capacity {
+            free.push(s);
+        }
     }
 }
 
@@ -256,18 +291,19 @@ impl ScratchPool {
     fn capacity() -> usize {
         rayon::current_num_threads() + 1
     }
-    fn take(&self) -> LevelScratch {
-        self.free
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .pop()
-            .unwrap_or_default()
-    }
     fn put(&self, s: LevelScratch) {
-        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
-        if free.len() < Self::capacity() {
-            free.push(s);
-        }
+        self.put_bounded(s, Self::capacity())
+    }
+}
+
+impl Pool<ApproxScratch> {
+    /// Approximated levels run serially inside, one per worker, plus one per worker that steals
+    /// one while it waits inside an exact level.
+    fn capacity() -> usize {
+        2 * rayon::current_num_threads()
+    }
+    fn put(&self, s: ApproxScratch) {
+        self.put_bounded(s, Self::capacity())
     }
 }
 
@@ -322,6 +358,7 @@ impl Detector {
             model,
             score_weights,
             pool: ScratchPool::default(),
+            approx_pool: Pool::default(),
         })
     }
     /// The model.
@@ -543,24 +580,42 @@ impl Detector {
         block_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.blocks)?;
         micro_grid_from_gamma_planes(&self.hog, &planes, MICRO_CELL, exec, &mut sc.micro)?;
         stats.hog.cells += t.elapsed();
-        for (i, lv) in group.iter().enumerate() {
-            if i > 0 {
-                let t = Instant::now();
-                blocks_from_micro_grid(
-                    &self.hog,
-                    &sc.micro,
-                    lv.width,
-                    lv.height,
-                    approx_gain(head, lv),
-                    exec,
-                    &mut sc.blocks,
-                );
-                stats.cell_resample += t.elapsed();
-            }
-            let (d, s) = self.score_level(&sc.blocks, lv, exec, &mut sc.scores);
+        let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
+        dets.extend(d);
+        stats.svm += s.svm;
+        stats.windows += s.windows;
+        // The approximated levels only read the micro-cells, so they are independent tasks: in
+        // parallel mode they run side by side (each serially inside), which keeps both workers
+        // busy through a group whose levels are too small to split well. Each level's arithmetic
+        // is the same either way, and results are collected in level order: the same bits.
+        let micro = &sc.micro;
+        let approx = |lv: &Level| {
+            let mut a = self.approx_pool.take();
+            let t = Instant::now();
+            blocks_from_micro_grid(
+                &self.hog,
+                micro,
+                lv.width,
+                lv.height,
+                approx_gain(head, lv),
+                Exec::Serial,
+                &mut a.blocks,
+            );
+            let resample = t.elapsed();
+            let (d, mut s) = self.score_level(&a.blocks, lv, Exec::Serial, &mut a.scores);
+            self.approx_pool.put(a);
+            s.cell_resample = resample;
+            (d, s)
+        };
+        let rest: Vec<(Vec<Detection>, DetectStats)> = match exec {
+            Exec::Parallel => group[1..].par_iter().map(approx).collect(),
+            Exec::Serial => group[1..].iter().map(approx).collect(),
+        };
+        for (d, s) in rest {
             dets.extend(d);
             stats.svm += s.svm;
             stats.windows += s.windows;
+            stats.cell_resample += s.cell_resample;
         }
         Ok((dets, stats))
     }
@@ -809,6 +864,28 @@ mod tests {
         let c = d.clone();
         assert_eq!(held(&c).0, 0);
         assert_eq!(c.detect(&inp).unwrap().0, first.0);
+    }
+
+    #[test]
+    fn approximated_level_buffers_are_bounded_and_parallel_equals_serial() {
+        let o = DetectorOptions {
+            hit_threshold: -1e9,
+            nms: NmsMethod::None,
+            approx_levels: 6,
+            ..Default::default()
+        };
+        let d = Detector::new(model(3), &o).unwrap();
+        let img = Image::<f32>::from_fn(400, 300, |x, y| ((x * 5 + y * y) % 230) as f32);
+        let inp = HogInput::Mosaic(img.view());
+        let (serial, _) = d.detect_serial(&inp).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        for _ in 0..4 {
+            let (par, st) = pool.install(|| d.detect(&inp)).unwrap();
+            assert_eq!(par, serial);
+            assert!(st.levels > 6 && par.len() == st.windows);
+            let held = d.approx_pool.free.lock().unwrap().len();
+            assert!((1..=6).contains(&held), "{held} approximated-level buffers held");
+        }
     }
 
     #[test]

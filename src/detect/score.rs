@@ -159,9 +159,10 @@ pub fn window_scores_with(
     // Columns padded with zero blocks to whole vectors of the widest kernel.
     let nbxp = nbx.div_ceil(PAD_COLUMNS) * PAD_COLUMNS;
     // A strip of window rows walks the block rows it needs in ascending order, computes each row's
-    // products once into a small buffer and adds them to the window rows they belong to. Strips
-    // recompute the bh − 1 block rows they share (≈10 % at 1080p) instead of holding every row's
-    // products (13 MB at 1080p).
+    // products once into a small buffer and adds them to the window rows they belong to. Parallel
+    // strips recompute the bh − 1 block rows they share (≈10 % at 1080p) instead of holding every
+    // row's products (13 MB at 1080p); serially the whole grid is one strip. A window's sum has
+    // the same order in any split (block rows ascending, then block columns), so the same bits.
     let strip_work = |(s, chunk): (usize, &mut [f32])| {
         let first = s * SCORE_STRIP_ROWS;
         let rows = chunk.len() / nwx;
@@ -193,10 +194,8 @@ pub fn window_scores_with(
             .par_chunks_mut(nwx * SCORE_STRIP_ROWS)
             .enumerate()
             .for_each(strip_work),
-        Exec::Serial => scores
-            .chunks_mut(nwx * SCORE_STRIP_ROWS)
-            .enumerate()
-            .for_each(strip_work),
+        // One strip: nothing to share, so no block row is computed twice.
+        Exec::Serial => strip_work((0, scores)),
     }
 }
 
