@@ -118,3 +118,43 @@ fn truncated_and_tiny_inputs_are_errors() {
     let e = LinearModel::load(&p, Domain::Grey).unwrap_err().to_string();
     assert!(e.contains("has 3 weights") && e.contains("3780"), "{e}");
 }
+
+/// The approximate pyramid (levels of a group built side by side from the exact level's
+/// micro-cells) gives the same window scores, bit for bit, for any number of threads and serially,
+/// on a real mosaic with OpenCV's weights.
+#[test]
+fn approximate_pyramid_is_identical_for_any_thread_count() {
+    let c = rgb("kodak/kodim09.png");
+    let (w, h) = (c.width() / 2 * 2, c.height() / 2 * 2);
+    let mosaic = Image::<f32>::from_fn(w, h, |x, y| c.get(x, y)[[0, 1, 1, 2][(y % 2) * 2 + x % 2]] as f32);
+    let p = mosaicd::data::require("opencv_hog/default_people_detector_64x128.npy");
+    for approx_levels in [5, 14] {
+        let opts = DetectorOptions {
+            hit_threshold: -1e9,
+            nms: mosaicd::detect::NmsMethod::None,
+            approx_levels,
+            ..Default::default()
+        };
+        let d = Detector::new(LinearModel::load(&p, Domain::Colour).unwrap(), &opts).unwrap();
+        let input = HogInput::Mosaic(mosaic.view());
+        let (serial, stats) = d.detect_serial(&input).unwrap();
+        assert!(stats.levels > approx_levels && serial.len() == stats.windows);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for _ in 0..2 {
+                let (par, _) = pool.install(|| d.detect(&input)).unwrap();
+                assert_eq!(par.len(), serial.len());
+                for (a, b) in par.iter().zip(&serial) {
+                    assert_eq!(
+                        (a.x, a.y, a.width, a.height, a.score.to_bits()),
+                        (b.x, b.y, b.width, b.height, b.score.to_bits()),
+                        "approx {approx_levels}, {threads} threads"
+                    );
+                }
+            }
+        }
+    }
+}
