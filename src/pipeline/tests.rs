@@ -135,8 +135,14 @@ fn no_per_frame_allocation_growth_after_warm_up() {
         warm <= 2 + 2 + 2,
         "{warm} pixel buffers for a queue of 2 and 2 in flight"
     );
+    // 200 more frames allocate at most up to the same bound (which of the warm-up's buffers are
+    // alive at once depends on thread timing, so the count may still rise by one or two to it,
+    // but never per frame).
     let after = run_frames(200, &frames);
-    assert_eq!(after, warm, "steady state must reuse pixel buffers");
+    assert!(
+        after >= warm && after <= 2 + 2 + 2,
+        "steady state must reuse pixel buffers: {warm} after 20 frames, {after} after 220"
+    );
 }
 
 #[test]
