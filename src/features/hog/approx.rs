@@ -238,6 +238,41 @@ unsafe fn to_f16_row_f16c(src: &[f32], out: &mut [u16]) {
     }
 }
 
+/// `out[i] = f32_from_f16(src[i])` (exact), with F16C's conversion where the CPU has it.
+fn from_f16_row(src: &[u16], out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("f16c") {
+        // SAFETY: F16C detected.
+        return unsafe { from_f16_row_f16c(src, out) };
+    }
+    for (o, &h) in out.iter_mut().zip(src) {
+        *o = f32_from_f16(h);
+    }
+}
+
+/// [`from_f16_row`] with `vcvtph2ps`, 8 values at a time.
+///
+/// # Safety
+/// The CPU must support F16C.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "f16c,avx")]
+unsafe fn from_f16_row_f16c(src: &[u16], out: &mut [f32]) {
+    use std::arch::x86_64::*;
+    let n = src.len().min(out.len());
+    let mut i = 0;
+    while i + 8 <= n {
+        // SAFETY: 8 values at i < n in both slices.
+        unsafe {
+            let h = _mm_loadu_si128(src.as_ptr().add(i) as *const __m128i);
+            _mm256_storeu_ps(out.as_mut_ptr().add(i), _mm256_cvtph_ps(h));
+        }
+        i += 8;
+    }
+    for j in i..n {
+        out[j] = f32_from_f16(src[j]);
+    }
+}
+
 /// IEEE 754 half-precision bits of `x`, rounded to nearest, ties to even (overflow to infinity,
 /// underflow through the subnormals to zero; a NaN stays a quiet NaN).
 pub fn f16_bits(x: f32) -> u16 {
@@ -268,7 +303,8 @@ pub fn f16_bits(x: f32) -> u16 {
     sign | r as u16
 }
 
-/// The `f32` value of half-precision bits `h` (exact).
+/// The `f32` value of half-precision bits `h` (exact; a NaN keeps its payload and comes back
+/// quiet).
 pub fn f32_from_f16(h: u16) -> f32 {
     let sign = u32::from(h & 0x8000) << 16;
     let exp = u32::from((h >> 10) & 0x1f);
@@ -280,7 +316,9 @@ pub fn f32_from_f16(h: u16) -> f32 {
             let shift = man.leading_zeros() - 21;
             sign | ((113 - shift) << 23) | (((man << shift) & 0x3ff) << 13)
         }
-        (0x1f, _) => sign | 0x7f80_0000 | (man << 13),
+        (0x1f, 0) => sign | 0x7f80_0000,
+        // A NaN comes back quiet, as F16C converts it.
+        (0x1f, _) => sign | 0x7fc0_0000 | (man << 13),
         _ => sign | ((exp + 112) << 23) | (man << 13),
     };
     f32::from_bits(bits)
@@ -409,6 +447,8 @@ struct FillScratch {
     h: Vec<f32>,
     /// The cell row being built: `[y-profile][cell][x-profile][bin]`.
     t: Vec<f32>,
+    /// The micro row being pooled, as `f32` (kernels that cannot read half floats directly).
+    v: Vec<f32>,
 }
 
 impl FillScratch {
@@ -417,6 +457,7 @@ impl FillScratch {
         Self {
             h: vec![0.0; ncx * PROFILES * nb],
             t: vec![0.0; PROFILES * ncx * PROFILES * nb],
+            v: Vec::new(),
         }
     }
 }
@@ -497,7 +538,7 @@ unsafe fn fill_cell_row_avx512(
 ) {
     if micro.nbins <= 16 {
         // SAFETY: this function's target features; nbins ≤ 16 checked.
-        let hp = |nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32]| unsafe {
+        let hp = |nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], _: &mut Vec<f32>| unsafe {
             hpass_avx512(nb, xt, src, h)
         };
         fill_cell_row(micro, taps, cy, row, s, hp)
@@ -554,21 +595,20 @@ unsafe fn hpass_avx512(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [
 }
 
 /// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
-/// written): every micro-cell adds its histogram times its four x-profile weights to its cell.
+/// written): the row is converted to `f32` once into `v` ([`from_f16_row`]), then every
+/// micro-cell adds its histogram times its four x-profile weights to its cell.
 #[inline(always)]
-fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32]) {
+fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
     let hl = PROFILES * nb;
     h.fill(0.0);
-    let mut v = vec![0.0f32; nb];
-    for (tx, hv) in xt.iter().zip(src.chunks_exact(nb)) {
+    v.resize(src.len(), 0.0);
+    from_f16_row(src, v);
+    for (tx, mc) in xt.iter().zip(v.chunks_exact(nb)) {
         let Some(tx) = tx else { continue };
-        for (d, &b) in v.iter_mut().zip(hv) {
-            *d = f32_from_f16(b);
-        }
         let hc = &mut h[tx.cell * hl..][..hl];
         // All four x-profiles (zero weights add +0).
         for (hp, &wx) in hc.chunks_exact_mut(nb).zip(&tx.w) {
-            for (d, &s) in hp.iter_mut().zip(&v) {
+            for (d, &s) in hp.iter_mut().zip(mc) {
                 *d += wx * s;
             }
         }
@@ -587,7 +627,7 @@ fn fill_cell_row(
     cy: usize,
     row: &mut [f32],
     s: &mut FillScratch,
-    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32]),
+    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32], &mut Vec<f32>),
 ) {
     // A literal bin count lets the compiler unroll and vectorise the default geometry.
     if micro.nbins == 9 {
@@ -606,11 +646,11 @@ fn fill_cell_row_nb(
     cy: usize,
     row: &mut [f32],
     s: &mut FillScratch,
-    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32]),
+    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32], &mut Vec<f32>),
 ) {
     let hl = PROFILES * nb;
     let plane = taps.ncx * hl;
-    let FillScratch { h, t } = s;
+    let FillScratch { h, t, v } = s;
     let (lo, hi) = taps.rows[cy];
     let mut first = true;
     for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
@@ -620,6 +660,7 @@ fn fill_cell_row_nb(
             &taps.xt,
             &micro.data[my * micro.nmx * nb..][..micro.nmx * nb],
             h,
+            v,
         );
         for (py, &wy) in ty.w.iter().enumerate() {
             let wy = wy * taps.gain;
@@ -830,6 +871,12 @@ mod tests {
         to_f16_row(&vals, &mut hw);
         for (v, h) in vals.iter().zip(&hw) {
             assert_eq!(f16_bits(*v), *h, "{v:e}");
+        }
+        let all: Vec<u16> = (0..=u16::MAX).collect();
+        let mut back = vec![0.0f32; all.len()];
+        from_f16_row(&all, &mut back);
+        for (&h, f) in all.iter().zip(&back) {
+            assert_eq!(f.to_bits(), f32_from_f16(h).to_bits(), "{h:#06x}");
         }
     }
 
