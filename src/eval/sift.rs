@@ -353,42 +353,33 @@ pub fn score_pair(
     h: &[[f64; 3]; 3],
     t: f64,
 ) -> (PairScore, Vec<Match>) {
-    let inside = |(x, y): (f64, f64), (w, h): (usize, usize)| {
-        x >= 0.0 && y >= 0.0 && x <= w as f64 - 1.0 && y <= h as f64 - 1.0
-    };
     // Distance to the border of a `w x h` image (negative outside).
     let margin =
         |(x, y): (f64, f64), (w, h): (usize, usize)| x.min(y).min(w as f64 - 1.0 - x).min(h as f64 - 1.0 - y);
     let hinv = invert_affine(h);
     // Linear scale of the ground truth (the transforms are similarities up to size rounding).
     let gain = (h[0][0] * h[1][1] - h[0][1] * h[1][0]).abs().sqrt();
-    // Distance of a keypoint of image `a` to the boundary of the common region, in `a`'s pixels:
-    // the region is the intersection of two convex sets, so it is the smaller of the distances
-    // to each set's border (the other image's measured through the map).
-    let depth = |k: &crate::features::sift::Keypoint, map: &[[f64; 3]; 3], own, other, g: f64| {
-        let p = (k.x as f64, k.y as f64);
-        margin(p, own).min(margin(apply(map, p), other) / g)
+    // For the keypoints of one image (`own` size, mapped by `map` into the `other` image, whose
+    // pixels are `g` of its own): how many land inside the other image, and which are interior.
+    // A keypoint's distance to the boundary of the common region is the smaller of its distances
+    // to each image's border (the region is the intersection of two convex sets), the other
+    // image's measured through the map.
+    let classify = |f: &SiftFeatures, map: &[[f64; 3]; 3], own, other, g: f64| {
+        let mut landed = 0;
+        let interior: Vec<bool> = f
+            .keypoints
+            .iter()
+            .map(|k| {
+                let p = (k.x as f64, k.y as f64);
+                let there = margin(apply(map, p), other);
+                landed += usize::from(there >= 0.0);
+                margin(p, own).min(there / g) >= DESCRIPTOR_RADIUS_PER_SIZE * k.size as f64
+            })
+            .collect();
+        (landed, interior)
     };
-    let interior1: Vec<bool> = f1
-        .keypoints
-        .iter()
-        .map(|k| depth(k, h, size1, size2, gain) >= DESCRIPTOR_RADIUS_PER_SIZE * k.size as f64)
-        .collect();
-    let interior2: Vec<bool> = f2
-        .keypoints
-        .iter()
-        .map(|k| depth(k, &hinv, size2, size1, 1.0 / gain) >= DESCRIPTOR_RADIUS_PER_SIZE * k.size as f64)
-        .collect();
-    let n1 = f1
-        .keypoints
-        .iter()
-        .filter(|k| inside(apply(h, (k.x as f64, k.y as f64)), size2))
-        .count();
-    let n2 = f2
-        .keypoints
-        .iter()
-        .filter(|k| inside(apply(&hinv, (k.x as f64, k.y as f64)), size1))
-        .count();
+    let (n1, interior1) = classify(f1, h, size1, size2, gain);
+    let (n2, interior2) = classify(f2, &hinv, size2, size1, 1.0 / gain);
     let matches = match_descriptors(&f1.descriptors, &f2.descriptors, LOWE_RATIO, true);
     let is_correct = |m: &Match| {
         let (a, b) = (&f1.keypoints[m.query], &f2.keypoints[m.train]);
