@@ -41,9 +41,9 @@ use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    block_grid_from_gamma_planes, blocks_from_micro_grid, gamma_in_place, gamma_plane_into,
-    micro_grid_from_gamma_planes, BlockGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec, HogTimings,
-    MicroGrid, CELL_SIZE, MICRO_CELL,
+    block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_in_place,
+    gamma_plane_into, micro_grid_from_gamma_planes, BlockGrid, Exec, GammaPlanes, HogError, HogInput,
+    HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::{Image, ImageView};
 
@@ -197,6 +197,66 @@ pub struct DetectStats {
     pub nms: Duration,
     /// Wall time of the whole call.
     pub total: Duration,
+}
+
+/// Per-stage times of one frame from [`Detector::stage_profile`]: every stage on one thread,
+/// one after another, so each time is that stage's CPU.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StageProfile {
+    /// Pyramid levels.
+    pub levels: usize,
+    /// Windows scored.
+    pub windows: usize,
+    /// Windows at or above the hit threshold (before NMS).
+    pub hits: usize,
+    /// Resize and gamma of the exactly computed levels.
+    pub resize: Duration,
+    /// Gradients and orientation binning of the exactly computed levels.
+    pub gradients: Duration,
+    /// Their weighted cell histograms.
+    pub cells: Duration,
+    /// Their block assembly and L2-Hys normalisation.
+    pub blocks: Duration,
+    /// Micro-cell pooling at each group's exact level (approximate pyramid; it computes that
+    /// level's gradients again).
+    pub micro_cells: Duration,
+    /// Approximated levels: cells from the micro-cells and their blocks (one fused pass).
+    pub approx_cells_blocks: Duration,
+    /// SVM scoring of every level.
+    pub svm: Duration,
+    /// Non-maximum suppression.
+    pub nms: Duration,
+}
+
+impl std::ops::AddAssign for StageProfile {
+    /// Times and counts summed (levels kept: the same for every frame of one size).
+    fn add_assign(&mut self, o: Self) {
+        self.levels = o.levels;
+        self.windows += o.windows;
+        self.hits += o.hits;
+        self.resize += o.resize;
+        self.gradients += o.gradients;
+        self.cells += o.cells;
+        self.blocks += o.blocks;
+        self.micro_cells += o.micro_cells;
+        self.approx_cells_blocks += o.approx_cells_blocks;
+        self.svm += o.svm;
+        self.nms += o.nms;
+    }
+}
+
+impl StageProfile {
+    /// Sum of the stage times.
+    pub fn total(&self) -> Duration {
+        self.resize
+            + self.gradients
+            + self.cells
+            + self.blocks
+            + self.micro_cells
+            + self.approx_cells_blocks
+            + self.svm
+            + self.nms
+    }
 }
 
 /// One pyramid level: scale and size.
@@ -410,13 +470,9 @@ impl Detector {
         self.detect_with(input, Exec::Parallel)
     }
 
-    /// Every hit before NMS plus stats; `exec` picks parallel or serial.
-    pub fn detect_raw(
-        &self,
-        input: &HogInput,
-        exec: Exec,
-    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
-        let t0 = Instant::now();
+    /// Size and kind of a frame the detector can take: `(width, height, is_mosaic)`, or the error
+    /// naming why not (smaller than a window even after upsampling, or an odd-sized mosaic).
+    fn check_input(&self, input: &HogInput) -> Result<(usize, usize, bool), DetectError> {
         let (w, h) = input.dimensions();
         let (ww, wh) = (self.hog.win_width(), self.hog.win_height());
         let up = self.spec.opts.upsample;
@@ -437,6 +493,88 @@ impl Detector {
         if mosaic && (w % 2 != 0 || h % 2 != 0) {
             return Err(HogError::OddMosaic { width: w, height: h }.into());
         }
+        Ok((w, h, mosaic))
+    }
+
+    /// One frame's detections with every stage run on the calling thread, one after another and
+    /// **unfused**, each timed on its own: a diagnostic for `mosaicd bench detect`, whose
+    /// production path fuses gradients, cells and blocks into one pass. Exact levels go through
+    /// [`block_grid_stage_times`] (gradients, cells, blocks); each group's micro-cells, the
+    /// approximated levels' cells and blocks (fused: built straight from the micro-cells), SVM and
+    /// NMS are timed as the production path runs them. The detections equal
+    /// [`Self::detect_serial`]'s; the times add up to more than a fused frame's CPU.
+    pub fn stage_profile(&self, input: &HogInput) -> Result<(Vec<Detection>, StageProfile), DetectError> {
+        let (w, h, mosaic) = self.check_input(input)?;
+        let linear = linear_from_input(input);
+        let levels = self.levels(w, h, mosaic);
+        let k = self.spec.opts.approx_levels.max(1);
+        let mut prof = StageProfile {
+            levels: levels.len(),
+            ..Default::default()
+        };
+        let mut sc = LevelScratch::default();
+        let mut a = ApproxScratch::default();
+        let mut stats = DetectStats::default();
+        let mut hits = Vec::new();
+        for group in levels.chunks(k) {
+            let head = &group[0];
+            let planes = self.level_planes(&linear, head, &mut stats, &mut sc.planes)?;
+            let t = block_grid_stage_times(&self.hog, &planes, &mut sc.blocks)?;
+            prof.gradients += t.gradients;
+            prof.cells += t.cells;
+            prof.blocks += t.blocks;
+            if group.len() > 1 {
+                let t = Instant::now();
+                micro_grid_from_gamma_planes(&self.hog, &planes, MICRO_CELL, Exec::Serial, &mut sc.micro)?;
+                prof.micro_cells += t.elapsed();
+            }
+            let (d, s) = self.score_level(&sc.blocks, head, Exec::Serial, &mut sc.scores);
+            hits.extend(d);
+            prof.svm += s.svm;
+            prof.windows += s.windows;
+            for lv in &group[1..] {
+                let t = Instant::now();
+                blocks_from_micro_grid(
+                    &self.hog,
+                    &sc.micro,
+                    lv.width,
+                    lv.height,
+                    approx_gain(head, lv),
+                    Exec::Serial,
+                    &mut a.blocks,
+                );
+                prof.approx_cells_blocks += t.elapsed();
+                let (d, s) = self.score_level(&a.blocks, lv, Exec::Serial, &mut a.scores);
+                hits.extend(d);
+                prof.svm += s.svm;
+                prof.windows += s.windows;
+            }
+        }
+        prof.resize = stats.resize;
+        prof.hits = hits.len();
+        let t = Instant::now();
+        let out = self.nms(hits);
+        prof.nms = t.elapsed();
+        Ok((out, prof))
+    }
+
+    /// The configured non-maximum suppression.
+    fn nms(&self, hits: Vec<Detection>) -> Vec<Detection> {
+        match self.spec.opts.nms {
+            NmsMethod::None => hits,
+            NmsMethod::Greedy { iou } => greedy_nms(&hits, iou),
+            NmsMethod::Group { threshold, eps } => group_rectangles(&hits, threshold, eps),
+        }
+    }
+
+    /// Every hit before NMS plus stats; `exec` picks parallel or serial.
+    pub fn detect_raw(
+        &self,
+        input: &HogInput,
+        exec: Exec,
+    ) -> Result<(Vec<Detection>, DetectStats), DetectError> {
+        let t0 = Instant::now();
+        let (w, h, mosaic) = self.check_input(input)?;
         let linear = linear_from_input(input);
         let levels = self.levels(w, h, mosaic);
         let k = self.spec.opts.approx_levels.max(1);
@@ -473,11 +611,7 @@ impl Detector {
         let t0 = Instant::now();
         let (hits, mut stats) = self.detect_raw(input, exec)?;
         let t = Instant::now();
-        let out = match self.spec.opts.nms {
-            NmsMethod::None => hits,
-            NmsMethod::Greedy { iou } => greedy_nms(&hits, iou),
-            NmsMethod::Group { threshold, eps } => group_rectangles(&hits, threshold, eps),
-        };
+        let out = self.nms(hits);
         stats.nms = t.elapsed();
         stats.total = t0.elapsed();
         Ok((out, stats))
@@ -744,6 +878,44 @@ mod tests {
         let first_level = de.levels(300, 400, false)[0];
         let n0 = ((first_level.width / 8 - 7) * (first_level.height / 8 - 15)).min(lv0);
         assert_eq!(&e[..n0], &a[..n0]);
+    }
+
+    #[test]
+    fn stage_profile_gives_the_serial_detections_and_times_every_stage() {
+        let img = Image::<f32>::from_fn(420, 300, |x, y| ((x * 37 + y * 11 + (x * y) / 5) % 256) as f32);
+        let inp = HogInput::Mosaic(img.view());
+        for (approx, nms) in [(1, NmsMethod::None), (5, NmsMethod::Greedy { iou: 0.5 })] {
+            let o = DetectorOptions {
+                hit_threshold: -1.0,
+                approx_levels: approx,
+                nms,
+                ..Default::default()
+            };
+            let d = Detector::new(model(3), &o).unwrap();
+            let (want, st) = d.detect_serial(&inp).unwrap();
+            let (got, p) = d.stage_profile(&inp).unwrap();
+            assert!(!want.is_empty());
+            assert_eq!(got, want, "approx {approx}");
+            assert_eq!((p.levels, p.windows, p.hits), (st.levels, st.windows, st.hits));
+            for (name, t) in [
+                ("gradients", p.gradients),
+                ("cells", p.cells),
+                ("blocks", p.blocks),
+                ("svm", p.svm),
+            ] {
+                assert!(t > Duration::ZERO, "{name} approx {approx}");
+            }
+            assert_eq!(p.micro_cells > Duration::ZERO, approx > 1);
+            assert_eq!(p.approx_cells_blocks > Duration::ZERO, approx > 1);
+            assert!(p.total() >= p.svm + p.cells);
+        }
+        let tiny = Image::<u8>::new(32, 32);
+        assert!(matches!(
+            Detector::new(model(3), &DetectorOptions::default())
+                .unwrap()
+                .stage_profile(&HogInput::GreyU8(tiny.view())),
+            Err(DetectError::Hog(HogError::ImageTooSmall { .. }))
+        ));
     }
 
     fn model(seed: u32) -> LinearModel {

@@ -10,6 +10,6 @@ pub mod svm;
 pub mod train;
 pub mod types;
 
-pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod};
+pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod, StageProfile};
 pub use model::{Domain, LinearModel};
 pub use types::Detection;

@@ -818,7 +818,11 @@ pub enum Exec {
 pub struct HogTimings {
     /// Input conversion and gamma.
     pub gamma: std::time::Duration,
-    /// Gradients, orientation binning and weighted cell histograms (fused, one pass).
+    /// Gradients and orientation binning on their own. Zero where they are fused into
+    /// [`Self::cells`] (every production path); only [`block_grid_stage_times`] measures them apart.
+    pub gradients: std::time::Duration,
+    /// Weighted cell histograms; in the production paths this includes the gradients and
+    /// orientation binning (fused, one pass).
     pub cells: std::time::Duration,
     /// Block assembly from cells and L2-Hys normalisation.
     pub blocks: std::time::Duration,
@@ -827,6 +831,7 @@ pub struct HogTimings {
 impl std::ops::AddAssign for HogTimings {
     fn add_assign(&mut self, o: Self) {
         self.gamma += o.gamma;
+        self.gradients += o.gradients;
         self.cells += o.cells;
         self.blocks += o.blocks;
     }
@@ -843,7 +848,95 @@ pub fn block_grid(
     let planes = planes_from_input(spec, input)?;
     let gamma = t0.elapsed();
     let (cells, blocks) = block_grid_from_planes(spec, &planes.view(), exec, dst);
-    Ok(HogTimings { gamma, cells, blocks })
+    Ok(HogTimings {
+        gamma,
+        cells,
+        blocks,
+        ..Default::default()
+    })
+}
+
+/// The normalised block grid of gamma-corrected planes, computed on the calling thread with the
+/// stages **unfused and timed one by one** — a diagnostic for `mosaicd bench detect`, which
+/// reports per-stage times the fused production path cannot give:
+/// - `gradients`: one gradient and orientation-binning pass over every pixel row the cells use
+///   (the same code and kernel build as the cell stage, results discarded);
+/// - `cells`: the cell histograms ([`cell_grid_from_gamma_planes`], which computes the gradients
+///   again) minus `gradients`;
+/// - `blocks`: [`blocks_from_cells`] (assembly and L2-Hys).
+///
+/// The grid equals [`block_grid_from_gamma_planes`]'s bit for bit. The sum exceeds the fused
+/// path's time (gradients run twice, and the cell grid goes through memory).
+pub fn block_grid_stage_times(
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    dst: &mut BlockGrid,
+) -> Result<HogTimings, HogError> {
+    let p = planes_of(spec, planes)?;
+    let kernel = CellKernel::detect(spec);
+    let t0 = std::time::Instant::now();
+    gradient_pass_with(kernel, &p, spec.nbins());
+    let gradients = t0.elapsed();
+    let t1 = std::time::Instant::now();
+    let mut cells = CellGrid::empty();
+    cells_from_planes_with(spec, &p, Exec::Serial, kernel, &mut cells);
+    let with_gradients = t1.elapsed();
+    let t2 = std::time::Instant::now();
+    blocks_from_cells(spec, &cells, Exec::Serial, dst);
+    Ok(HogTimings {
+        gamma: std::time::Duration::ZERO,
+        gradients,
+        cells: with_gradients.saturating_sub(gradients),
+        blocks: t2.elapsed(),
+    })
+}
+
+/// [`gradient_pass`] built as the cell kernel `kernel` builds [`gradient_row`].
+fn gradient_pass_with(kernel: CellKernel, p: &Planes, nb: usize) {
+    match kernel {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `kernel` comes from `CellKernel::detect`, which saw AVX2 and FMA.
+        CellKernel::Avx2 => unsafe { gradient_pass_avx2(p, nb) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above, plus AVX-512F.
+        CellKernel::Avx512 => unsafe { gradient_pass_avx512(p, nb) },
+        _ => gradient_pass(p, nb),
+    }
+}
+
+/// [`gradient_pass`] compiled for AVX2 + FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn gradient_pass_avx2(p: &Planes, nb: usize) {
+    gradient_pass(p, nb)
+}
+
+/// [`gradient_pass`] compiled for AVX-512F (as `cells_strip_avx512`).
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn gradient_pass_avx512(p: &Planes, nb: usize) {
+    gradient_pass(p, nb)
+}
+
+/// Gradients and orientation bins of every pixel row the cells use, as the cell stage computes
+/// them (each row's results marked as read, so the pass is not optimised away).
+#[inline(always)]
+fn gradient_pass(p: &Planes, nb: usize) {
+    let w8 = p.width / CELL_SIZE * CELL_SIZE;
+    let mut sc = RowScratch::new(p.width);
+    let mut bins = vec![[0u8; 2]; w8];
+    let mut wts = vec![[0.0f32; 2]; w8];
+    for y in 0..p.height / CELL_SIZE * CELL_SIZE {
+        gradient_row(p, y, nb, &mut sc, &mut bins, &mut wts);
+        // The row's results count as read, at no cost.
+        std::hint::black_box((&bins, &wts));
+    }
 }
 
 /// Allocating [`block_grid`] (parallel).
@@ -1955,6 +2048,11 @@ mod tests {
             fused.data.extend([1.0; 100]);
             block_grid_from_gamma_planes(&spec, &gam, Exec::Parallel, &mut fused).unwrap();
             assert_eq!(fused, want);
+            // The unfused, timed diagnostic gives the same grid and times each stage.
+            let mut timed = BlockGrid::empty();
+            let t = block_grid_stage_times(&spec, &gam, &mut timed).unwrap();
+            assert_eq!(timed, want);
+            assert!(t.gradients > std::time::Duration::ZERO && t.blocks > std::time::Duration::ZERO);
         }
         let small = Image::<f32>::new(60, 200);
         assert!(matches!(
