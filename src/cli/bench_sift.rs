@@ -51,9 +51,6 @@ pub struct BenchSiftArgs {
     /// Also time mosaic SIFT with doubled colour planes.
     #[arg(long)]
     pub with_doubled: bool,
-    /// Also time mosaic SIFT with the luma octave (`SiftOptions::luma_octave`).
-    #[arg(long)]
-    pub with_luma: bool,
     /// Time mosaicd only (no OpenCV peer): for profiling.
     #[arg(long)]
     pub no_peer: bool,
@@ -103,11 +100,6 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     let (ours, n_ours) = run_ours(base)?;
     let doubled = if args.with_doubled {
         Some(run_ours(base.with_double_image(true))?)
-    } else {
-        None
-    };
-    let luma = if args.with_luma {
-        Some(run_ours(base.with_luma_octave(true)?)?)
     } else {
         None
     };
@@ -165,13 +157,6 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     if let Some((t, n)) = doubled {
         println!(
             "  mosaicd mosaic SIFT, doubled planes:            {:.3} s ({n} keypoints), speed-up {:.2}x",
-            t,
-            cv_s / t
-        );
-    }
-    if let Some((t, n)) = luma {
-        println!(
-            "  mosaicd mosaic SIFT, luma octave:               {:.3} s ({n} keypoints), speed-up {:.2}x",
             t,
             cv_s / t
         );

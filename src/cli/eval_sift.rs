@@ -32,10 +32,6 @@ pub struct EvalSiftArgs {
     /// Double the mosaic's colour planes first too (like grey SIFT's octave -1; 4x the cost).
     #[arg(long)]
     pub mosaic_double: bool,
-    /// Add the luma octave to the mosaic (`SiftOptions::luma_octave`: grey SIFT's first octave on
-    /// the sliding 2x2 super-pixel mean; not with --mosaic-double).
-    #[arg(long)]
-    pub mosaic_luma_octave: bool,
     /// How the mosaic's colour planes are warped by scale and rotation: `lattice` (default: the
     /// paper's per-plane recipe, but rotations by multiples of 90° are exact pixel permutations
     /// with the planes re-interleaved where their samples land), `own-centre` (the paper's recipe
@@ -103,8 +99,7 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
     let grey_spec = SiftSpec::grey();
     let mosaic_spec = SiftSpec::mosaic()
         .with_double_image(args.mosaic_double)
-        .with_centred_octaves(args.mosaic_octaves == OctaveArg::Centred)
-        .with_luma_octave(args.mosaic_luma_octave)?;
+        .with_centred_octaves(args.mosaic_octaves == OctaveArg::Centred);
     let transforms = default_transforms();
     let warp = PlaneWarp::from(args.plane_warp);
     eprintln!(

@@ -37,10 +37,6 @@ pub struct SiftArgs {
     /// Double the image (each colour plane for a mosaic) first; default: yes for grey, no for mosaic.
     #[arg(long)]
     pub double: Option<bool>,
-    /// Mosaic only, without doubling: add the luma octave (grey SIFT's first octave on the
-    /// mosaic's sliding 2x2 super-pixel mean; keypoints with octave -1).
-    #[arg(long)]
-    pub luma_octave: bool,
     /// Octave step: centred 2x2 means (true) or every other sample as OpenCV (false); default:
     /// centred for the mosaic, OpenCV's for grey.
     #[arg(long)]
@@ -111,7 +107,6 @@ pub fn run(args: SiftArgs) -> anyhow::Result<()> {
     if let Some(c) = args.centred_octaves {
         opts.centred_octaves = c;
     }
-    opts.luma_octave = args.luma_octave;
     let spec = opts.build()?;
     let t0 = std::time::Instant::now();
     let f = pool.install(|| detect_and_compute(img.view(), &spec))?;

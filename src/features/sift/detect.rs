@@ -59,9 +59,6 @@ pub(crate) struct Candidate {
     pub oy: f32,
     /// Scale in octave pixels (sigma of the keypoint; OpenCV's `size * 0.5` at that octave).
     pub scl: f32,
-    /// Found in the luma octave's pyramid ([`super::SiftOptions::luma_octave`]), not the
-    /// image's own.
-    pub luma: bool,
 }
 
 /// Per-layer blur increments in input pixels: `sig[0] = sigma`, `sig[i]` takes layer `i - 1`
@@ -130,13 +127,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
     let mut base = buffers::take(iw, ih);
     blur_step_with(init, sig_diff / st, step, &mut base, &mut tmp, None, path)?;
     let tp1 = std::time::Instant::now();
-    let n_oct = match (
-        octave_count(base.width(), base.height(), spec),
-        spec.max_octaves(),
-    ) {
-        (n, 0) => n,
-        (n, m) => n.min(m),
-    };
+    let n_oct = octave_count(base.width(), base.height(), spec);
     let sig = layer_sigmas(spec);
     let nl = spec.n_octave_layers;
     let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
@@ -742,7 +733,6 @@ fn orient(
                 ox,
                 oy,
                 scl: scl_octv,
-                luma: false,
             });
         }
     }

@@ -164,15 +164,6 @@ pub struct SiftOptions {
     /// sample shifts the coarse grid by one sample under such a turn. Default false for grey
     /// (OpenCV parity), true for the mosaic.
     pub centred_octaves: bool,
-    /// Mosaic only, without doubling: add one finer octave (sigma 1.6 *mosaic* pixels, the scales
-    /// the colour planes cannot represent) computed on the mosaic's sliding 2x2 super-pixel mean
-    /// `L(x, y) = (m(x, y) + m(x+1, y) + m(x, y+1) + m(x+1, y+1)) / 4`: every 2x2 window holds one
-    /// R, two G and one B sample, so `L` is a full-resolution luminance with no CFA pattern and no
-    /// interpolation (its box blur is sigma 0.5, the input blur SIFT assumes). Grey SIFT's first
-    /// octave runs on it (3x3x3 extrema, step-1 gradients) and its keypoints join the mosaic's
-    /// with `octave = -1`. Default false (the paper's method has no such octave).
-    #[serde(default)]
-    pub luma_octave: bool,
 }
 
 impl SiftOptions {
@@ -188,7 +179,6 @@ impl SiftOptions {
             max_value: 255.0,
             sigma_in_super_pixels: true,
             centred_octaves: false,
-            luma_octave: false,
         }
     }
 
@@ -225,9 +215,6 @@ impl SiftOptions {
         if !(self.max_value.is_finite() && self.max_value > 0.0) {
             return bad("max_value", self.max_value, "> 0");
         }
-        if self.luma_octave && (self.domain != Domain::Mosaic || self.double_image) {
-            return bad("luma_octave", 1.0, "only for a mosaic without doubling");
-        }
         Ok(SiftSpec {
             domain: self.domain,
             n_octave_layers: self.n_octave_layers,
@@ -238,8 +225,6 @@ impl SiftOptions {
             max_value: self.max_value,
             sigma_in_super_pixels: self.sigma_in_super_pixels,
             centred_octaves: self.centred_octaves,
-            luma_octave: self.luma_octave,
-            max_octaves: 0,
         })
     }
 }
@@ -256,9 +241,6 @@ pub struct SiftSpec {
     max_value: f64,
     sigma_in_super_pixels: bool,
     centred_octaves: bool,
-    luma_octave: bool,
-    /// At most this many octaves (0: OpenCV's count). Internal: the luma octave's pyramid.
-    max_octaves: usize,
 }
 
 impl SiftSpec {
@@ -311,46 +293,10 @@ impl SiftSpec {
         self
     }
 
-    /// At most `n` octaves (0: OpenCV's count).
-    pub(crate) fn max_octaves(&self) -> usize {
-        self.max_octaves
-    }
-
     /// The same spec with centred octaves ([`SiftOptions::centred_octaves`]) on or off.
     pub fn with_centred_octaves(mut self, centred: bool) -> Self {
         self.centred_octaves = centred;
         self
-    }
-
-    /// The same spec with the luma octave ([`SiftOptions::luma_octave`]) on or off; on is an
-    /// error for a grey spec or with doubling.
-    pub fn with_luma_octave(mut self, on: bool) -> Result<Self, SiftError> {
-        if on && (self.domain != Domain::Mosaic || self.double_image) {
-            return Err(SiftError::InvalidOption {
-                name: "luma_octave",
-                value: 1.0,
-                allowed: "only for a mosaic without doubling",
-            });
-        }
-        self.luma_octave = on;
-        Ok(self)
-    }
-
-    /// Whether the luma octave is added ([`SiftOptions::luma_octave`]).
-    pub fn luma_octave(&self) -> bool {
-        self.luma_octave && self.domain == Domain::Mosaic && !self.double_image
-    }
-
-    /// The spec of the luma octave's pyramid: grey SIFT, one octave, no doubling.
-    fn luma_spec(&self) -> SiftSpec {
-        SiftSpec {
-            domain: Domain::Grey,
-            double_image: false,
-            centred_octaves: false,
-            luma_octave: false,
-            max_octaves: 1,
-            ..*self
-        }
     }
 
     /// Grey or mosaic.
@@ -497,9 +443,8 @@ fn fill_normalised(frame: &RawFrame, scale: impl Into<Option<f32>>, out: &mut Im
     }
 }
 
-/// Sort candidates by (x, y, size, angle, response) and drop exact duplicates (OpenCV's
-/// `removeDuplicatedSorted`).
-fn sort_dedup(mut c: Vec<detect::Candidate>) -> Vec<detect::Candidate> {
+fn sorted_candidates(pyr: &detect::Pyramid, spec: &SiftSpec) -> Vec<detect::Candidate> {
+    let mut c = detect::find_scale_space_extrema(pyr, spec);
     let key = |a: &detect::Candidate| [a.kp.x, a.kp.y, a.kp.size, a.kp.angle, a.kp.response];
     c.sort_by(|a, b| {
         key(a)
@@ -513,67 +458,6 @@ fn sort_dedup(mut c: Vec<detect::Candidate>) -> Vec<detect::Candidate> {
         a.kp.x == b.kp.x && a.kp.y == b.kp.y && a.kp.size == b.kp.size && a.kp.angle == b.kp.angle
     });
     c
-}
-
-/// The pyramids of a prepared image and their sorted candidates: the image's own, and with
-/// [`SiftSpec::luma_octave`] the luma octave's (candidates marked `luma`, in mosaic coordinates).
-struct Scales {
-    pyr: detect::Pyramid,
-    luma: Option<detect::Pyramid>,
-    cands: Vec<detect::Candidate>,
-}
-
-/// Build the pyramids of the prepared image `img` (returned to the pool) and find the keypoints.
-fn scales(img: Image<f32>, spec: &SiftSpec) -> Result<Scales, SiftError> {
-    let luma = if spec.luma_octave() {
-        let l = luma_of_mosaic(&img);
-        let lspec = spec.luma_spec();
-        let pyr = detect::build_pyramid(&l, &lspec);
-        buffers::give(l);
-        let pyr = pyr?;
-        let mut c = detect::find_scale_space_extrema(&pyr, &lspec);
-        for c in &mut c {
-            // L(x, y) is centred at (x + ½, y + ½) of the mosaic.
-            c.kp.x += 0.5;
-            c.kp.y += 0.5;
-            c.kp.octave = -1;
-            c.luma = true;
-        }
-        Some((pyr, c))
-    } else {
-        None
-    };
-    let pyr = detect::build_pyramid(&img, spec);
-    buffers::give(img);
-    let pyr = pyr?;
-    let mut cands = detect::find_scale_space_extrema(&pyr, spec);
-    let luma = luma.map(|(p, c)| {
-        cands.extend(c);
-        p
-    });
-    Ok(Scales {
-        pyr,
-        luma,
-        cands: sort_dedup(cands),
-    })
-}
-
-/// The sliding 2x2 super-pixel mean of a mosaic, `(w - 1) x (h - 1)`: `L(x, y)` is the mean of
-/// `m(x..x+2, y..y+2)`, one R, two G and one B sample whatever the CFA phase (pooled buffer).
-fn luma_of_mosaic(m: &Image<f32>) -> Image<f32> {
-    let (w, h) = m.dimensions();
-    let (lw, lh) = (w - 1, h - 1);
-    let mut out = buffers::take(lw, lh);
-    out.as_mut_slice()
-        .par_chunks_mut(lw)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let (a, b) = (m.row(y), m.row(y + 1));
-            for (x, o) in row.iter_mut().enumerate() {
-                *o = 0.25 * ((a[x] + a[x + 1]) + (b[x] + b[x + 1]));
-            }
-        });
-    out
 }
 
 /// Detect keypoints and compute their descriptors. `src` holds grey values or a mosaic (per
@@ -594,19 +478,23 @@ fn compute_prepared(
     spec: &SiftSpec,
     t0: std::time::Instant,
 ) -> Result<SiftFeatures, SiftError> {
-    let Scales { pyr, luma, cands } = scales(img, spec)?;
+    let pyr = detect::build_pyramid(&img, spec);
+    buffers::give(img);
+    let pyr = pyr?;
+    let t1 = std::time::Instant::now();
+    let cands = sorted_candidates(&pyr, spec);
     let t2 = std::time::Instant::now();
     let s = spec.step();
     let path = kernels::KernelPath::best();
     let descriptors = cands
         .par_iter()
-        .map_init(detect::GradScratch::default, |sc, c| match (&luma, c.luma) {
-            (Some(l), true) => descriptor::descriptor(&l.gauss[c.o][c.layer], c, 1, path, sc),
-            _ => descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s, path, sc),
+        .map_init(detect::GradScratch::default, |sc, c| {
+            descriptor::descriptor(&pyr.gauss[c.o][c.layer], c, s, path, sc)
         })
         .collect();
     tracing::debug!(
-        pyramids_and_extrema_s = (t2 - t0).as_secs_f64(),
+        pyramid_s = (t1 - t0).as_secs_f64(),
+        extrema_s = (t2 - t1).as_secs_f64(),
         descriptors_s = t2.elapsed().as_secs_f64(),
         keypoints = cands.len(),
         "sift stages"
@@ -627,7 +515,10 @@ pub fn detect<T: Copy + Into<f32> + Sync>(
 
 /// Keypoints of the prepared (pooled, 0..255) image `img`.
 fn detect_prepared(img: Image<f32>, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
-    Ok(scales(img, spec)?.cands.into_iter().map(|c| c.kp).collect())
+    let pyr = detect::build_pyramid(&img, spec);
+    buffers::give(img);
+    let pyr = pyr?;
+    Ok(sorted_candidates(&pyr, spec).into_iter().map(|c| c.kp).collect())
 }
 
 /// Gaussian blur of one plane with OpenCV's float kernel for `sigma` (`BORDER_REFLECT_101`);
@@ -771,70 +662,6 @@ mod tests {
         assert!(!want.keypoints.is_empty());
         assert_eq!(features_from_frame(&frame, &SiftSpec::mosaic()).unwrap(), want);
         assert_eq!(keypoints_from_frame(&frame, &spec).unwrap(), want.keypoints);
-    }
-
-    #[test]
-    fn luma_octave_sees_no_cfa_and_adds_fine_keypoints() {
-        // A flat colour through any CFA phase: L = (r + 2g + b) / 4 everywhere.
-        let (r, g, b) = (200.0f32, 80.0, 40.0);
-        let m = Image::from_fn(10, 8, |x, y| match (x % 2, y % 2) {
-            (0, 0) => r,
-            (1, 1) => b,
-            _ => g,
-        });
-        let l = luma_of_mosaic(&m);
-        assert_eq!(l.dimensions(), (9, 7));
-        assert!(l.as_slice().iter().all(|&v| v == 0.25 * (r + 2.0 * g + b)));
-        buffers::give(l);
-
-        // Small dots (radius ≈ 2.5 px) on top of the smooth blobs: scales below the planes' reach.
-        let base = blobs(128, 96);
-        let img = Image::from_fn(128, 96, |x, y| {
-            let (dx, dy) = ((x % 16) as f32 - 8.0, (y % 16) as f32 - 8.0);
-            if dx * dx + dy * dy < 6.5 {
-                250u8
-            } else {
-                base.get(x, y)
-            }
-        });
-        let plain = SiftSpec::mosaic();
-        let spec = plain.with_luma_octave(true).unwrap();
-        assert!(spec.luma_octave() && !plain.luma_octave());
-        let a = detect_and_compute(img.view(), &plain).unwrap();
-        let f = detect_and_compute(img.view(), &spec).unwrap();
-        // The mosaic's own keypoints are unchanged; the luma octave adds finer ones.
-        let own: Vec<Keypoint> = f.keypoints.iter().filter(|k| k.octave >= 0).copied().collect();
-        assert_eq!(own, a.keypoints);
-        let fine: Vec<&Keypoint> = f.keypoints.iter().filter(|k| k.octave == -1).collect();
-        assert!(!fine.is_empty());
-        let smallest_own = a.keypoints.iter().map(|k| k.size).fold(f32::INFINITY, f32::min);
-        assert!(fine
-            .iter()
-            .all(|k| k.size < smallest_own && k.x >= 0.5 && k.y >= 0.5));
-        assert!(fine.iter().all(|k| k.x <= 127.0 && k.y <= 95.0));
-        assert_eq!(f.keypoints.len(), f.descriptors.len());
-        // Sorted, and the same for any thread count; keypoints alone agree.
-        assert!(f
-            .keypoints
-            .windows(2)
-            .all(|w| (w[0].x, w[0].y) <= (w[1].x, w[1].y)));
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-        assert_eq!(pool.install(|| detect_and_compute(img.view(), &spec).unwrap()), f);
-        assert_eq!(detect(img.view(), &spec).unwrap(), f.keypoints);
-
-        // Only for a mosaic without doubling.
-        assert!(SiftSpec::grey().with_luma_octave(true).is_err());
-        assert!(plain.with_double_image(true).with_luma_octave(true).is_err());
-        let mut o = SiftOptions::mosaic();
-        o.luma_octave = true;
-        o.double_image = true;
-        assert!(matches!(
-            o.build(),
-            Err(SiftError::InvalidOption {
-                name: "luma_octave",
-                ..
-            })
-        ));
     }
 
     #[test]
