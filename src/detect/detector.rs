@@ -897,9 +897,10 @@ mod tests {
             assert!(!want.is_empty());
             assert_eq!(got, want, "approx {approx}");
             assert_eq!((p.levels, p.windows, p.hits), (st.levels, st.windows, st.hits));
+            // `cells` is the cell pass minus a separately timed gradient pass, so only their sum
+            // is sure to be positive on a busy machine.
             for (name, t) in [
-                ("gradients", p.gradients),
-                ("cells", p.cells),
+                ("gradients + cells", p.gradients + p.cells),
                 ("blocks", p.blocks),
                 ("svm", p.svm),
             ] {
