@@ -199,6 +199,21 @@ pub struct DetectStats {
     pub total: Duration,
 }
 
+impl std::ops::AddAssign for DetectStats {
+    /// Every count and time summed.
+    fn add_assign(&mut self, o: Self) {
+        self.levels += o.levels;
+        self.windows += o.windows;
+        self.hits += o.hits;
+        self.resize += o.resize;
+        self.hog += o.hog;
+        self.cell_resample += o.cell_resample;
+        self.svm += o.svm;
+        self.nms += o.nms;
+        self.total += o.total;
+    }
+}
+
 /// Per-stage times of one frame from [`Detector::stage_profile`]: every stage on one thread,
 /// one after another, so each time is that stage's CPU.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -534,15 +549,7 @@ impl Detector {
             prof.windows += s.windows;
             for lv in &group[1..] {
                 let t = Instant::now();
-                blocks_from_micro_grid(
-                    &self.hog,
-                    &sc.micro,
-                    lv.width,
-                    lv.height,
-                    approx_gain(head, lv),
-                    Exec::Serial,
-                    &mut a.blocks,
-                );
+                self.approx_blocks(&sc.micro, head, lv, &mut a.blocks);
                 prof.approx_cells_blocks += t.elapsed();
                 let (d, s) = self.score_level(&a.blocks, lv, Exec::Serial, &mut a.scores);
                 hits.extend(d);
@@ -592,11 +599,7 @@ impl Detector {
         for r in per_level {
             let (d, s) = r?;
             hits.extend(d);
-            stats.windows += s.windows;
-            stats.resize += s.resize;
-            stats.hog += s.hog;
-            stats.svm += s.svm;
-            stats.cell_resample += s.cell_resample;
+            stats += s;
         }
         stats.hits = hits.len();
         stats.total = t0.elapsed();
@@ -705,8 +708,7 @@ impl Detector {
         if group.len() == 1 {
             self.exact_blocks(linear, head, exec, &mut stats, sc)?;
             let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
-            stats.svm += s.svm;
-            stats.windows += s.windows;
+            stats += s;
             return Ok((d, stats));
         }
         let planes = self.level_planes(linear, head, &mut stats, &mut sc.planes)?;
@@ -716,8 +718,7 @@ impl Detector {
         stats.hog.cells += t.elapsed();
         let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
         dets.extend(d);
-        stats.svm += s.svm;
-        stats.windows += s.windows;
+        stats += s;
         // The approximated levels only read the micro-cells, so they are independent tasks: in
         // parallel mode they run side by side (each serially inside), which keeps both workers
         // busy through a group whose levels are too small to split well. Each level's arithmetic
@@ -726,15 +727,7 @@ impl Detector {
         let approx = |lv: &Level| {
             let mut a = self.approx_pool.take();
             let t = Instant::now();
-            blocks_from_micro_grid(
-                &self.hog,
-                micro,
-                lv.width,
-                lv.height,
-                approx_gain(head, lv),
-                Exec::Serial,
-                &mut a.blocks,
-            );
+            self.approx_blocks(micro, head, lv, &mut a.blocks);
             let resample = t.elapsed();
             let (d, mut s) = self.score_level(&a.blocks, lv, Exec::Serial, &mut a.scores);
             self.approx_pool.put(a);
@@ -747,11 +740,23 @@ impl Detector {
         };
         for (d, s) in rest {
             dets.extend(d);
-            stats.svm += s.svm;
-            stats.windows += s.windows;
-            stats.cell_resample += s.cell_resample;
+            stats += s;
         }
         Ok((dets, stats))
+    }
+
+    /// The blocks of approximated level `lv` from the micro-cells of its group's exact level
+    /// `head`, on the calling thread.
+    fn approx_blocks(&self, micro: &MicroGrid, head: &Level, lv: &Level, dst: &mut BlockGrid) {
+        blocks_from_micro_grid(
+            &self.hog,
+            micro,
+            lv.width,
+            lv.height,
+            approx_gain(head, lv),
+            Exec::Serial,
+            dst,
+        );
     }
 
     fn score_level(
