@@ -49,6 +49,12 @@
 //!   USC AP is the same at all seven pyramid phases we measure. The exact pyramid is untouched.
 //! - At `r = 1` and `m = 1` this is the exact grid up to summation order and half-float rounding
 //!   (tested).
+//! - The AVX-512 fill builds a level one **cell at a time in registers** (its 16 profile
+//!   histograms stay in 16 registers while the micro rows and micro-cells landing in it are
+//!   added), skipping the x-profile that is exactly zero on each half of a cell. The portable fill
+//!   goes a micro row at a time through row buffers. Both make the same additions in the same
+//!   order, so the same bits (tested); the register fill took the approximated levels from ≈ 50
+//!   to ≈ 32 ms of CPU per 1080p frame (docs/detection.md).
 
 use rayon::prelude::*;
 
@@ -390,13 +396,13 @@ pub fn blocks_from_micro_grid(
     debug_assert_eq!(micro.nbins, nb);
     let taps = Taps::new(spec, micro, width, height, gain);
     let kernel = FillKernel::detect();
-    let scratch = || FillScratch::new(ncx, nb);
+    let scratch = FillScratch::new;
     let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| fill_with(kernel, micro, &taps, cy, row, s);
     blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), dst, scratch, fill);
 }
 
-/// The micro rows `[lo, hi)` landing in each of `ncy` cell rows (contiguous, since the mapping
-/// is monotonic).
+/// The micro rows (or columns) `[lo, hi)` landing in each of `ncy` cell rows (columns)
+/// (contiguous, since the mapping is monotonic).
 fn row_ranges(yt: &[Option<AxisTap>], ncy: usize) -> Vec<(usize, usize)> {
     let mut rows = vec![(0usize, 0usize); ncy];
     for (my, t) in yt.iter().enumerate() {
@@ -418,6 +424,14 @@ struct Taps {
     yt: Vec<Option<AxisTap>>,
     /// Micro rows `[lo, hi)` landing in each cell row.
     rows: Vec<(usize, usize)>,
+    /// Micro columns `[lo, hi)` landing in each cell column.
+    cols: Vec<(usize, usize)>,
+    /// The x-profile weights of each micro column (zeros where it has no tap).
+    xw: Vec<[f32; PROFILES]>,
+    /// Per cell column, the micro column `mid` such that x-profile 2 is exactly zero on
+    /// `[lo, mid)` and x-profile 1 on `[mid, hi)` (always so for [`HogSpec`]'s profiles: the
+    /// tent of a block's second cell starts at a cell's centre); `None` if not.
+    split: Vec<Option<usize>>,
     ncx: usize,
     gain: f32,
 }
@@ -431,10 +445,23 @@ impl Taps {
         let xt = axis_taps(spec, micro.nmx, micro.size, rx, ncx);
         let yt = axis_taps(spec, micro.nmy, micro.size, ry, ncy);
         let rows = row_ranges(&yt, ncy);
+        let cols = row_ranges(&xt, ncx);
+        let xw: Vec<[f32; PROFILES]> = xt.iter().map(|t| t.map_or([0.0; PROFILES], |t| t.w)).collect();
+        let split = cols
+            .iter()
+            .map(|&(lo, hi)| {
+                let mid = (lo..hi).find(|&mx| xw[mx][2] != 0.0).unwrap_or(hi);
+                let ok = (lo..mid).all(|mx| xw[mx][2] == 0.0) && (mid..hi).all(|mx| xw[mx][1] == 0.0);
+                ok.then_some(mid)
+            })
+            .collect();
         Self {
             xt,
             yt,
             rows,
+            cols,
+            xw,
+            split,
             ncx,
             gain,
         }
@@ -452,11 +479,11 @@ struct FillScratch {
 }
 
 impl FillScratch {
-    /// Buffers for cell rows of `ncx` cells of `nb` bins.
-    fn new(ncx: usize, nb: usize) -> Self {
+    /// Empty buffers; the portable fill sizes them on first use (the AVX-512 fill needs none).
+    fn new() -> Self {
         Self {
-            h: vec![0.0; ncx * PROFILES * nb],
-            t: vec![0.0; PROFILES * ncx * PROFILES * nb],
+            h: Vec::new(),
+            t: Vec::new(),
             v: Vec::new(),
         }
     }
@@ -537,61 +564,104 @@ unsafe fn fill_cell_row_avx512(
     s: &mut FillScratch,
 ) {
     if micro.nbins <= 16 {
-        // SAFETY: this function's target features; nbins ≤ 16 checked.
-        let hp = |nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], _: &mut Vec<f32>| unsafe {
-            hpass_avx512(nb, xt, src, h)
-        };
-        fill_cell_row(micro, taps, cy, row, s, hp)
+        // SAFETY: this function's target features; nbins ≤ 16 checked; `row` is one cell row.
+        unsafe { fill_cell_row_regs_avx512(micro.nbins, micro, taps, cy, row) }
     } else {
         fill_cell_row(micro, taps, cy, row, s, hpass)
     }
 }
 
-/// [`hpass`] with each cell's run of micro-cells summed in four 16-lane registers (one per
-/// x-profile, bins in lanes) and stored once, and cells without micro-cells zeroed (so `h` needs
-/// no zeroing): the same additions in the same order, so the same bits.
+/// [`fill_cell_row`] one cell at a time, everything in registers: for each micro row landing in
+/// cell row `cy` (in order), the cell's run of micro-cells is summed into four 16-lane registers
+/// (one per x-profile, bins in lanes), and those are added with the row's four y-profile weights
+/// (times the gain) into the cell's 16 profile histograms, which stay in registers until the cell
+/// is stored into its slots. The same multiplications and additions in the same order as
+/// [`fill_cell_row`] with [`hpass`] (every value is a chain over micro rows, each term a chain
+/// over micro-cells from `+0`), so the same bits; but no `[y-profile][cell][x-profile][bin]` row
+/// buffer goes through L2 per micro row, and no permutation pass follows.
 ///
 /// # Safety
-/// The CPU must support AVX-512F/BW/VL and F16C; `nb ≤ 16`.
+/// The CPU must support AVX-512F/BW/VL and F16C; `nb ≤ 16`; `row` holds `taps.ncx` cells.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,f16c,avx2,fma")]
-unsafe fn hpass_avx512(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32]) {
+unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
     use std::arch::x86_64::*;
-    debug_assert!(nb <= 16);
+    debug_assert!(nb <= 16 && micro.nbins == nb);
     let mask = ((1u32 << nb) - 1) as __mmask16;
-    let hl = PROFILES * nb;
-    let mut acc = [_mm512_setzero_ps(); PROFILES];
-    let mut cur: Option<usize> = None;
-    // Cells before `next` are written; the ones a run skips are zeroed here (no memset of `h`).
-    let mut next = 0;
-    let mut flush = |cell: usize, acc: &[__m512; PROFILES]| {
-        h[next * hl..cell * hl].fill(0.0);
-        next = cell + 1;
-        let hc = &mut h[cell * hl..][..hl];
-        for (px, a) in acc.iter().enumerate() {
-            // SAFETY: `nb` lanes at px·nb, inside the cell's `hl` values.
-            unsafe { _mm512_mask_storeu_ps(hc.as_mut_ptr().add(px * nb), mask, *a) };
-        }
-    };
-    for (tx, v) in xt.iter().zip(src.chunks_exact(nb)) {
-        let Some(tx) = tx else { continue };
-        if cur != Some(tx.cell) {
-            if let Some(c) = cur {
-                flush(c, &acc);
+    let cl = cell_len(nb);
+    let (lo, hi) = taps.rows[cy];
+    let stride = micro.nmx * nb;
+    // The y-profile weights (times the gain) of the rows landing in this cell row, as the
+    // portable fill computes them.
+    let wys: Vec<(usize, [f32; PROFILES])> = (lo..hi)
+        .filter_map(|my| taps.yt[my].map(|ty| (my, ty.w.map(|w| w * taps.gain))))
+        .collect();
+    for (cx, cell) in row.chunks_exact_mut(cl).enumerate().take(taps.ncx) {
+        let (clo, chi) = taps.cols[cx];
+        let mut t = [_mm512_setzero_ps(); PROFILES * PROFILES];
+        for (i, (my, wy)) in wys.iter().enumerate() {
+            let mut acc = [_mm512_setzero_ps(); PROFILES];
+            let src = &micro.data[my * stride..][..stride];
+            // SAFETY (both closures): `nb` half floats of micro-cell `mx` (< nmx) of this row.
+            let load = |mx: usize| unsafe {
+                _mm512_cvtph_ps(_mm256_maskz_loadu_epi16(
+                    mask,
+                    src.as_ptr().add(mx * nb) as *const i16,
+                ))
+            };
+            match taps.split[cx] {
+                // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is: adding
+                // `0·v` (+0) to a sum ≥ +0 changes no bit, so those products are skipped.
+                Some(mid) => {
+                    for mx in clo..mid {
+                        let (w, vv) = (&taps.xw[mx], load(mx));
+                        for p in [0, 1, 3] {
+                            acc[p] = _mm512_add_ps(acc[p], _mm512_mul_ps(_mm512_set1_ps(w[p]), vv));
+                        }
+                    }
+                    for mx in mid..chi {
+                        let (w, vv) = (&taps.xw[mx], load(mx));
+                        for p in [0, 2, 3] {
+                            acc[p] = _mm512_add_ps(acc[p], _mm512_mul_ps(_mm512_set1_ps(w[p]), vv));
+                        }
+                    }
+                }
+                None => {
+                    for mx in clo..chi {
+                        let (w, vv) = (&taps.xw[mx], load(mx));
+                        for (a, &w) in acc.iter_mut().zip(w) {
+                            *a = _mm512_add_ps(*a, _mm512_mul_ps(_mm512_set1_ps(w), vv));
+                        }
+                    }
+                }
             }
-            cur = Some(tx.cell);
-            acc = [_mm512_setzero_ps(); PROFILES];
+            for (py, &w) in wy.iter().enumerate() {
+                let wv = _mm512_set1_ps(w);
+                let tr = &mut t[py * PROFILES..][..PROFILES];
+                if i == 0 {
+                    for (d, a) in tr.iter_mut().zip(&acc) {
+                        *d = _mm512_mul_ps(wv, *a);
+                    }
+                } else if w != 0.0 {
+                    for (d, a) in tr.iter_mut().zip(&acc) {
+                        *d = _mm512_add_ps(*d, _mm512_mul_ps(wv, *a));
+                    }
+                }
+            }
         }
-        // SAFETY: `nb` lanes of the micro-cell's `nb` half floats; the conversion is exact.
-        let vv = unsafe { _mm512_cvtph_ps(_mm256_maskz_loadu_epi16(mask, v.as_ptr() as *const i16)) };
-        for (a, &w) in acc.iter_mut().zip(&tx.w) {
-            *a = _mm512_add_ps(*a, _mm512_mul_ps(_mm512_set1_ps(w), vv));
+        for py in 0..PROFILES {
+            for px in 0..PROFILES {
+                // SAFETY: `nb` lanes at the slot's offset, inside the cell's `cl` values.
+                unsafe {
+                    _mm512_mask_storeu_ps(
+                        cell.as_mut_ptr().add(cell_slot(py, px) * nb),
+                        mask,
+                        t[py * PROFILES + px],
+                    )
+                };
+            }
         }
     }
-    if let Some(c) = cur {
-        flush(c, &acc);
-    }
-    h[next * hl..].fill(0.0);
 }
 
 /// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
@@ -651,6 +721,8 @@ fn fill_cell_row_nb(
     let hl = PROFILES * nb;
     let plane = taps.ncx * hl;
     let FillScratch { h, t, v } = s;
+    h.resize(taps.ncx * hl, 0.0);
+    t.resize(PROFILES * plane, 0.0);
     let (lo, hi) = taps.rows[cy];
     let mut first = true;
     for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
@@ -808,7 +880,7 @@ mod tests {
             let (ncx, ncy) = (w / CELL_SIZE, h / CELL_SIZE);
             let taps = Taps::new(&s, &m, w, h, 0.8);
             let run = |k: FillKernel| {
-                let mut sc = FillScratch::new(ncx, 9);
+                let mut sc = FillScratch::new();
                 let mut out = vec![f32::NAN; ncx * cell_len(9) * ncy];
                 for (cy, row) in out.chunks_mut(ncx * cell_len(9)).enumerate() {
                     fill_with(k, &m, &taps, cy, row, &mut sc);
@@ -822,6 +894,25 @@ mod tests {
                 want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{w}x{h}"
             );
+        }
+    }
+
+    #[test]
+    fn every_cell_run_splits_where_the_profiles_say() {
+        // The AVX-512 fill skips x-profile 2 left of a cell's split and 1 right of it; the
+        // split must exist for the detector's profiles at every ratio it uses (else that fill
+        // falls back to all four products, still correct but slower).
+        let s = spec();
+        let m = micro(&plane(400, 300), 2, Exec::Serial);
+        for k in 0..14 {
+            let r = 1.05f64.powi(-k);
+            let (w, h) = ((400.0 * r).round() as usize, (300.0 * r).round() as usize);
+            let taps = Taps::new(&s, &m, w, h, 1.0);
+            assert_eq!(taps.split.len(), w / CELL_SIZE);
+            for (cx, (sp, &(lo, hi))) in taps.split.iter().zip(&taps.cols).enumerate() {
+                let mid = sp.unwrap_or_else(|| panic!("ratio {r}: cell {cx} has no split"));
+                assert!(lo < hi && (lo..=hi).contains(&mid), "ratio {r}: cell {cx}");
+            }
         }
     }
 
