@@ -41,9 +41,9 @@ use super::pyramid::{resize_then, PyramidError};
 use super::score::{window_scores, ScoreWeights};
 use super::Detection;
 use crate::features::hog::{
-    block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_in_place,
-    gamma_plane_into, micro_grid_from_gamma_planes, BlockGrid, Exec, GammaPlanes, HogError, HogInput,
-    HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
+    block_and_micro_grids_from_gamma_planes, block_grid_from_gamma_planes, block_grid_stage_times,
+    blocks_from_micro_grid, gamma_in_place, gamma_plane_into, micro_grid_from_gamma_planes, BlockGrid, Exec,
+    GammaPlanes, HogError, HogInput, HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::{Image, ImageView};
 
@@ -713,8 +713,14 @@ impl Detector {
         }
         let planes = self.level_planes(linear, head, &mut stats, &mut sc.planes)?;
         let t = Instant::now();
-        block_grid_from_gamma_planes(&self.hog, &planes, exec, &mut sc.blocks)?;
-        micro_grid_from_gamma_planes(&self.hog, &planes, MICRO_CELL, exec, &mut sc.micro)?;
+        block_and_micro_grids_from_gamma_planes(
+            &self.hog,
+            &planes,
+            MICRO_CELL,
+            exec,
+            &mut sc.blocks,
+            &mut sc.micro,
+        )?;
         stats.hog.cells += t.elapsed();
         let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
         dets.extend(d);

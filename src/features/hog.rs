@@ -588,8 +588,10 @@ struct CellScratch {
 }
 
 impl CellScratch {
+    /// Room for 8 pixel rows of `width` pixels (the cell kernels use the first `ncx·8` of each row
+    /// unless they also pool micro-cells, which reach the last even column).
     fn new(width: usize) -> Self {
-        let n = width / CELL_SIZE * CELL_SIZE * CELL_SIZE;
+        let n = width * CELL_SIZE;
         Self {
             bins: vec![[0; 2]; n],
             wts: vec![[0.0; 2]; n],
@@ -963,7 +965,10 @@ macro_rules! avx2_or_generic {
 
 // After the macro: the submodule uses it.
 pub mod approx;
-pub use approx::{blocks_from_micro_grid, micro_grid_from_gamma_planes, MicroGrid, MICRO_CELL};
+pub use approx::{
+    block_and_micro_grids_from_gamma_planes, blocks_from_micro_grid, micro_grid_from_gamma_planes, MicroGrid,
+    MICRO_CELL,
+};
 
 /// Values per cell: PROFILES (y) x PROFILES (x) x nbins.
 fn cell_len(nbins: usize) -> usize {
@@ -1066,14 +1071,16 @@ fn blocks_in_bands(
     dst: &mut BlockGrid,
 ) {
     let (ncx, ncy) = (p.width / CELL_SIZE, p.height / CELL_SIZE);
-    let scratch = || CellScratch::new(p.width);
+    let scratch = |_| CellScratch::new(p.width);
     let fill =
         |cy: usize, row: &mut [f32], cs: &mut CellScratch| cells_strip_with(kernel, spec, p, cy, row, cs);
     blocks_in_bands_with(spec, ncx, ncy, exec, avx2, dst, scratch, fill);
 }
 
 /// The blocks of `ncx x ncy` cells in bands of [`BAND_BLOCK_ROWS`] block rows: `fill(cy, row,
-/// scratch)` writes cell row `cy` into `row`, each band keeps two cell rows in a ring.
+/// scratch)` writes cell row `cy` into `row`, each band keeps two cell rows in a ring. Band `b`
+/// fills cell rows `16b ..= 16b + 16` (the last band up to `ncy − 1`) with its own
+/// `scratch(b)`.
 #[allow(clippy::too_many_arguments)]
 fn blocks_in_bands_with<S>(
     spec: &HogSpec,
@@ -1082,7 +1089,7 @@ fn blocks_in_bands_with<S>(
     exec: Exec,
     avx2: bool,
     dst: &mut BlockGrid,
-    scratch: impl Fn() -> S + Sync,
+    scratch: impl Fn(usize) -> S + Sync,
     fill: impl Fn(usize, &mut [f32], &mut S) + Sync,
 ) {
     let row_len = ncx * cell_len(spec.nbins());
@@ -1091,7 +1098,7 @@ fn blocks_in_bands_with<S>(
     };
     let band_work = |(b, band): (usize, &mut [f32])| {
         let by0 = b * BAND_BLOCK_ROWS;
-        let mut cs = scratch();
+        let mut cs = scratch(b);
         let mut ring = vec![0.0f32; 2 * row_len];
         fill(by0, &mut ring[..row_len], &mut cs);
         for (r, out) in band.chunks_mut(row_size).enumerate() {
@@ -1195,7 +1202,12 @@ impl CellKernel {
         {
             if have_avx2() {
                 v.push(Self::Avx2);
-                if std::arch::is_x86_feature_detected!("avx512f") && nbins <= AVX512_MAX_BINS && fixed_zeros {
+                if std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                    && nbins <= AVX512_MAX_BINS
+                    && fixed_zeros
+                {
                     v.push(Self::Avx512);
                 }
             }
@@ -1243,10 +1255,10 @@ fn cells_strip_with(
 /// scalar scatter, which stalls on store-to-load forwarding.
 ///
 /// # Safety
-/// The CPU must support AVX-512F, AVX2 and FMA, `spec.nbins() ≤ 16`, and the profiles of `spec` must
-/// be zero outside [`live_profiles`] ([`profiles_have_fixed_zeros`]).
+/// The CPU must support AVX-512F/BW/VL, AVX2 and FMA, `spec.nbins() ≤ 16`, and the profiles of
+/// `spec` must be zero outside [`live_profiles`] ([`profiles_have_fixed_zeros`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2,fma")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
 unsafe fn cells_strip_avx512(
     spec: &HogSpec,
     p: &Planes,
@@ -1254,12 +1266,56 @@ unsafe fn cells_strip_avx512(
     chunk: &mut [f32],
     cs: &mut CellScratch,
 ) {
+    // SAFETY: this function's target features; no micro-cells requested.
+    unsafe { cells_strip_avx512_body::<false>(spec, p, cy0, chunk, cs, &mut []) }
+}
+
+/// [`cells_strip_avx512`] for one cell row `cy` that also pools the row's 2x2-pixel micro-cells
+/// (its 4 micro rows, `(p.width / 2) · nbins` half floats each, into `micro`) from the same
+/// gradients: each micro-cell is the sum of its 4 pixels' one-hot vote vectors, in the pixel
+/// order of [`approx::micro_grid_from_gamma_planes`] (rows, then columns; other lanes add +0),
+/// rounded to half floats as it does — the same bits, without computing the gradients twice.
+/// Micro-cells right of the last whole cell are summed by a scalar loop in the same order.
+///
+/// # Safety
+/// As [`cells_strip_avx512`]; `chunk` is one cell row and `micro` holds its 4 micro rows.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
+unsafe fn cells_micro_row_avx512(
+    spec: &HogSpec,
+    p: &Planes,
+    cy: usize,
+    chunk: &mut [f32],
+    cs: &mut CellScratch,
+    micro: &mut [u16],
+) {
+    debug_assert_eq!(micro.len(), CELL_SIZE / 2 * (p.width / 2) * spec.nbins());
+    // SAFETY: this function's target features; `micro` holds the row's micro rows.
+    unsafe { cells_strip_avx512_body::<true>(spec, p, cy, chunk, cs, micro) }
+}
+
+/// The body of [`cells_strip_avx512`] and [`cells_micro_row_avx512`].
+///
+/// # Safety
+/// As [`cells_micro_row_avx512`] when `MICRO`, else as [`cells_strip_avx512`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn cells_strip_avx512_body<const MICRO: bool>(
+    spec: &HogSpec,
+    p: &Planes,
+    cy0: usize,
+    chunk: &mut [f32],
+    cs: &mut CellScratch,
+    micro: &mut [u16],
+) {
     use std::arch::x86_64::*;
     let nb = spec.nbins();
     debug_assert!(nb <= AVX512_MAX_BINS && PROFILES == 4);
     let ncx = p.width / CELL_SIZE;
     let cl = cell_len(nb);
-    let w8 = ncx * CELL_SIZE;
+    // Micro-cells across (2x2 pixels) and the pixel columns the gradient rows must cover.
+    let nmx = p.width / 2;
+    let w8 = if MICRO { nmx * 2 } else { ncx * CELL_SIZE };
     let CellScratch { bins, wts, sc } = cs;
     let prof = spec.profile;
     let mask: __mmask16 = ((1u32 << nb) - 1) as __mmask16;
@@ -1271,6 +1327,8 @@ unsafe fn cells_strip_avx512(
         }
         for (cx, cell) in cell_row.chunks_exact_mut(cl).enumerate() {
             let mut cacc = [_mm512_setzero_ps(); PROFILES * PROFILES];
+            // The micro-cells of the current pair of pixel rows (MICRO only).
+            let mut macc = [_mm512_setzero_ps(); CELL_SIZE / 2];
             // Fully unrolled over the 8 pixel rows and columns so that every accumulator index
             // is a constant (registers, no spills) and no weight is tested at run time.
             macro_rules! pixel_row {
@@ -1292,6 +1350,22 @@ unsafe fn cells_strip_avx512(
                             *c = _mm512_fmadd_ps(wv, acc[px], *c);
                         }
                     }
+                    if MICRO && $i % 2 == 1 {
+                        let row = &mut micro[($i / 2) * nmx * nb..][..nmx * nb];
+                        for (c, m) in macc.iter_mut().enumerate() {
+                            let h = _mm512_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(*m);
+                            debug_assert!((cx * 4 + c + 1) * nb <= row.len());
+                            // SAFETY: `nb` half floats of micro-cell 4·cx + c < nmx of this row.
+                            unsafe {
+                                _mm256_mask_storeu_epi16(
+                                    row.as_mut_ptr().add((cx * 4 + c) * nb) as *mut i16,
+                                    mask,
+                                    h,
+                                )
+                            };
+                            *m = _mm512_setzero_ps();
+                        }
+                    }
                 }};
             }
             macro_rules! pixel_col {
@@ -1304,6 +1378,9 @@ unsafe fn cells_strip_avx512(
                     let v = _mm512_mask_mov_ps(v, 1 << b1, _mm512_set1_ps(w1));
                     for px in live_profiles($j) {
                         $acc[px] = _mm512_fmadd_ps(_mm512_set1_ps(prof[px][$j]), v, $acc[px]);
+                    }
+                    if MICRO {
+                        macc[$j / 2] = _mm512_add_ps(macc[$j / 2], v);
                     }
                 }};
             }
@@ -1320,6 +1397,26 @@ unsafe fn cells_strip_avx512(
                 let slot = cell_slot(n / PROFILES, n % PROFILES);
                 // SAFETY: the masked store writes lanes 0..nb at slot·nb, inside the cell (16·nb).
                 unsafe { _mm512_mask_storeu_ps(cell.as_mut_ptr().add(slot * nb), mask, *c) };
+            }
+        }
+        if MICRO {
+            // Micro-cells right of the last whole cell, summed in the same pixel order.
+            let mut acc = vec![0.0f32; nb];
+            for a in 0..CELL_SIZE / 2 {
+                for mx in ncx * CELL_SIZE / 2..nmx {
+                    acc.fill(0.0);
+                    for y in 2 * a..2 * a + 2 {
+                        for x in 2 * mx..2 * mx + 2 {
+                            let ([b0, b1], [w0, w1]) = (bins[y * w8 + x], wts[y * w8 + x]);
+                            acc[b0 as usize] += w0;
+                            acc[b1 as usize] += w1;
+                        }
+                    }
+                    let out = &mut micro[(a * nmx + mx) * nb..][..nb];
+                    for (o, &v) in out.iter_mut().zip(&acc) {
+                        *o = approx::f16_bits(v);
+                    }
+                }
             }
         }
     }

@@ -59,8 +59,9 @@
 use rayon::prelude::*;
 
 use super::{
-    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, planes_of, BlockGrid, Exec,
-    GammaPlanes, HogError, HogSpec, Planes, RowScratch, BLOCK_CELLS, CELL_SIZE, PROFILES,
+    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, planes_of, BlockGrid, CellKernel,
+    CellScratch, Exec, GammaPlanes, HogError, HogSpec, Planes, RowScratch, BAND_BLOCK_ROWS, BLOCK_CELLS,
+    CELL_SIZE, PROFILES,
 };
 
 /// Micro-cell side the detector uses, in pixels. Dollár et al. shrink channels by 4; on USC
@@ -85,6 +86,21 @@ pub struct MicroGrid {
 }
 
 impl MicroGrid {
+    /// Shape for `size`-pixel micro-cells of `p` (buffer reused, contents stale).
+    fn reshape(&mut self, p: &Planes, size: usize, nb: usize) {
+        let (nmx, nmy) = (p.width / size, p.height / size);
+        *self = MicroGrid {
+            nmx,
+            nmy,
+            size,
+            width: p.width,
+            height: p.height,
+            nbins: nb,
+            data: std::mem::take(&mut self.data),
+        };
+        self.data.resize(nmx * nmy * nb, 0);
+    }
+
     /// An empty grid (fill with [`micro_grid_from_gamma_planes`]).
     pub fn empty() -> Self {
         Self::default()
@@ -134,18 +150,8 @@ pub fn micro_grid_from_gamma_planes(
     }
     let p = planes_of(spec, planes)?;
     let nb = spec.nbins();
-    let (nmx, nmy) = (p.width / size, p.height / size);
-    *dst = MicroGrid {
-        nmx,
-        nmy,
-        size,
-        width: p.width,
-        height: p.height,
-        nbins: nb,
-        data: std::mem::take(&mut dst.data),
-    };
-    dst.data.resize(nmx * nmy * nb, 0);
-    let row_len = nmx * nb;
+    dst.reshape(&p, size, nb);
+    let row_len = dst.nmx * nb;
     if row_len == 0 {
         return Ok(());
     }
@@ -156,6 +162,77 @@ pub fn micro_grid_from_gamma_planes(
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(task).enumerate().for_each(work),
         Exec::Serial => dst.data.chunks_mut(task).enumerate().for_each(work),
+    }
+    Ok(())
+}
+
+/// [`super::block_grid_from_gamma_planes`] and [`micro_grid_from_gamma_planes`] of the same
+/// planes at once, with the same results bit for bit. With the AVX-512 cell kernel and `size` 2,
+/// the micro-cells are pooled inside the cell pass from the gradients it computes anyway
+/// (`cells_micro_row_avx512`), instead of a second pass that computes every gradient again;
+/// otherwise this runs the two functions one after the other. Errors as theirs.
+pub fn block_and_micro_grids_from_gamma_planes(
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    size: usize,
+    exec: Exec,
+    blocks: &mut BlockGrid,
+    micro: &mut MicroGrid,
+) -> Result<(), HogError> {
+    let kernel = CellKernel::detect(spec);
+    let p = planes_of(spec, planes)?;
+    let (ncx, ncy) = (p.width / CELL_SIZE, p.height / CELL_SIZE);
+    if size != 2 || kernel != CellKernel::Avx512 || ncx < BLOCK_CELLS || ncy < BLOCK_CELLS {
+        super::block_grid_from_gamma_planes(spec, planes, exec, blocks)?;
+        return micro_grid_from_gamma_planes(spec, planes, size, exec, micro);
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        let nb = spec.nbins();
+        micro.reshape(&p, size, nb);
+        // Micro rows per cell row, and the length of one micro row.
+        let per_cell = CELL_SIZE / size;
+        let row_len = micro.nmx * nb;
+        // Band b fills cell rows 16b ..= 16b + 16; it pools the micro rows of the first 16 (the
+        // last band: of all it fills), so every micro row is written once.
+        let nbands = (ncy - 1).div_ceil(BAND_BLOCK_ROWS);
+        let (mut rest, tail) = micro.data.split_at_mut(ncy * per_cell * row_len);
+        let mut slots = Vec::with_capacity(nbands);
+        for b in 0..nbands {
+            let rows = if b + 1 == nbands {
+                ncy - b * BAND_BLOCK_ROWS
+            } else {
+                BAND_BLOCK_ROWS
+            };
+            let (own, r) = rest.split_at_mut(rows * per_cell * row_len);
+            slots.push(std::sync::Mutex::new(Some(own)));
+            rest = r;
+        }
+        let scratch = |b: usize| {
+            let own = slots[b]
+                .lock()
+                .map(|mut s| s.take())
+                .ok()
+                .flatten()
+                .unwrap_or_default();
+            (CellScratch::new(p.width), own, b * BAND_BLOCK_ROWS)
+        };
+        let fill = |cy: usize, row: &mut [f32], s: &mut (CellScratch, &mut [u16], usize)| {
+            let (cs, own, first) = s;
+            let at = (cy - *first) * per_cell * row_len;
+            if at < own.len() {
+                let m = &mut own[at..][..per_cell * row_len];
+                // SAFETY: `CellKernel::detect` chose the AVX-512 kernel, so AVX-512F/BW/VL, AVX2
+                // and FMA are present, nbins ≤ 16 and the profiles have their fixed zeros; `row`
+                // is one cell row and `m` its micro rows.
+                unsafe { super::cells_micro_row_avx512(spec, &p, cy, row, cs, m) }
+            } else {
+                super::cells_strip_with(kernel, spec, &p, cy, row, cs)
+            }
+        };
+        super::blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), blocks, scratch, fill);
+        // Micro rows below the last whole cell row.
+        micro_rows_with(have_avx2(), &p, nb, size, ncy * per_cell, tail);
     }
     Ok(())
 }
@@ -396,7 +473,7 @@ pub fn blocks_from_micro_grid(
     debug_assert_eq!(micro.nbins, nb);
     let taps = Taps::new(spec, micro, width, height, gain);
     let kernel = FillKernel::detect();
-    let scratch = FillScratch::new;
+    let scratch = |_| FillScratch::new();
     let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| fill_with(kernel, micro, &taps, cy, row, s);
     blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), dst, scratch, fill);
 }
@@ -894,6 +971,55 @@ mod tests {
                 want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{w}x{h}"
             );
+        }
+    }
+
+    #[test]
+    fn fused_cells_and_micro_cells_equal_the_two_passes() {
+        // Sizes with and without a right / bottom margin past the last whole cell, several
+        // bands, odd widths; grey, mosaic and colour planes; 1 and 2 workers.
+        let s = spec();
+        for (w, h) in [
+            (160, 144),
+            (173, 299),
+            (66, 530),
+            (174, 298),
+            (301, 133),
+            (71, 128),
+        ] {
+            let a = plane(w, h);
+            let b = Image::from_fn(w, h, |x, y| a.get(w - 1 - x, y) * 0.7);
+            let c = Image::from_fn(w, h, |x, y| a.get(x, h - 1 - y) + 1.0);
+            let mut all = vec![
+                GammaPlanes::Grey(a.view()),
+                GammaPlanes::Colour([a.view(), b.view(), c.view()]),
+            ];
+            if w % 2 == 0 && h % 2 == 0 {
+                all.push(GammaPlanes::Mosaic(a.view()));
+            }
+            for planes in all {
+                for exec in [Exec::Serial, Exec::Parallel] {
+                    let (mut want_b, mut want_m) = (BlockGrid::empty(), MicroGrid::empty());
+                    crate::features::hog::block_grid_from_gamma_planes(&s, &planes, exec, &mut want_b)
+                        .unwrap();
+                    micro_grid_from_gamma_planes(&s, &planes, 2, exec, &mut want_m).unwrap();
+                    let (mut got_b, mut got_m) = (BlockGrid::empty(), MicroGrid::empty());
+                    // Stale contents in reused buffers must not leak through.
+                    got_m.data = vec![0x7bff; 5];
+                    block_and_micro_grids_from_gamma_planes(&s, &planes, 2, exec, &mut got_b, &mut got_m)
+                        .unwrap();
+                    assert_eq!(got_m, want_m, "{w}x{h} {exec:?}");
+                    assert_eq!(got_b.blocks_x(), want_b.blocks_x());
+                    assert_eq!(got_b.blocks_y(), want_b.blocks_y());
+                    for by in 0..want_b.blocks_y() {
+                        let (g, e) = (got_b.block_row(by), want_b.block_row(by));
+                        assert!(
+                            g.iter().zip(e).all(|(x, y)| x.to_bits() == y.to_bits()),
+                            "{w}x{h} row {by}"
+                        );
+                    }
+                }
+            }
         }
     }
 
