@@ -52,9 +52,11 @@
 //! - The AVX-512 fill builds a level one **cell at a time in registers** (its 16 profile
 //!   histograms stay in 16 registers while the micro rows and micro-cells landing in it are
 //!   added), skipping the x-profile that is exactly zero on each half of a cell. The portable fill
-//!   goes a micro row at a time through row buffers. Both make the same additions in the same
-//!   order, so the same bits (tested); the register fill took the approximated levels from ≈ 50
-//!   to ≈ 32 ms of CPU per 1080p frame (docs/detection.md).
+//!   goes a micro row at a time through row buffers. Both make the same fused multiply-adds
+//!   ([`f32::mul_add`]; FMA instructions where the CPU has them) in the same order, so the same
+//!   bits (tested). The register fill took the approximated levels from ≈ 50 to ≈ 32 ms of CPU per
+//!   1080p frame and fused multiply-adds (instead of a multiply, then an add) to ≈ 27; those
+//!   moved window scores by ≤ 2.9e-6 (docs/detection.md).
 
 use rayon::prelude::*;
 
@@ -591,7 +593,7 @@ impl FillKernel {
     }
 }
 
-/// [`fill_cell_row`] with `kernel` (same arithmetic, no fused operations: the same bits).
+/// [`fill_cell_row`] with `kernel` (the same fused multiply-adds in the same order: the same bits).
 fn fill_with(
     kernel: FillKernel,
     micro: &MicroGrid,
@@ -652,7 +654,7 @@ unsafe fn fill_cell_row_avx512(
 /// cell row `cy` (in order), the cell's run of micro-cells is summed into four 16-lane registers
 /// (one per x-profile, bins in lanes), and those are added with the row's four y-profile weights
 /// (times the gain) into the cell's 16 profile histograms, which stay in registers until the cell
-/// is stored into its slots. The same multiplications and additions in the same order as
+/// is stored into its slots. The same fused multiply-adds in the same order as
 /// [`fill_cell_row`] with [`hpass`] (every value is a chain over micro rows, each term a chain
 /// over micro-cells from `+0`), so the same bits; but no `[y-profile][cell][x-profile][bin]` row
 /// buffer goes through L2 per micro row, and no permutation pass follows.
@@ -693,13 +695,13 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
                     for mx in clo..mid {
                         let (w, vv) = (&taps.xw[mx], load(mx));
                         for p in [0, 1, 3] {
-                            acc[p] = _mm512_add_ps(acc[p], _mm512_mul_ps(_mm512_set1_ps(w[p]), vv));
+                            acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
                         }
                     }
                     for mx in mid..chi {
                         let (w, vv) = (&taps.xw[mx], load(mx));
                         for p in [0, 2, 3] {
-                            acc[p] = _mm512_add_ps(acc[p], _mm512_mul_ps(_mm512_set1_ps(w[p]), vv));
+                            acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
                         }
                     }
                 }
@@ -707,7 +709,7 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
                     for mx in clo..chi {
                         let (w, vv) = (&taps.xw[mx], load(mx));
                         for (a, &w) in acc.iter_mut().zip(w) {
-                            *a = _mm512_add_ps(*a, _mm512_mul_ps(_mm512_set1_ps(w), vv));
+                            *a = _mm512_fmadd_ps(_mm512_set1_ps(w), vv, *a);
                         }
                     }
                 }
@@ -721,7 +723,7 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
                     }
                 } else if w != 0.0 {
                     for (d, a) in tr.iter_mut().zip(&acc) {
-                        *d = _mm512_add_ps(*d, _mm512_mul_ps(wv, *a));
+                        *d = _mm512_fmadd_ps(wv, *a, *d);
                     }
                 }
             }
@@ -743,7 +745,8 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
 
 /// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
 /// written): the row is converted to `f32` once into `v` ([`from_f16_row`]), then every
-/// micro-cell adds its histogram times its four x-profile weights to its cell.
+/// micro-cell adds its histogram times its four x-profile weights to its cell (fused
+/// multiply-adds).
 #[inline(always)]
 fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
     let hl = PROFILES * nb;
@@ -756,7 +759,7 @@ fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut 
         // All four x-profiles (zero weights add +0).
         for (hp, &wx) in hc.chunks_exact_mut(nb).zip(&tx.w) {
             for (d, &s) in hp.iter_mut().zip(mc) {
-                *d += wx * s;
+                *d = wx.mul_add(s, *d);
             }
         }
     }
@@ -821,7 +824,7 @@ fn fill_cell_row_nb(
                 }
             } else if wy != 0.0 {
                 for (d, &s) in tp.iter_mut().zip(h.iter()) {
-                    *d += wy * s;
+                    *d = wy.mul_add(s, *d);
                 }
             }
         }
