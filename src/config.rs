@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::detect::ScorePrecision;
 use crate::raw::Cfa;
 
 /// Largest worker pool we accept (a sanity bound, not a tuning hint).
@@ -224,6 +225,9 @@ pub struct ComputeConfig {
     /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
     /// exact level per octave).
     pub approx_levels: usize,
+    /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6) or `"i8"` (8-bit blocks and weights,
+    /// exact integer sums with AVX-512 VNNI: SVM stage ≈2.7x faster, scores within ≈0.04 of f32).
+    pub svm: String,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -243,6 +247,7 @@ impl Default for ComputeConfig {
             max_levels: 64,
             upsample: 1.0,
             approx_levels: 1,
+            svm: "f32".into(),
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
@@ -352,6 +357,17 @@ impl CameraConfig {
     }
 }
 
+impl ComputeConfig {
+    /// `svm` parsed.
+    pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
+        self.svm.parse().map_err(|_| ConfigError::OutOfRange {
+            key: "compute.svm".into(),
+            value: format!("{:?}", self.svm),
+            allowed: "one of \"f32\", \"i8\"".into(),
+        })
+    }
+}
+
 fn parse_cfa(s: &str) -> Option<Cfa> {
     match s.to_ascii_uppercase().as_str() {
         "RGGB" => Some(Cfa::Rggb),
@@ -441,6 +457,7 @@ impl Config {
         range("compute.max_levels", c.max_levels, 1, 64)?;
         range("compute.upsample", c.upsample, 0.5, 4.0)?;
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
+        c.svm_precision()?;
         if c.model.is_empty() {
             return Err(ConfigError::Missing {
                 key: "compute.model".into(),
@@ -566,6 +583,7 @@ mod tests {
             ("[compute]\nupsample = 9.0\n", "compute.upsample"),
             ("[compute]\napprox_levels = 0\n", "compute.approx_levels"),
             ("[compute]\napprox_levels = 65\n", "compute.approx_levels"),
+            ("[compute]\nsvm = \"f16\"\n", "compute.svm"),
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
         ];
         for (extra, key) in cases {
@@ -587,6 +605,21 @@ mod tests {
                 .to_string();
             assert!(msg.contains(key), "{msg} should name {key}");
         }
+    }
+
+    #[test]
+    fn svm_precision_is_f32_or_i8() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::F32);
+        let c = Config::from_toml_str(&format!("[compute]\nsvm = \"i8\"\n{MIN}")).unwrap();
+        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::I8);
+        let msg = Config::from_toml_str(&format!("[compute]\nsvm = \"int8\"\n{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            msg,
+            "config key `compute.svm` = \"int8\" is out of range: allowed one of \"f32\", \"i8\""
+        );
     }
 
     #[test]

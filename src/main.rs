@@ -75,3 +75,38 @@ fn main() -> std::process::ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("mosaicd").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn svm_precision_parses_on_detect_bench_and_eval() {
+        use cli::detect::SvmArg;
+        let Command::Detect(d) = parse(&["detect", "f.raw", "--svm", "i8"]).unwrap().command else {
+            panic!("detect")
+        };
+        assert_eq!(d.det.svm, SvmArg::I8);
+        let Command::Detect(d) = parse(&["detect", "f.raw"]).unwrap().command else {
+            panic!("detect")
+        };
+        assert_eq!(d.det.options().unwrap().svm, mosaicd::detect::ScorePrecision::F32);
+        assert!(parse(&["bench", "detect", "--svm", "i8"]).is_ok());
+        assert!(parse(&["eval", "detection", "m=mosaic", "--svm", "f32"]).is_ok());
+        for bad in [
+            &["detect", "f.raw", "--svm", "f16"][..],
+            &["bench", "detect", "--svm", "int8"],
+            &["eval", "detection", "m=mosaic", "--svm", "u8"],
+        ] {
+            let e = parse(bad).unwrap_err().to_string();
+            assert!(
+                e.contains("--svm") && e.contains("f32") && e.contains("i8"),
+                "{e}"
+            );
+        }
+    }
+}

@@ -11,6 +11,8 @@ use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfi
 use mosaicd::features::hog::{mosaic_from_raw, HogInput};
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
+use super::detect::SvmArg;
+
 /// The OpenCV peer: reads the raw u16 file, times demosaic (+ 16→8 bit) and detectMultiScale.
 const PEER: &str = r#"
 import json, sys, time
@@ -72,6 +74,9 @@ pub struct BenchDetectArgs {
     /// Feature-pyramid approximation for our side (1 = exact; see `mosaicd detect --approx`).
     #[arg(long, default_value_t = 1)]
     pub approx: usize,
+    /// SVM arithmetic for our side (`f32` or `i8`; see `mosaicd detect --svm`).
+    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
+    pub svm: SvmArg,
     /// Skip the OpenCV peer.
     #[arg(long)]
     pub no_peer: bool,
@@ -128,6 +133,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         scale_step: a.scale_step,
         max_levels: a.max_levels,
         approx_levels: a.approx,
+        svm: a.svm.into(),
         ..Default::default()
     };
     let det = Detector::new(model, &opts)?;
@@ -220,7 +226,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let report = serde_json::json!({
         "input": path.display().to_string(), "width": a.width, "height": a.height, "bit_depth": a.bit_depth,
         "cfa": a.cfa.name(), "threads": a.threads, "frames": a.frames, "commit": commit,
-        "scale_step": a.scale_step, "approx_levels": a.approx, "max_levels": a.max_levels, "levels": levels, "windows": windows,
+        "scale_step": a.scale_step, "approx_levels": a.approx, "svm": opts.svm.name(), "max_levels": a.max_levels, "levels": levels, "windows": windows,
         "ours": {
             "fps": 1.0 / ours_s, "frame_ms": ours_s * 1e3, "boxes": boxes,
             // Each stage's clock summed over its sections; levels overlap, so this is close to CPU
@@ -244,7 +250,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
-            "bench detect: {}x{} {}-bit {} mosaic, {} threads each, scale {} x {} levels (used {}), {} windows/frame, commit {}",
+            "bench detect: {}x{} {}-bit {} mosaic, {} threads each, scale {} x {} levels (used {}), approx {}, svm {}, {} windows/frame, commit {}",
             a.width,
             a.height,
             a.bit_depth,
@@ -253,6 +259,8 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
             a.scale_step,
             a.max_levels,
             levels,
+            a.approx,
+            opts.svm,
             windows,
             commit
         );

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod};
+use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
 use mosaicd::features::hog::{mosaic_from_raw, HogInput};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
@@ -84,6 +84,29 @@ pub struct DetectorArgs {
     /// level per octave at step 1.05).
     #[arg(long, default_value_t = 1)]
     pub approx: usize,
+    /// SVM arithmetic: `f32` (OpenCV's scores within 1e-6) or `i8` (8-bit blocks and weights,
+    /// exact integer sums with AVX-512 VNNI: SVM stage ≈2.7x faster, scores within ≈0.04 of f32;
+    /// without AVX-512 VNNI it runs a slow scalar kernel).
+    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
+    pub svm: SvmArg,
+}
+
+/// `--svm` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SvmArg {
+    /// f32 products and sums.
+    F32,
+    /// u8 blocks, i8 weights, exact i32 sums.
+    I8,
+}
+
+impl From<SvmArg> for ScorePrecision {
+    fn from(s: SvmArg) -> Self {
+        match s {
+            SvmArg::F32 => ScorePrecision::F32,
+            SvmArg::I8 => ScorePrecision::I8,
+        }
+    }
 }
 
 /// `--nms` values.
@@ -136,6 +159,7 @@ impl DetectorArgs {
             hit_threshold: self.threshold,
             nms,
             approx_levels: self.approx,
+            svm: self.svm.into(),
         })
     }
 }

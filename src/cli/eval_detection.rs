@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use mosaicd::detect::train::{evaluate_windows_via, split_data, InputPipeline, WindowEval};
-use mosaicd::detect::{Detector, Domain};
+use mosaicd::detect::{Detector, Domain, ScorePrecision};
 use mosaicd::eval::common::{fmt, Progress, Report, Table};
 use mosaicd::eval::detection::{
     ap_summary, det_plot, detect_images, external_detections, load_box_csv, load_usc, parse_detections_csv,
@@ -152,10 +152,11 @@ fn run_windows(
     }
     let mut table = Table::new(
         format!(
-            "Window protocol (held-out split, seed {}, {} positives, {} negative images)",
+            "Window protocol (held-out split, seed {}, {} positives, {} negative images, svm {})",
             a.seed,
             split.val_pos.len(),
-            split.val_neg.len()
+            split.val_neg.len(),
+            ScorePrecision::from(a.det.svm)
         ),
         &[
             "model (trained on)",
@@ -182,7 +183,15 @@ fn run_windows(
                 eprintln!("[{}/{total}] {label}, {}: {s}", k + 1, pipe.name())
             }
         };
-        let ev = evaluate_windows_via(&model, &split, *domain, a.cfa, pipe, &mut progress)?;
+        let ev = evaluate_windows_via(
+            &model,
+            &split,
+            *domain,
+            a.cfa,
+            pipe,
+            a.det.svm.into(),
+            &mut progress,
+        )?;
         let mut row = vec![
             format!("{m} ({:?})", model.domain),
             d.clone(),
@@ -247,13 +256,14 @@ fn run_ap(
         Table::new(
             format!(
             "Full-image AP, {what}: {} of {n_all} images (every {}{}), {n_boxes} boxes, IoU ≥ {PASCAL_IOU}, \
-             upsample {}, hit threshold {}, approx {}",
+             upsample {}, hit threshold {}, approx {}, svm {}",
             images.len(),
             a.every.max(1),
             if a.limit > 0 { format!(", limit {}", a.limit) } else { String::new() },
             opts.upsample,
             opts.hit_threshold,
-            opts.approx_levels
+            opts.approx_levels,
+            opts.svm
         ),
             &[
                 "detector",

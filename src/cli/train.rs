@@ -6,6 +6,7 @@ use std::time::Instant;
 use mosaicd::detect::train::{
     evaluate_windows_via, list_negative_dirs, select_c, split_data, train_on, InputPipeline, TrainOptions,
 };
+use mosaicd::detect::ScorePrecision;
 use mosaicd::raw::Cfa;
 
 use super::detect::DomainArg;
@@ -126,8 +127,17 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     }
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
     if !a.no_eval {
-        let ev = pool
-            .install(|| evaluate_windows_via(&model, &split, o.domain, o.cfa, &o.pipeline, &mut progress))?;
+        let ev = pool.install(|| {
+            evaluate_windows_via(
+                &model,
+                &split,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                ScorePrecision::F32,
+                &mut progress,
+            )
+        })?;
         eprintln!(
             "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
             ev.positives, ev.negative_windows, ev.miss_rate_at

@@ -38,7 +38,9 @@ use rayon::prelude::*;
 use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
 use super::pyramid::{resize_then, PyramidError};
-use super::score::{window_scores, ScoreWeights};
+use super::score::{
+    window_scores, window_scores_i8, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8,
+};
 use super::Detection;
 use crate::features::hog::{
     block_and_micro_grids_from_gamma_planes, block_grid_from_gamma_planes, block_grid_stage_times,
@@ -66,6 +68,9 @@ pub enum DetectError {
     /// Model invalid.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The scoring setup failed (e.g. a descriptor too long for the 8-bit path).
+    #[error(transparent)]
+    Score(#[from] ScoreError),
     /// An option out of range.
     #[error("detector option {what} = {value} is out of range ({allowed})")]
     BadOption {
@@ -116,6 +121,9 @@ pub struct DetectorOptions {
     /// ([`crate::features::hog::blocks_from_micro_grid`]). 1 = every level exact
     /// (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
     pub approx_levels: usize,
+    /// Arithmetic of the SVM stage: f32 (OpenCV's scores within ≈1e-6) or the 8-bit integer path
+    /// (AVX-512 VNNI; scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]).
+    pub svm: ScorePrecision,
 }
 
 impl Default for DetectorOptions {
@@ -130,6 +138,7 @@ impl Default for DetectorOptions {
                 eps: 0.2,
             },
             approx_levels: 1,
+            svm: ScorePrecision::F32,
         }
     }
 }
@@ -293,6 +302,8 @@ pub struct Detector {
     model: LinearModel,
     /// The model's weights laid out for the scoring GEMM.
     score_weights: ScoreWeights,
+    /// The same quantised for the 8-bit path (only with `svm = I8`).
+    score_weights_i8: Option<ScoreWeightsI8>,
     /// Level buffers reused across levels and frames.
     pool: ScratchPool,
     /// Buffers of approximated levels (blocks and scores only), reused the same way.
@@ -427,11 +438,16 @@ impl Detector {
     pub fn new(model: LinearModel, opts: &DetectorOptions) -> Result<Self, DetectError> {
         let hog = model.hog_spec("detector model")?;
         let score_weights = ScoreWeights::new(&hog, &model.weights, model.bias);
+        let score_weights_i8 = match opts.svm {
+            ScorePrecision::F32 => None,
+            ScorePrecision::I8 => Some(ScoreWeightsI8::new(&score_weights)?),
+        };
         Ok(Self {
             spec: DetectorSpec::new(opts)?,
             hog,
             model,
             score_weights,
+            score_weights_i8,
             pool: ScratchPool::default(),
             approx_pool: Pool::default(),
         })
@@ -777,7 +793,7 @@ impl Detector {
         let (nwx, nwy) = grid.windows(&self.hog);
         scores.clear();
         scores.resize(nwx * nwy, 0.0);
-        window_scores(&self.score_weights, grid, exec, scores);
+        self.window_scores(grid, exec, scores);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
         let thr = self.spec.opts.hit_threshold;
@@ -845,8 +861,26 @@ impl Detector {
     pub fn score_grid(&self, grid: &BlockGrid) -> Vec<f32> {
         let (nwx, nwy) = grid.windows(&self.hog);
         let mut scores = vec![0.0f32; nwx * nwy];
-        window_scores(&self.score_weights, grid, Exec::Parallel, &mut scores);
+        self.window_scores(grid, Exec::Parallel, &mut scores);
         scores
+    }
+
+    /// Window scores of one block grid with the configured precision ([`DetectorOptions::svm`]).
+    fn window_scores(&self, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
+        match &self.score_weights_i8 {
+            Some(q) => window_scores_i8(q, grid, exec, scores),
+            None => window_scores(&self.score_weights, grid, exec, scores),
+        }
+    }
+
+    /// The score of one window descriptor (OpenCV order) with the configured precision: the
+    /// plain f32 dot product plus bias, or the 8-bit path's score (the same bits as the window's
+    /// score in [`Self::score_grid`]).
+    pub fn score_descriptor(&self, d: &[f32]) -> f32 {
+        match &self.score_weights_i8 {
+            Some(q) => q.score_descriptor(d),
+            None => d.iter().zip(&self.model.weights).map(|(a, b)| a * b).sum::<f32>() + self.model.bias,
+        }
     }
 }
 
@@ -895,11 +929,16 @@ mod tests {
     fn stage_profile_gives_the_serial_detections_and_times_every_stage() {
         let img = Image::<f32>::from_fn(420, 300, |x, y| ((x * 37 + y * 11 + (x * y) / 5) % 256) as f32);
         let inp = HogInput::Mosaic(img.view());
-        for (approx, nms) in [(1, NmsMethod::None), (5, NmsMethod::Greedy { iou: 0.5 })] {
+        for (approx, nms, svm) in [
+            (1, NmsMethod::None, ScorePrecision::F32),
+            (5, NmsMethod::Greedy { iou: 0.5 }, ScorePrecision::F32),
+            (5, NmsMethod::None, ScorePrecision::I8),
+        ] {
             let o = DetectorOptions {
                 hit_threshold: -1.0,
                 approx_levels: approx,
                 nms,
+                svm,
                 ..Default::default()
             };
             let d = Detector::new(model(3), &o).unwrap();
@@ -928,6 +967,46 @@ mod tests {
                 .stage_profile(&HogInput::GreyU8(tiny.view())),
             Err(DetectError::Hog(HogError::ImageTooSmall { .. }))
         ));
+    }
+
+    #[test]
+    fn i8_scores_are_deterministic_and_close_to_f32() {
+        let img = Image::<f32>::from_fn(420, 300, |x, y| ((x * 37 + y * 11 + (x * y) / 5) % 256) as f32);
+        let inp = HogInput::Mosaic(img.view());
+        let f32_opts = DetectorOptions {
+            hit_threshold: -1e9,
+            nms: NmsMethod::None,
+            approx_levels: 3,
+            ..Default::default()
+        };
+        let i8_opts = DetectorOptions {
+            svm: ScorePrecision::I8,
+            ..f32_opts
+        };
+        let f = Detector::new(model(7), &f32_opts)
+            .unwrap()
+            .detect(&inp)
+            .unwrap()
+            .0;
+        let d = Detector::new(model(7), &i8_opts).unwrap();
+        let (q, _) = d.detect(&inp).unwrap();
+        assert_eq!(q, d.detect_serial(&inp).unwrap().0);
+        assert_eq!(q.len(), f.len());
+        let bound = ScoreWeightsI8::new(&d.score_weights).unwrap().error_bound();
+        let mut max = 0.0f32;
+        for (a, b) in q.iter().zip(&f) {
+            assert_eq!((a.x, a.y, a.width, a.height), (b.x, b.y, b.width, b.height));
+            max = max.max((a.score - b.score).abs());
+        }
+        assert!(max > 0.0 && max <= bound, "max |Δ| {max}, bound {bound}");
+        // Positives of the window protocol are scored the same way as the grid's windows.
+        let spec = d.hog_spec().clone();
+        let mut grid = BlockGrid::empty();
+        block_grid(&spec, &inp, Exec::Serial, &mut grid).unwrap();
+        let scores = d.score_grid(&grid);
+        let desc = grid.window_descriptor(&spec, 2, 3).unwrap();
+        let nwx = grid.windows(&spec).0;
+        assert_eq!(d.score_descriptor(&desc).to_bits(), scores[3 * nwx + 2].to_bits());
     }
 
     fn model(seed: u32) -> LinearModel {

@@ -12,4 +12,5 @@ pub mod types;
 
 pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod, StageProfile};
 pub use model::{Domain, LinearModel};
+pub use score::ScorePrecision;
 pub use types::Detection;

@@ -43,6 +43,7 @@ use rand::{Rng, SeedableRng};
 use super::detector::{Detector, DetectorOptions};
 use super::model::{Domain, LinearModel};
 use super::pyramid::{resize_bilinear, resize_mosaic};
+use super::score::ScorePrecision;
 use super::svm::{train_linear_svm, SvmOptions};
 use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
 use crate::features::hog::{
@@ -582,22 +583,26 @@ pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64
 
 /// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol), the images
 /// brought into `domain` through `pipeline` (as in training, or e.g. the reverse ISP with one of
-/// the paper's noise levels).
+/// the paper's noise levels). Positives and negatives are scored with `svm`'s arithmetic.
 pub fn evaluate_windows_via(
     model: &LinearModel,
     split: &Split,
     domain: Domain,
     cfa: Cfa,
     pipeline: &InputPipeline,
+    svm: ScorePrecision,
     progress: &mut dyn FnMut(&str),
 ) -> Result<WindowEval, TrainError> {
-    let det = Detector::new(model.clone(), &DetectorOptions::default())?;
+    let opts = DetectorOptions {
+        svm,
+        ..DetectorOptions::default()
+    };
+    let det = Detector::new(model.clone(), &opts)?;
     let spec = det.hog_spec().clone();
     let mut pos = Vec::new();
     for (i, p) in split.val_pos.iter().enumerate() {
         let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64)?;
-        let d = positive_descriptor(&spec, &img)?;
-        pos.push(d.iter().zip(&model.weights).map(|(a, b)| a * b).sum::<f32>() + model.bias);
+        pos.push(det.score_descriptor(&positive_descriptor(&spec, &img)?));
     }
     let mut neg = Vec::new();
     for (i, p) in split.val_neg.iter().enumerate() {
@@ -662,7 +667,15 @@ pub fn select_c(
     for &c in candidates {
         let oc = TrainOptions { c, ..*o };
         let model = train_on(&inner, &oc, progress)?;
-        let ev = evaluate_windows_via(&model, &inner, o.domain, o.cfa, &o.pipeline, progress)?;
+        let ev = evaluate_windows_via(
+            &model,
+            &inner,
+            o.domain,
+            o.cfa,
+            &o.pipeline,
+            ScorePrecision::F32,
+            progress,
+        )?;
         progress(&format!(
             "select C: C = {c}: inner miss rate {:?}",
             ev.miss_rate_at

@@ -183,6 +183,9 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
         upsample: c.upsample,
         hit_threshold: c.hit_threshold,
         approx_levels: c.approx_levels,
+        svm: c.svm_precision().map_err(|e| DaemonError::Model {
+            message: e.to_string(),
+        })?,
         ..DetectorOptions::default()
     };
     let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
