@@ -102,6 +102,26 @@ fn mirrored_and_raw_scene_negatives_join_the_training_set() {
     assert_ne!(plain.weights, more.weights);
 }
 
+#[test]
+fn jittered_positives_join_the_training_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, _) = train_with(&dir.path().join("p.json"), "sampled", "2", &[]);
+    let (jit, _) = train_with(
+        &dir.path().join("j.json"),
+        "sampled",
+        "2",
+        &["--jitter-positives", "2"],
+    );
+    assert_eq!(plain.provenance["jitter_positives"], 0);
+    assert_eq!(jit.provenance["jitter_positives"], 2);
+    // Four shifted copies of every training positive.
+    let n = |m: &LinearModel, k: &str| m.provenance[k].as_u64().unwrap();
+    assert_eq!(n(&plain, "train_positives"), n(&jit, "train_positives"));
+    assert_eq!(n(&plain, "positive_windows"), n(&plain, "train_positives"));
+    assert_eq!(n(&jit, "positive_windows"), 5 * n(&jit, "train_positives"));
+    assert_ne!(plain.weights, jit.weights);
+}
+
 /// Two synthetic 160x256 PNGs (a seeded texture with a few edges) in `dir`.
 fn write_negatives(dir: &Path) {
     for (k, name) in ["b.png", "a.png"].iter().enumerate() {

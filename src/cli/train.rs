@@ -55,6 +55,10 @@ pub struct TrainArgs {
     /// Also train on every negative image mirrored left-right.
     #[arg(long)]
     pub mirror_negatives: bool,
+    /// Also train on every positive crop shifted by this many pixels left, right, up and down
+    /// (edges replicated; 0 = off).
+    #[arg(long, default_value_t = 0)]
+    pub jitter_positives: usize,
     /// Also train on the five person-free Infinite-ISP raw scenes (rendered by the forward ISP).
     #[arg(long)]
     pub raw_negatives: bool,
@@ -91,6 +95,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         pipeline: InputPipeline::parse(&a.input, a.seed ^ TRAIN_NOISE_SALT)
             .map_err(|e| anyhow::anyhow!("--input {e}"))?,
         mirror_negatives: a.mirror_negatives,
+        jitter_positives: a.jitter_positives,
         raw_negatives: a.raw_negatives,
     };
     let root = mosaicd::data::data_root();

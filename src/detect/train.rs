@@ -201,6 +201,9 @@ pub struct TrainOptions {
     pub pipeline: InputPipeline,
     /// Also use every training negative image mirrored left-right.
     pub mirror_negatives: bool,
+    /// Also use every training positive shifted by this many pixels left, right, up and down
+    /// (edges replicated; 0 = off): five windows per crop instead of one.
+    pub jitter_positives: usize,
     /// Also use the five person-free Infinite-ISP raw scenes (2592x1536), rendered to sRGB by the
     /// forward ISP with the sensor's tuning, as training negatives (never held out).
     pub raw_negatives: bool,
@@ -220,6 +223,7 @@ impl Default for TrainOptions {
             max_neg_images: 0,
             pipeline: InputPipeline::Sampled,
             mirror_negatives: false,
+            jitter_positives: 0,
             raw_negatives: false,
         }
     }
@@ -714,9 +718,25 @@ pub fn train_on(
     let mut x: Vec<Vec<f32>> = Vec::new();
     let mut y: Vec<i8> = Vec::new();
     for (i, p) in split.train_pos.iter().enumerate() {
-        let img = DomainImage::from_rgb_via(&load_rgb(p)?, o.domain, o.cfa, &o.pipeline, i as u64)?;
+        let rgb = load_rgb(p)?;
+        let img = DomainImage::from_rgb_via(&rgb, o.domain, o.cfa, &o.pipeline, i as u64)?;
         x.push(positive_descriptor(&spec, &img)?);
         y.push(1);
+        if o.jitter_positives > 0 {
+            let j = o.jitter_positives as isize;
+            let (w, h) = (rgb.width() as isize, rgb.height() as isize);
+            for (dx, dy) in [(j, 0), (-j, 0), (0, j), (0, -j)] {
+                let shifted = Image::from_fn(rgb.width(), rgb.height(), |xx, yy| {
+                    rgb.get(
+                        (xx as isize + dx).clamp(0, w - 1) as usize,
+                        (yy as isize + dy).clamp(0, h - 1) as usize,
+                    )
+                });
+                let img = DomainImage::from_rgb_via(&shifted, o.domain, o.cfa, &o.pipeline, i as u64)?;
+                x.push(positive_descriptor(&spec, &img)?);
+                y.push(1);
+            }
+        }
         if i % 200 == 0 {
             progress(&format!("positives {}/{}", i + 1, split.train_pos.len()));
         }
@@ -814,14 +834,11 @@ pub fn train_on(
         seed: o.seed,
         ..Default::default()
     };
-    progress(&format!(
-        "svm: {} positives, {} negatives",
-        split.train_pos.len(),
-        y.len() - split.train_pos.len()
-    ));
+    let npos = y.iter().filter(|&&v| v > 0).count();
+    progress(&format!("svm: {npos} positives, {} negatives", y.len() - npos));
     let (mut w, mut b) = train_linear_svm(&x, &y, &svm);
     for round in 1..=o.mining_rounds {
-        let model = model_from(w.clone(), b, o, split, x.len());
+        let model = model_from(w.clone(), b, o, split, &y);
         let det = Detector::new(model, &DetectorOptions::default())?;
         // Bounded memory: per image at most HARD_PER_IMAGE (highest scores), overall at most
         // `max_hard_per_round`.
@@ -874,14 +891,14 @@ pub fn train_on(
         w = r.0;
         b = r.1;
     }
-    let mut m = model_from(w, b, o, split, x.len());
+    let mut m = model_from(w, b, o, split, &y);
     if !extra.is_empty() {
         m.provenance["training_only_negatives"] = serde_json::json!(extra);
     }
     Ok(m)
 }
 
-fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) -> LinearModel {
+fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) -> LinearModel {
     let mut m = LinearModel::from_opencv_vector(&w, o.domain, "mosaicd train").expect("3780 weights");
     m.bias = b;
     m.provenance = serde_json::json!({
@@ -891,9 +908,11 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, n: usize) ->
         "max_hard_per_round": o.max_hard_per_round, "val_fraction": o.val_fraction,
         "max_neg_images": o.max_neg_images,
         "mirror_negatives": o.mirror_negatives, "raw_negatives": o.raw_negatives,
+        "jitter_positives": o.jitter_positives,
         "train_positives": split.train_pos.len(), "train_negative_images": split.train_neg.len(),
         "training_only_negative_images": split.extra_train_neg.len(),
-        "training_vectors": n,
+        "training_vectors": y.len(),
+        "positive_windows": y.iter().filter(|&&v| v > 0).count(),
         "input_pipeline": o.pipeline.name(),
         "input_note": match o.pipeline {
             InputPipeline::Sampled => "sRGB sampled through the CFA (mosaic), OpenCV grey or the RGB itself; no reverse ISP",
