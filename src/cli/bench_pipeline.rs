@@ -9,6 +9,7 @@ use serde_json::json;
 
 use mosaicd::config::Config;
 use mosaicd::config::PublishConfig;
+use mosaicd::detect::ScorePrecision;
 use mosaicd::pipeline::clock::ReplayClock;
 use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
@@ -17,6 +18,8 @@ use mosaicd::pipeline::stage::Stage;
 use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
 use mosaicd::publish::publisher::IceoryxSink;
 use mosaicd::publish::service::{create_node, detections_service, subscriber};
+
+use super::detect::SvmArg;
 
 /// Arguments of `mosaicd bench pipeline`.
 #[derive(clap::Args, Debug)]
@@ -46,8 +49,8 @@ pub struct BenchPipelineArgs {
     #[arg(long, default_value_t = 1)]
     approx_levels: usize,
     /// SVM precision (`compute.svm`: `f32`, or `i8` for the 8-bit AVX-512 VNNI path).
-    #[arg(long, default_value = "f32")]
-    svm: String,
+    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
+    svm: SvmArg,
     /// Also compute mosaic SIFT keypoints (`compute.keypoints`).
     #[arg(long)]
     keypoints: bool,
@@ -106,15 +109,15 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let mut cfg = Config::default();
     cfg.compute.detect = !a.no_detect;
     cfg.compute.approx_levels = a.approx_levels;
-    cfg.compute.svm = a.svm.clone();
-    cfg.compute.svm_precision()?;
+    let svm = ScorePrecision::from(a.svm);
+    cfg.compute.svm = svm.name().into();
     cfg.compute.keypoints = a.keypoints;
     let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
         "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, a.svm, if a.keypoints { "on" } else { "off" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, if a.keypoints { "on" } else { "off" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
     );
     let mut stalled = None;
     if !a.no_stalled {
@@ -141,7 +144,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
     println!(
         "{}",
-        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": a.svm, "keypoints": a.keypoints, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
+        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit})
     );

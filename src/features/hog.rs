@@ -1313,27 +1313,29 @@ unsafe fn cells_strip_avx512_body<const MICRO: bool>(
     debug_assert!(nb <= AVX512_MAX_BINS && PROFILES == 4);
     let ncx = p.width / CELL_SIZE;
     let cl = cell_len(nb);
-    // Micro-cells across (2x2 pixels) and the pixel columns the gradient rows must cover.
+    // Micro-cells across (2x2 pixels), per cell, and the pixel columns (the row stride of
+    // `bins` / `wts`) the gradient rows must cover.
     let nmx = p.width / 2;
-    let w8 = if MICRO { nmx * 2 } else { ncx * CELL_SIZE };
+    const PER_CELL: usize = CELL_SIZE / 2;
+    let stride = if MICRO { nmx * 2 } else { ncx * CELL_SIZE };
     let CellScratch { bins, wts, sc } = cs;
     let prof = spec.profile;
     let mask: __mmask16 = ((1u32 << nb) - 1) as __mmask16;
     for (k, cell_row) in chunk.chunks_mut(ncx * cl).enumerate() {
         let cy = cy0 + k;
         for i in 0..CELL_SIZE {
-            let r = i * w8..(i + 1) * w8;
+            let r = i * stride..(i + 1) * stride;
             gradient_row(p, cy * CELL_SIZE + i, nb, sc, &mut bins[r.clone()], &mut wts[r]);
         }
         for (cx, cell) in cell_row.chunks_exact_mut(cl).enumerate() {
             let mut cacc = [_mm512_setzero_ps(); PROFILES * PROFILES];
             // The micro-cells of the current pair of pixel rows (MICRO only).
-            let mut macc = [_mm512_setzero_ps(); CELL_SIZE / 2];
+            let mut macc = [_mm512_setzero_ps(); PER_CELL];
             // Fully unrolled over the 8 pixel rows and columns so that every accumulator index
             // is a constant (registers, no spills) and no weight is tested at run time.
             macro_rules! pixel_row {
                 ($i:literal) => {{
-                    let o = $i * w8 + cx * CELL_SIZE;
+                    let o = $i * stride + cx * CELL_SIZE;
                     let mut acc = [_mm512_setzero_ps(); PROFILES];
                     pixel_col!(o, acc, 0);
                     pixel_col!(o, acc, 1);
@@ -1354,11 +1356,11 @@ unsafe fn cells_strip_avx512_body<const MICRO: bool>(
                         let row = &mut micro[($i / 2) * nmx * nb..][..nmx * nb];
                         for (c, m) in macc.iter_mut().enumerate() {
                             let h = _mm512_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(*m);
-                            debug_assert!((cx * 4 + c + 1) * nb <= row.len());
-                            // SAFETY: `nb` half floats of micro-cell 4·cx + c < nmx of this row.
+                            debug_assert!((cx * PER_CELL + c + 1) * nb <= row.len());
+                            // SAFETY: `nb` half floats of micro-cell PER_CELL·cx + c < nmx of this row.
                             unsafe {
                                 _mm256_mask_storeu_epi16(
-                                    row.as_mut_ptr().add((cx * 4 + c) * nb) as *mut i16,
+                                    row.as_mut_ptr().add((cx * PER_CELL + c) * nb) as *mut i16,
                                     mask,
                                     h,
                                 )
@@ -1399,15 +1401,15 @@ unsafe fn cells_strip_avx512_body<const MICRO: bool>(
                 unsafe { _mm512_mask_storeu_ps(cell.as_mut_ptr().add(slot * nb), mask, *c) };
             }
         }
-        if MICRO {
+        if MICRO && ncx * PER_CELL < nmx {
             // Micro-cells right of the last whole cell, summed in the same pixel order.
             let mut acc = vec![0.0f32; nb];
-            for a in 0..CELL_SIZE / 2 {
-                for mx in ncx * CELL_SIZE / 2..nmx {
+            for a in 0..PER_CELL {
+                for mx in ncx * PER_CELL..nmx {
                     acc.fill(0.0);
                     for y in 2 * a..2 * a + 2 {
                         for x in 2 * mx..2 * mx + 2 {
-                            let ([b0, b1], [w0, w1]) = (bins[y * w8 + x], wts[y * w8 + x]);
+                            let ([b0, b1], [w0, w1]) = (bins[y * stride + x], wts[y * stride + x]);
                             acc[b0 as usize] += w0;
                             acc[b1 as usize] += w1;
                         }

@@ -61,9 +61,9 @@
 use rayon::prelude::*;
 
 use super::{
-    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, planes_of, BlockGrid, CellKernel,
-    CellScratch, Exec, GammaPlanes, HogError, HogSpec, Planes, RowScratch, BAND_BLOCK_ROWS, BLOCK_CELLS,
-    CELL_SIZE, PROFILES,
+    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, live_profiles, planes_of, BlockGrid,
+    CellKernel, CellScratch, Exec, GammaPlanes, HogError, HogSpec, Planes, RowScratch, BAND_BLOCK_ROWS,
+    BLOCK_CELLS, CELL_SIZE, PROFILES,
 };
 
 /// Micro-cell side the detector uses, in pixels. Dollár et al. shrink channels by 4; on USC
@@ -213,10 +213,9 @@ pub fn block_and_micro_grids_from_gamma_planes(
         let scratch = |b: usize| {
             let own = slots[b]
                 .lock()
-                .map(|mut s| s.take())
-                .ok()
-                .flatten()
-                .unwrap_or_default();
+                .unwrap_or_else(|e| e.into_inner())
+                .take()
+                .expect("each band takes its own micro rows once");
             (CellScratch::new(p.width), own, b * BAND_BLOCK_ROWS)
         };
         let fill = |cy: usize, row: &mut [f32], s: &mut (CellScratch, &mut [u16], usize)| {
@@ -507,9 +506,9 @@ struct Taps {
     cols: Vec<(usize, usize)>,
     /// The x-profile weights of each micro column (zeros where it has no tap).
     xw: Vec<[f32; PROFILES]>,
-    /// Per cell column, the micro column `mid` such that x-profile 2 is exactly zero on
-    /// `[lo, mid)` and x-profile 1 on `[mid, hi)` (always so for [`HogSpec`]'s profiles: the
-    /// tent of a block's second cell starts at a cell's centre); `None` if not.
+    /// Per cell column, the micro column `mid` such that only [`LEFT_PROFILES`] can be non-zero
+    /// on `[lo, mid)` and only [`RIGHT_PROFILES`] on `[mid, hi)` (always so for [`HogSpec`]'s
+    /// profiles: the tent of a block's second cell starts at a cell's centre); `None` if not.
     split: Vec<Option<usize>>,
     ncx: usize,
     gain: f32,
@@ -526,11 +525,15 @@ impl Taps {
         let rows = row_ranges(&yt, ncy);
         let cols = row_ranges(&xt, ncx);
         let xw: Vec<[f32; PROFILES]> = xt.iter().map(|t| t.map_or([0.0; PROFILES], |t| t.w)).collect();
+        // The profile each half of a cell leaves out (2 on the left, 1 on the right).
+        let off = |live: [usize; 3]| (0..PROFILES).find(|p| !live.contains(p)).expect("3 of 4 live");
+        let (off_left, off_right) = (off(LEFT_PROFILES), off(RIGHT_PROFILES));
         let split = cols
             .iter()
             .map(|&(lo, hi)| {
-                let mid = (lo..hi).find(|&mx| xw[mx][2] != 0.0).unwrap_or(hi);
-                let ok = (lo..mid).all(|mx| xw[mx][2] == 0.0) && (mid..hi).all(|mx| xw[mx][1] == 0.0);
+                let mid = (lo..hi).find(|&mx| xw[mx][off_left] != 0.0).unwrap_or(hi);
+                let ok = (lo..mid).all(|mx| xw[mx][off_left] == 0.0)
+                    && (mid..hi).all(|mx| xw[mx][off_right] == 0.0);
                 ok.then_some(mid)
             })
             .collect();
@@ -546,6 +549,11 @@ impl Taps {
         }
     }
 }
+
+/// The x-profiles that can be non-zero in the left / right half of a cell ([`live_profiles`] of
+/// the exact cell kernel): the register fill multiplies only these.
+const LEFT_PROFILES: [usize; 3] = live_profiles(0);
+const RIGHT_PROFILES: [usize; 3] = live_profiles(CELL_SIZE / 2);
 
 /// Per-band buffers of [`fill_cell_row`].
 struct FillScratch {
@@ -694,13 +702,13 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
                 Some(mid) => {
                     for mx in clo..mid {
                         let (w, vv) = (&taps.xw[mx], load(mx));
-                        for p in [0, 1, 3] {
+                        for p in LEFT_PROFILES {
                             acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
                         }
                     }
                     for mx in mid..chi {
                         let (w, vv) = (&taps.xw[mx], load(mx));
-                        for p in [0, 2, 3] {
+                        for p in RIGHT_PROFILES {
                             acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
                         }
                     }
