@@ -219,7 +219,8 @@ pub struct ComputeConfig {
     pub scale_step: f64,
     /// Maximum pyramid levels (`1..=64`).
     pub max_levels: usize,
-    /// Start the pyramid magnified (`0.5..=4.0`; 2 finds people ~64 px tall).
+    /// Start the pyramid magnified (`1.0..=4.0`; 2 finds people ~64 px tall; below 1 would drop
+    /// the full-resolution level).
     pub upsample: f64,
     /// Feature-pyramid approximation (Dollár et al. 2014): every n-th level is computed exactly,
     /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
@@ -455,7 +456,7 @@ impl Config {
         range("compute.hit_threshold", c.hit_threshold, -10.0, 10.0)?;
         range("compute.scale_step", c.scale_step, 1.01, 2.0)?;
         range("compute.max_levels", c.max_levels, 1, 64)?;
-        range("compute.upsample", c.upsample, 0.5, 4.0)?;
+        range("compute.upsample", c.upsample, 1.0, 4.0)?;
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
         c.svm_precision()?;
         if c.model.is_empty() {
@@ -581,6 +582,7 @@ mod tests {
             ("[compute]\norientation_bins = 0\n", "compute.orientation_bins"),
             ("[compute]\nscale_step = 1.0\n", "compute.scale_step"),
             ("[compute]\nupsample = 9.0\n", "compute.upsample"),
+            ("[compute]\nupsample = 0.5\n", "compute.upsample"),
             ("[compute]\napprox_levels = 0\n", "compute.approx_levels"),
             ("[compute]\napprox_levels = 65\n", "compute.approx_levels"),
             ("[compute]\nsvm = \"f16\"\n", "compute.svm"),

@@ -32,6 +32,9 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8(o.stdout).unwrap()
 }
 
+/// `eval detection opencv-default=grey --usc --limit N`: the start of every USC run below.
+const USC_GREY: [&str; 4] = ["eval", "detection", "opencv-default=grey", "--usc"];
+
 fn assert_png(p: &Path) {
     let b = std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     assert_eq!(&b[1..4], b"PNG", "{} is not a PNG", p.display());
@@ -117,14 +120,8 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
         &ext_arg,
     ];
     let md = ok(&[
-        &[
-            "eval",
-            "detection",
-            "opencv-default=grey",
-            "--usc",
-            "--limit",
-            "2",
-        ][..],
+        &USC_GREY[..],
+        &["--limit", "2"],
         &common,
         &["--out", out.to_str().unwrap()],
     ]
@@ -229,4 +226,119 @@ fn bad_inputs_give_clear_errors() {
 
     let o = mosaicd(&["eval", "detection", "opencv-default", "--usc"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("expected MODEL=DOMAIN"));
+}
+
+#[test]
+fn phases_bootstrap_and_detection_csvs() {
+    let dir = tempfile::tempdir().unwrap();
+    let usc = data().join("pedestrian/usc");
+    let imgs = load_usc(&usc).unwrap();
+    // An external detector perfect on shrunk boxes (each window is the box the default shrink
+    // maps onto the ground truth), one file per phase (`{upsample}` in the path).
+    let mut ext = String::from("image,x,y,w,h,score\n");
+    for g in &imgs[..3] {
+        for b in &g.boxes {
+            let (w, h) = (b.width / 0.6, b.height / 0.8);
+            let (x, y) = (b.x - 0.2 * w, b.y - 0.1 * h);
+            ext.push_str(&format!("{},{x},{y},{w},{h},1\n", g.key));
+        }
+    }
+    for u in ["1.9", "2.0"] {
+        std::fs::write(dir.path().join(format!("truth_{u}.csv")), &ext).unwrap();
+    }
+    let ext_arg = format!("truth={}", dir.path().join("truth_{upsample}.csv").display());
+    let run = |extra: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let md = ok(&[
+            &USC_GREY[..],
+            &[
+                "--limit",
+                "3",
+                "--threshold",
+                "-0.5",
+                "--threads",
+                "2",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ][..],
+            extra,
+        ]
+        .concat());
+        (md, out)
+    };
+    let phases = [
+        "--upsample-phases",
+        "1.9,2.0",
+        "--bootstrap",
+        "50",
+        "--external",
+        &ext_arg,
+    ];
+    let (md, out) = run(&phases, "phases");
+    assert!(md.contains("upsample 2 phases (1.9, 2.0)"), "{md}");
+    let r = rows(&md);
+    // Two tables: the AP table (2 rows) and the bootstrap table (2 rows).
+    assert_eq!(r.len(), 5, "{md}");
+    assert_eq!(r[1][0], "truth");
+    assert_eq!(r[1][6], "1.000");
+    assert_eq!(r[1][7], "1.000–1.000");
+    let boot = &r[3..];
+    assert_eq!(boot[0][4], "[0.000, 0.000]", "the reference against itself: {md}");
+    assert_eq!(boot[1][3], "[1.000, 1.000]", "{md}");
+    // Another reference row: the differences are taken from it.
+    let (mr, _) = run(&[&phases[..], &["--reference", "2"]].concat(), "reference");
+    let br = rows(&mr);
+    assert!(mr.contains("Δ = row − truth"), "{mr}");
+    assert_eq!(br[4][4], "[0.000, 0.000]", "{mr}");
+    assert_eq!(
+        br[3][3], boot[0][3],
+        "the intervals of AP itself do not depend on the reference"
+    );
+    let o = mosaicd(
+        &[
+            &USC_GREY[..],
+            &[
+                "--limit",
+                "1",
+                "--upsample",
+                "2",
+                "--bootstrap",
+                "5",
+                "--reference",
+                "3",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--reference 3"));
+    // The mean over phases is the mean of the single-phase runs.
+    let single = |u: &str| -> f64 {
+        let (m, _) = run(&["--upsample", u], &format!("u{u}"));
+        rows(&m)[0][6].parse().unwrap()
+    };
+    let mean: f64 = r[0][6].parse().unwrap();
+    assert!(
+        (mean - (single("1.9") + single("2.0")) / 2.0).abs() <= 0.0011,
+        "{md}"
+    );
+    // Every row's detections are written per phase and read back as --external: same AP.
+    let det_csv = out.join("detections/opencv-default_Grey_on_grey_sampled_u2.0.csv");
+    assert!(out.join("detections/truth_u1.9.csv").exists());
+    let back = format!("again={}", det_csv.display());
+    let (m2, _) = run(&["--upsample", "2.0", "--external", &back], "back");
+    let r2 = rows(&m2);
+    assert_eq!(r2[0][3..], r2[1][3..], "{m2}");
+    // A phase that is not a number is a clear error.
+    let o = mosaicd(&[
+        "eval",
+        "detection",
+        "opencv-default=grey",
+        "--usc",
+        "--upsample-phases",
+        "2,x",
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--upsample-phases x"));
 }

@@ -12,7 +12,7 @@ enum EvalCommand {
     #[command(flatten)]
     Isp(super::eval_isp::IspEval),
     /// Pedestrian detection: DET curves (miss rate vs FPPW) and full-image AP.
-    Detection(super::eval_detection::EvalDetectionArgs),
+    Detection(Box<super::eval_detection::EvalDetectionArgs>),
     /// SIFT repeatability under blur, scale and rotation (paper Fig. 12).
     Sift(super::eval_sift::EvalSiftArgs),
 }
@@ -21,7 +21,7 @@ enum EvalCommand {
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     match args.command {
         EvalCommand::Isp(c) => super::eval_isp::run(c),
-        EvalCommand::Detection(a) => super::eval_detection::run(a),
+        EvalCommand::Detection(a) => super::eval_detection::run(*a),
         EvalCommand::Sift(a) => super::eval_sift::run(a),
     }
 }

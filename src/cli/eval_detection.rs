@@ -18,10 +18,13 @@ use mosaicd::detect::train::{evaluate_windows_via, split_data, InputPipeline, Wi
 use mosaicd::detect::{Detector, Domain, ScorePrecision};
 use mosaicd::eval::common::{fmt, Progress, Report, Table};
 use mosaicd::eval::detection::{
-    ap_summary, det_plot, detect_images, external_detections, load_box_csv, load_usc, parse_detections_csv,
-    pr_plot, subsample, usc_root, ApSummary, Shrink,
+    ap_summary, det_plot, detect_images, detections_csv, external_detections, load_box_csv, load_usc,
+    paired_bootstrap, parse_detections_csv, pr_plot, subsample, usc_root, ApSummary, Interval,
+    PerImageMatches, Shrink,
 };
-use mosaicd::metrics::detection::{ImageDetections, PASCAL_IOU};
+use mosaicd::metrics::detection::{
+    log_average_miss_rate, match_detections, mr_fppi_curve, ImageDetections, PASCAL_IOU,
+};
 use mosaicd::raw::Cfa;
 
 use super::detect::{load_model, DetectorArgs, DomainArg};
@@ -78,8 +81,24 @@ pub struct EvalDetectionArgs {
     #[arg(long, value_delimiter = ',', num_args = 4, default_value = "0.2,0.1,0.6,0.8")]
     pub shrink: Vec<f32>,
     /// AP: detections of another detector, NAME=CSV (columns image,x,y,w,h,score; image = set/name).
+    /// With --upsample-phases, `{upsample}` in CSV is replaced by each factor as written there
+    /// (one file per phase, e.g. from `benches/opencv_detect_boxes.py --upsample U`).
     #[arg(long)]
     pub external: Vec<String>,
+    /// AP: run every detector at each of these upsample factors (pyramid phases, e.g.
+    /// `1.95,1.975,1.99,2.0,2.01,2.025,2.05`) and report the mean over them, with the range of AP;
+    /// replaces --upsample. One factor alone can move AP by several points.
+    #[arg(long, value_delimiter = ',')]
+    pub upsample_phases: Vec<String>,
+    /// AP: paired bootstrap over images with this many resamples (0 = off; e.g. 1000), seeded by
+    /// --seed: 95 % intervals of each row's AP and log-average miss rate and of their differences
+    /// from the first row, and how often the row's AP is at least the first row's.
+    #[arg(long, default_value_t = 0)]
+    pub bootstrap: usize,
+    /// AP: the bootstrap's reference row, counted from 1 in the table's order (detectors, then
+    /// --external files), e.g. an --external OpenCV run.
+    #[arg(long, default_value_t = 1)]
+    pub reference: usize,
     #[command(flatten)]
     pub det: DetectorArgs,
     /// Directory for the PNG plots and detection.md.
@@ -230,6 +249,38 @@ fn run_windows(
     })
 }
 
+/// One row of the AP table: a detector on one input at every phase.
+struct ApRow {
+    name: String,
+    input: String,
+    pipeline: String,
+    /// Detections per phase.
+    phases: Vec<Vec<ImageDetections>>,
+}
+
+impl ApRow {
+    fn label(&self) -> String {
+        if self.pipeline == EXTERNAL {
+            self.name.clone()
+        } else {
+            format!("{} on {}, {}", self.name, self.input, self.pipeline)
+        }
+    }
+}
+
+/// A file-name-safe form of a row label.
+fn slug(s: &str) -> String {
+    let mut out = String::new();
+    for c in s.chars() {
+        if c.is_ascii_alphanumeric() || c == '.' || c == '-' {
+            out.push(c);
+        } else if !out.ends_with('_') {
+            out.push('_');
+        }
+    }
+    out.trim_matches('_').to_string()
+}
+
 fn run_ap(
     a: &EvalDetectionArgs,
     runs: &[(String, Domain, String)],
@@ -252,95 +303,266 @@ fn run_ap(
         height: a.shrink[3],
     };
     let opts = a.det.options()?;
-    let mut table =
-        Table::new(
-            format!(
-            "Full-image AP, {what}: {} of {n_all} images (every {}{}), {n_boxes} boxes, IoU ≥ {PASCAL_IOU}, \
-             upsample {}, hit threshold {}, approx {}, svm {}",
-            images.len(),
-            a.every.max(1),
-            if a.limit > 0 { format!(", limit {}", a.limit) } else { String::new() },
-            opts.upsample,
-            opts.hit_threshold,
-            opts.approx_levels,
-            opts.svm
-        ),
-            &[
-                "detector",
-                "input",
-                "pipeline",
-                "detections",
-                "AP (raw boxes)",
-                "recall (raw)",
-                "AP (shrunk)",
-                "recall (shrunk)",
-            ],
-        );
-    let mut results: Vec<(String, ApSummary, ApSummary)> = Vec::new();
-    let mut add = |name: String, d: &str, pipe: &str, dets: &[ImageDetections]| -> anyhow::Result<()> {
-        let raw = ap_summary(dets, None, PASCAL_IOU)?;
-        let shr = ap_summary(dets, Some(shrink), PASCAL_IOU)?;
-        table.row(vec![
-            name.clone(),
-            d.to_string(),
-            pipe.to_string(),
-            raw.detections.to_string(),
-            fmt(raw.ap, 3),
-            fmt(raw.recall, 3),
-            fmt(shr.ap, 3),
-            fmt(shr.recall, 3),
-        ]);
-        let label = if pipe == EXTERNAL {
-            name
-        } else {
-            format!("{name} on {d}, {pipe}")
-        };
-        results.push((label, raw, shr));
-        Ok(())
+    // Phases: (text as given, factor).
+    let phases: Vec<(String, f64)> = if a.upsample_phases.is_empty() {
+        vec![(opts.upsample.to_string(), opts.upsample)]
+    } else {
+        a.upsample_phases
+            .iter()
+            .map(|t| {
+                let u: f64 = t
+                    .trim()
+                    .parse()
+                    .map_err(|_| anyhow::anyhow!("--upsample-phases {t}: not a number"))?;
+                anyhow::ensure!(
+                    u.is_finite() && u > 0.0,
+                    "--upsample-phases {t}: must be a positive factor"
+                );
+                Ok((t.trim().to_string(), u))
+            })
+            .collect::<anyhow::Result<_>>()?
     };
-    let total = runs.len() * pipelines.len();
-    for (k, (pipe, (m, domain, d))) in pipelines
-        .iter()
-        .flat_map(|p| runs.iter().map(move |r| (p, r)))
-        .enumerate()
-    {
-        let model = load_model(m, Domain::Grey)?;
-        let name = format!("{m} ({:?})", model.domain);
-        let det = Detector::new(model, &opts)?;
-        let progress = Progress::new(
-            &format!("[{}/{total}] {m}={d} {}", k + 1, pipe.name()),
-            images.len(),
-            !a.quiet,
-        );
-        let dets = detect_images(&det, &images, *domain, a.cfa, pipe, &mut |i, key| {
-            progress.step(i, key)
-        })?;
-        progress.done();
-        add(name, d, &pipe.name(), &dets)?;
+    let multi = phases.len() > 1;
+    let upsample_text = if multi {
+        format!(
+            "upsample {} phases ({})",
+            phases.len(),
+            phases.iter().map(|p| p.0.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    } else {
+        format!("upsample {}", opts.upsample)
+    };
+    let title = format!(
+        "Full-image AP, {what}: {} of {n_all} images (every {}{}), {n_boxes} boxes, IoU ≥ {PASCAL_IOU}, \
+         {upsample_text}, hit threshold {}, approx {}, svm {}",
+        images.len(),
+        a.every.max(1),
+        if a.limit > 0 {
+            format!(", limit {}", a.limit)
+        } else {
+            String::new()
+        },
+        opts.hit_threshold,
+        opts.approx_levels,
+        opts.svm
+    );
+    let mut rows: Vec<ApRow> = Vec::new();
+    let total = runs.len() * pipelines.len() * phases.len();
+    let mut k = 0;
+    for pipe in pipelines {
+        for (m, domain, d) in runs {
+            let mut per_phase = Vec::with_capacity(phases.len());
+            let mut name = m.clone();
+            for (text, u) in &phases {
+                k += 1;
+                let model = load_model(m, Domain::Grey)?;
+                name = format!("{m} ({:?})", model.domain);
+                let mut o = opts;
+                o.upsample = *u;
+                let det = Detector::new(model, &o)?;
+                let phase = if multi {
+                    format!(" upsample {text}")
+                } else {
+                    String::new()
+                };
+                let progress = Progress::new(
+                    &format!("[{k}/{total}] {m}={d} {}{phase}", pipe.name()),
+                    images.len(),
+                    !a.quiet,
+                );
+                let dets = detect_images(&det, &images, *domain, a.cfa, pipe, &mut |i, key| {
+                    progress.step(i, key)
+                })?;
+                progress.done();
+                per_phase.push(dets);
+            }
+            rows.push(ApRow {
+                name,
+                input: d.clone(),
+                pipeline: pipe.name(),
+                phases: per_phase,
+            });
+        }
     }
     for e in &a.external {
         let (name, file) = e
             .split_once('=')
             .ok_or_else(|| anyhow::anyhow!("--external {e}: expected NAME=CSV"))?;
-        let path = Path::new(file);
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let dets = external_detections(&images, &parse_detections_csv(&text, path)?, path)?;
-        add(name.to_string(), "(its own)", EXTERNAL, &dets)?;
+        let mut per_phase = Vec::with_capacity(phases.len());
+        for (text, _) in &phases {
+            let file = file.replace("{upsample}", text);
+            let path = Path::new(&file);
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            per_phase.push(external_detections(
+                &images,
+                &parse_detections_csv(&text, path)?,
+                path,
+            )?);
+        }
+        rows.push(ApRow {
+            name: name.to_string(),
+            input: "(its own)".into(),
+            pipeline: EXTERNAL.into(),
+            phases: per_phase,
+        });
+    }
+    // Every row's detections, per phase, in the --external format.
+    let dir = a.out.join("detections");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    for r in &rows {
+        for ((text, _), dets) in phases.iter().zip(&r.phases) {
+            let suffix = if multi { format!("_u{text}") } else { String::new() };
+            let p = dir.join(format!("{}{suffix}.csv", slug(&r.label())));
+            std::fs::write(&p, detections_csv(&images, dets))
+                .with_context(|| format!("writing {}", p.display()))?;
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let mut headers = vec![
+        "detector",
+        "input",
+        "pipeline",
+        "detections",
+        "AP (raw boxes)",
+        "recall (raw)",
+        "AP (shrunk)",
+    ];
+    if multi {
+        headers.push("AP (shrunk) min–max");
+    }
+    headers.extend(["recall (shrunk)", "LAMR (shrunk)"]);
+    let mut table = Table::new(title, &headers);
+    let mut curves: Vec<(String, ApSummary, ApSummary)> = Vec::new();
+    for r in &rows {
+        let mut raw = Vec::new();
+        let mut shr = Vec::new();
+        let mut lamr = Vec::new();
+        for dets in &r.phases {
+            raw.push(ap_summary(dets, None, PASCAL_IOU)?);
+            shr.push(ap_summary(dets, Some(shrink), PASCAL_IOU)?);
+            let shrunk: Vec<ImageDetections> = dets
+                .iter()
+                .map(|i| ImageDetections {
+                    detections: i.detections.iter().map(|d| shrink.apply(d)).collect(),
+                    ground_truth: i.ground_truth.clone(),
+                })
+                .collect();
+            lamr.push(log_average_miss_rate(&mr_fppi_curve(&match_detections(
+                &shrunk, PASCAL_IOU,
+            )?)?));
+        }
+        let ap_s: Vec<f64> = shr.iter().map(|s| s.ap).collect();
+        let dets_mean = mean(&raw.iter().map(|s| s.detections as f64).collect::<Vec<_>>());
+        let mut row = vec![
+            r.name.clone(),
+            r.input.clone(),
+            r.pipeline.clone(),
+            if multi {
+                fmt(dets_mean, 1)
+            } else {
+                raw[0].detections.to_string()
+            },
+            fmt(mean(&raw.iter().map(|s| s.ap).collect::<Vec<_>>()), 3),
+            fmt(mean(&raw.iter().map(|s| s.recall).collect::<Vec<_>>()), 3),
+            fmt(mean(&ap_s), 3),
+        ];
+        if multi {
+            let lo = ap_s.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ap_s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            row.push(format!("{}–{}", fmt(lo, 3), fmt(hi, 3)));
+        }
+        row.push(fmt(mean(&shr.iter().map(|s| s.recall).collect::<Vec<_>>()), 3));
+        row.push(fmt(mean(&lamr), 3));
+        table.row(row);
+        curves.push((r.label(), raw.swap_remove(0), shr.swap_remove(0)));
+    }
+    let mut tables = vec![table];
+    if a.bootstrap > 0 && !rows.is_empty() {
+        let matched = rows
+            .iter()
+            .map(|r| {
+                r.phases
+                    .iter()
+                    .map(|d| PerImageMatches::new(d, Some(shrink), PASCAL_IOU))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        anyhow::ensure!(
+            (1..=rows.len()).contains(&a.reference),
+            "--reference {}: the table has rows 1..={}",
+            a.reference,
+            rows.len()
+        );
+        let r0 = a.reference - 1;
+        // The reference goes first for the bootstrap, then back to its place in the table.
+        let mut order: Vec<usize> = vec![r0];
+        order.extend((0..rows.len()).filter(|&i| i != r0));
+        let reordered: Vec<Vec<PerImageMatches>> = order.iter().map(|&i| matched[i].clone()).collect();
+        let boot = paired_bootstrap(&reordered, a.bootstrap, a.seed)?;
+        let mut b = boot.clone();
+        for (k, &i) in order.iter().enumerate() {
+            b[i] = boot[k];
+        }
+        let iv = |i: &Interval| format!("[{}, {}]", fmt(i.lo, 3), fmt(i.hi, 3));
+        let mut t = Table::new(
+            format!(
+                "Paired bootstrap over the {} images ({} resamples, seed {}; shrunk boxes{}): 95 % intervals; \
+                 Δ = row − {}",
+                images.len(),
+                a.bootstrap,
+                a.seed,
+                if multi { ", means over the phases" } else { "" },
+                rows[a.reference - 1].label()
+            ),
+            &[
+                "detector",
+                "input",
+                "pipeline",
+                "AP (shrunk)",
+                "Δ AP",
+                "share of resamples with Δ AP ≥ 0",
+                "LAMR (shrunk)",
+                "Δ LAMR",
+            ],
+        );
+        for (r, b) in rows.iter().zip(&b) {
+            t.row(vec![
+                r.name.clone(),
+                r.input.clone(),
+                r.pipeline.clone(),
+                iv(&b.ap),
+                iv(&b.ap_diff),
+                fmt(b.ap_not_worse, 3),
+                iv(&b.lamr),
+                iv(&b.lamr_diff),
+            ]);
+        }
+        tables.push(t);
     }
     let mut plots = Vec::new();
     for (suffix, shrunk) in [("raw", false), ("shrunk", true)] {
         let p = a.out.join(format!("pr_{suffix}.png"));
-        let curves: Vec<(String, &ApSummary)> = results
+        let named: Vec<(String, &ApSummary)> = curves
             .iter()
             .map(|(n, r, s)| (n.clone(), if shrunk { s } else { r }))
             .collect();
-        pr_plot(&format!("Precision/recall, {suffix} detections"), &curves, &p)?;
+        let which = if multi {
+            format!(", upsample {}", phases[0].0)
+        } else {
+            String::new()
+        };
+        pr_plot(
+            &format!("Precision/recall, {suffix} detections{which}"),
+            &named,
+            &p,
+        )?;
         plots.push(p);
     }
     Ok(Report {
         name: "detection".into(),
         heading: "Pedestrian detection: full-image AP".into(),
-        tables: vec![table],
+        tables,
         plots,
         notes: vec![
             format!(
@@ -350,6 +572,11 @@ fn run_ap(
             format!(
                 "shrunk: every detection (x, y, w, h) → (x + {}w, y + {}h, {}w, {}h) before matching",
                 shrink.x, shrink.y, shrink.width, shrink.height
+            ),
+            "LAMR: log-average miss rate over FPPI 10^-2 … 10^0 (Dollár et al.), shrunk boxes".into(),
+            format!(
+                "detections of every row: {} (the --external format)",
+                dir.display()
             ),
         ],
     })

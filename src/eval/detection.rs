@@ -56,7 +56,8 @@ use crate::detect::{Detection, Detector, Domain};
 use crate::eval::plot::{line_plot, Legend, LinePlot, Scale, Series};
 use crate::image::Image;
 use crate::metrics::detection::{
-    average_precision, match_detections, ApMethod, DetPoint, ImageDetections, Rect,
+    average_precision, log_average_miss_rate, match_detections, mr_fppi_curve, ApMethod, DetPoint,
+    ImageDetections, MatchedDetections, Rect,
 };
 use crate::raw::Cfa;
 
@@ -758,6 +759,184 @@ pub fn det_plot(title: &str, curves: &[(String, &[DetPoint])], path: &Path) -> R
     Ok(line_plot(&p, path)?)
 }
 
+/// Write detections as the CSV that [`parse_detections_csv`] (and `--external`) reads:
+/// `image,x,y,w,h,score`, one row per detection, images in the order given.
+pub fn detections_csv(images: &[GtImage], dets: &[ImageDetections]) -> String {
+    let mut s = String::from("image,x,y,w,h,score\n");
+    for (g, d) in images.iter().zip(dets) {
+        for b in &d.detections {
+            s.push_str(&format!(
+                "{},{},{},{},{},{}\n",
+                g.key, b.x, b.y, b.width, b.height, b.score
+            ));
+        }
+    }
+    s
+}
+
+/// One detector's detections at one pyramid phase, matched image by image, ready to be scored on
+/// any resample of the images (matching is per image, only the ranking is global).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PerImageMatches {
+    /// `(score, true_positive)` of every detection of each image.
+    pub per_image: Vec<Vec<(f32, bool)>>,
+    /// Ground-truth boxes of each image.
+    pub ground_truth: Vec<usize>,
+}
+
+impl PerImageMatches {
+    /// Match every image on its own (IoU ≥ `iou`), detections first mapped by `shrink` if given.
+    pub fn new(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) -> Result<Self> {
+        let mut per_image = Vec::with_capacity(images.len());
+        let mut ground_truth = Vec::with_capacity(images.len());
+        for img in images {
+            let one = ImageDetections {
+                detections: match shrink {
+                    Some(s) => img.detections.iter().map(|d| s.apply(d)).collect(),
+                    None => img.detections.clone(),
+                },
+                ground_truth: img.ground_truth.clone(),
+            };
+            let m = match_detections(std::slice::from_ref(&one), iou)?;
+            per_image.push(m.ranked);
+            ground_truth.push(m.n_ground_truth);
+        }
+        Ok(Self {
+            per_image,
+            ground_truth,
+        })
+    }
+
+    /// The matched detections of the images `idx` (repeats allowed), ranked by score; ties keep
+    /// the order of `idx`. Equal to [`match_detections`] of those images.
+    pub fn resample(&self, idx: &[usize]) -> MatchedDetections {
+        let mut ranked: Vec<(f32, bool)> = idx
+            .iter()
+            .flat_map(|&i| self.per_image[i].iter().copied())
+            .collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+        MatchedDetections {
+            ranked,
+            n_ground_truth: idx.iter().map(|&i| self.ground_truth[i]).sum(),
+            n_images: idx.len(),
+        }
+    }
+
+    /// All-points AP and log-average miss rate of the images `idx`.
+    pub fn ap_lamr(&self, idx: &[usize]) -> Result<(f64, f64)> {
+        let m = self.resample(idx);
+        let ap = average_precision(&m, ApMethod::AllPoints)?.ap;
+        let lamr = log_average_miss_rate(&mr_fppi_curve(&m)?);
+        Ok((ap, lamr))
+    }
+}
+
+/// A percentile interval `[lo, hi]`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Interval {
+    /// 2.5th percentile.
+    pub lo: f64,
+    /// 97.5th percentile.
+    pub hi: f64,
+}
+
+impl Interval {
+    fn of(mut v: Vec<f64>) -> Self {
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+        Self {
+            lo: q(0.025),
+            hi: q(0.975),
+        }
+    }
+}
+
+/// One detector's paired-bootstrap result (all values are means over the phases).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct BootstrapRow {
+    /// 95 % interval of AP.
+    pub ap: Interval,
+    /// 95 % interval of the log-average miss rate.
+    pub lamr: Interval,
+    /// 95 % interval of AP minus the reference detector's AP on the same resample.
+    pub ap_diff: Interval,
+    /// 95 % interval of LAMR minus the reference detector's.
+    pub lamr_diff: Interval,
+    /// Fraction of resamples in which this detector's AP is at least the reference's.
+    pub ap_not_worse: f64,
+}
+
+/// Paired bootstrap over images: `rows[r][p]` is detector `r` at phase `p`, all over the same
+/// images. Each of `resamples` draws (seeded `ChaCha8`, so the result is reproducible) takes the
+/// images with replacement, scores every detector at every phase on them, averages AP and LAMR
+/// over the phases, and differences them from row 0 (the reference). A draw whose images hold no
+/// ground-truth box is redrawn.
+///
+/// The interval is the 2.5–97.5 % percentile interval of the draws; it describes the variation
+/// over *images* (the phases are fixed), so it is the uncertainty of "on people like these",
+/// not of the pyramid's phase.
+pub fn paired_bootstrap(
+    rows: &[Vec<PerImageMatches>],
+    resamples: usize,
+    seed: u64,
+) -> Result<Vec<BootstrapRow>> {
+    use rand::{Rng, SeedableRng};
+    let n = rows
+        .first()
+        .and_then(|r| r.first())
+        .map_or(0, |m| m.per_image.len());
+    if n == 0 || resamples == 0 {
+        return Err(DetEvalError::NoImages {
+            what: format!("bootstrap over {n} images with {resamples} resamples"),
+        });
+    }
+    if rows.iter().flatten().any(|m| m.per_image.len() != n) || rows.iter().any(|r| r.is_empty()) {
+        return Err(DetEvalError::NoImages {
+            what: "bootstrap rows over different image sets".into(),
+        });
+    }
+    let total_gt: usize = rows[0][0].ground_truth.iter().sum();
+    if total_gt == 0 {
+        return Err(crate::metrics::MetricsError::NoSamples { what: "ground truth" }.into());
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    // draws[r] = (ap, lamr) per resample.
+    let mut draws: Vec<Vec<(f64, f64)>> = vec![Vec::with_capacity(resamples); rows.len()];
+    let mut idx = vec![0usize; n];
+    for _ in 0..resamples {
+        loop {
+            idx.iter_mut().for_each(|i| *i = rng.random_range(0..n));
+            if idx.iter().any(|&i| rows[0][0].ground_truth[i] > 0) {
+                break;
+            }
+        }
+        for (r, phases) in rows.iter().enumerate() {
+            let (mut ap, mut lamr) = (0.0, 0.0);
+            for m in phases {
+                let (a, l) = m.ap_lamr(&idx)?;
+                ap += a;
+                lamr += l;
+            }
+            let k = phases.len() as f64;
+            draws[r].push((ap / k, lamr / k));
+        }
+    }
+    Ok(draws
+        .iter()
+        .map(|d| {
+            let reference = &draws[0];
+            BootstrapRow {
+                ap: Interval::of(d.iter().map(|x| x.0).collect()),
+                lamr: Interval::of(d.iter().map(|x| x.1).collect()),
+                ap_diff: Interval::of(d.iter().zip(reference).map(|(x, y)| x.0 - y.0).collect()),
+                lamr_diff: Interval::of(d.iter().zip(reference).map(|(x, y)| x.1 - y.1).collect()),
+                ap_not_worse: d.iter().zip(reference).filter(|(x, y)| x.0 >= y.0).count() as f64
+                    / resamples as f64,
+            }
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -941,5 +1120,114 @@ mod tests {
         assert_eq!(keys(subsample(imgs.clone(), 3, 0).unwrap()), "0,3,6,9");
         assert_eq!(keys(subsample(imgs.clone(), 3, 2).unwrap()), "0,3");
         assert!(subsample(vec![], 1, 0).is_err());
+    }
+    /// `n` images with one box each; detector `good` finds every box, `flaky` finds every
+    /// other one, and both put one false positive in every image at a mid score.
+    fn bootstrap_fixture(n: usize) -> (Vec<ImageDetections>, Vec<ImageDetections>) {
+        let gt = rect(0.0, 0.0, 10.0, 20.0);
+        let fp = det(50.0, 0.0, 10.0, 20.0, 0.5);
+        let mk = |hit: bool, i: usize| ImageDetections {
+            detections: if hit {
+                vec![det(0.0, 0.0, 10.0, 20.0, 1.0 + i as f32 * 1e-3), fp]
+            } else {
+                vec![fp]
+            },
+            ground_truth: vec![gt],
+        };
+        let good = (0..n).map(|i| mk(true, i)).collect();
+        let flaky = (0..n).map(|i| mk(i % 2 == 0, i)).collect();
+        (good, flaky)
+    }
+
+    #[test]
+    fn per_image_matches_resample_equals_matching_the_resampled_images() {
+        let (good, flaky) = bootstrap_fixture(9);
+        for set in [good, flaky] {
+            let m = PerImageMatches::new(&set, None, PASCAL_IOU).unwrap();
+            let idx = [3, 3, 0, 8, 5, 5, 5, 1, 2];
+            let picked: Vec<ImageDetections> = idx.iter().map(|&i| set[i].clone()).collect();
+            assert_eq!(m.resample(&idx), match_detections(&picked, PASCAL_IOU).unwrap());
+            let all: Vec<usize> = (0..9).collect();
+            let (ap, _) = m.ap_lamr(&all).unwrap();
+            assert_eq!(ap, pascal_ap_of(&set));
+        }
+    }
+
+    fn pascal_ap_of(set: &[ImageDetections]) -> f64 {
+        crate::metrics::detection::pascal_ap(set).unwrap().ap
+    }
+
+    #[test]
+    fn paired_bootstrap_separates_a_better_detector_and_is_reproducible() {
+        let (good, flaky) = bootstrap_fixture(40);
+        let rows = vec![
+            vec![PerImageMatches::new(&flaky, None, PASCAL_IOU).unwrap()],
+            vec![PerImageMatches::new(&good, None, PASCAL_IOU).unwrap()],
+            vec![PerImageMatches::new(&flaky, None, PASCAL_IOU).unwrap()],
+        ];
+        let b = paired_bootstrap(&rows, 200, 7).unwrap();
+        assert_eq!(b, paired_bootstrap(&rows, 200, 7).unwrap());
+        // The reference against itself: a zero difference on every draw.
+        assert_eq!((b[0].ap_diff.lo, b[0].ap_diff.hi), (0.0, 0.0));
+        assert_eq!(b[0].ap_not_worse, 1.0);
+        assert_eq!(b[2], b[0]);
+        // `good` (AP 1) is ahead of `flaky` on every draw, by an interval that excludes 0.
+        assert_eq!(b[1].ap_not_worse, 1.0);
+        assert!(b[1].ap_diff.lo > 0.2, "{:?}", b[1]);
+        assert!(b[1].lamr_diff.hi < 0.0, "{:?}", b[1]);
+        assert_eq!((b[1].ap.lo, b[1].ap.hi), (1.0, 1.0));
+        // The point estimate of `flaky` lies inside its interval.
+        let all: Vec<usize> = (0..40).collect();
+        let (ap, lamr) = rows[0][0].ap_lamr(&all).unwrap();
+        assert!(b[0].ap.lo <= ap && ap <= b[0].ap.hi, "{ap} {:?}", b[0].ap);
+        assert!(b[0].lamr.lo <= lamr && lamr <= b[0].lamr.hi);
+        assert!(b[0].ap.lo < b[0].ap.hi);
+        // Phases are averaged: the reference at two phases (flaky, good) sits between them.
+        let two = vec![
+            vec![
+                PerImageMatches::new(&flaky, None, PASCAL_IOU).unwrap(),
+                PerImageMatches::new(&good, None, PASCAL_IOU).unwrap(),
+            ],
+            vec![
+                PerImageMatches::new(&good, None, PASCAL_IOU).unwrap(),
+                PerImageMatches::new(&good, None, PASCAL_IOU).unwrap(),
+            ],
+        ];
+        let t = paired_bootstrap(&two, 100, 1).unwrap();
+        assert!(t[0].ap.hi < 1.0 && t[0].ap.lo > b[0].ap.lo, "{:?}", t[0]);
+    }
+
+    #[test]
+    fn paired_bootstrap_rejects_mismatched_or_empty_input() {
+        let (good, _) = bootstrap_fixture(5);
+        let m = PerImageMatches::new(&good, None, PASCAL_IOU).unwrap();
+        let short = PerImageMatches::new(&good[..3], None, PASCAL_IOU).unwrap();
+        assert!(paired_bootstrap(&[vec![m.clone()], vec![short]], 10, 1).is_err());
+        assert!(paired_bootstrap(&[vec![m.clone()]], 0, 1).is_err());
+        assert!(paired_bootstrap(&[], 10, 1).is_err());
+        let no_gt = vec![ImageDetections::default(); 4];
+        let e = PerImageMatches::new(&no_gt, None, PASCAL_IOU).unwrap();
+        let err = paired_bootstrap(&[vec![e]], 10, 1).unwrap_err();
+        assert!(err.to_string().contains("ground truth"), "{err}");
+    }
+
+    #[test]
+    fn detections_csv_round_trips_through_the_external_reader() {
+        let (good, _) = bootstrap_fixture(3);
+        let images: Vec<GtImage> = (0..3)
+            .map(|i| GtImage {
+                key: format!("SetA/im{i}.bmp"),
+                path: PathBuf::from(format!("im{i}.bmp")),
+                boxes: good[i].ground_truth.clone(),
+            })
+            .collect();
+        let text = detections_csv(&images, &good);
+        let back = external_detections(
+            &images,
+            &parse_detections_csv(&text, Path::new("d.csv")).unwrap(),
+            Path::new("d.csv"),
+        )
+        .unwrap();
+        assert_eq!(back, good);
     }
 }
