@@ -21,9 +21,9 @@
 //! (rounded to even for mosaics), stopping when a window no longer fits or after `max_levels`
 //! levels — OpenCV `detectMultiScale`'s rule. Grey and colour levels are bilinear resizes (as
 //! OpenCV); mosaic levels use the CFA-preserving super-pixel resize so mosaic gradients stay valid.
-//! With `upsample > 1` the frame is first magnified to level 0's size and every other level is
-//! resized from that magnified frame, as `cv2.resize(img, u)` followed by `detectMultiScale`
-//! does. Levels of 8-bit input (grey u8, RGB) are rounded to integers, as OpenCV keeps an 8-bit
+//! With `upsample > 1` the frame is first magnified to level 0's size (into buffers reused from
+//! frame to frame) and every other level is resized from that magnified frame, as
+//! `cv2.resize(img, u)` followed by `detectMultiScale` does. Levels of 8-bit input (grey u8, RGB) are rounded to integers, as OpenCV keeps an 8-bit
 //! image's pyramid in 8 bits; f32, u16 and mosaic input keep f32 levels.
 //! A window at block (wx, wy) of a level scores `b + Σ_{bx<7, by<15} w_{bx,by} · B(wx+bx, wy+by)`
 //! where `B` is the level's normalised block grid — each block is computed once per level, never per
@@ -315,6 +315,8 @@ pub struct Detector {
     pool: ScratchPool,
     /// Buffers of approximated levels (blocks and scores only), reused the same way.
     approx_pool: Pool<ApproxScratch>,
+    /// Planes of magnified frames (`upsample > 1`), reused the same way.
+    source_pool: Pool<Vec<Image<f32>>>,
 }
 
 /// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
@@ -412,6 +414,8 @@ enum Planes<'a> {
 struct Linear<'a> {
     planes: Planes<'a>,
     eight_bit: bool,
+    /// The planes are a magnified frame in buffers of the detector's pool.
+    pooled: bool,
 }
 
 impl Linear<'_> {
@@ -467,7 +471,11 @@ fn linear_from_input<'a>(input: &HogInput<'a>) -> Linear<'a> {
         }
         HogInput::ColourF32(p) => Planes::Colour(p.map(Borrowed)),
     };
-    Linear { planes, eight_bit }
+    Linear {
+        planes,
+        eight_bit,
+        pooled: false,
+    }
 }
 
 impl Detector {
@@ -492,8 +500,11 @@ impl Detector {
         }
         let t = Instant::now();
         let eight_bit = linear.eight_bit;
-        let up = |p: &Plane, mosaic: bool| -> Result<Plane<'a>, DetectError> {
-            let mut dst = Image::new(0, 0);
+        // The magnified planes reuse a previous frame's buffers (a 1080p frame magnified 2x is
+        // 33 MB of f32 per plane, too much to fault in afresh every frame).
+        let mut bufs = self.source_pool.take().into_iter();
+        let mut up = |p: &Plane, mosaic: bool| -> Result<Plane<'a>, DetectError> {
+            let mut dst = bufs.next().unwrap_or_default();
             let op = move |row: &mut [f32]| {
                 if eight_bit {
                     round_in_place(row)
@@ -508,7 +519,30 @@ impl Detector {
             Planes::Colour([r, g, b]) => Planes::Colour([up(r, false)?, up(g, false)?, up(b, false)?]),
         };
         stats.resize += t.elapsed();
-        Ok(Linear { planes, eight_bit })
+        Ok(Linear {
+            planes,
+            eight_bit,
+            pooled: true,
+        })
+    }
+
+    /// Hand the planes of a magnified frame back for the next one.
+    fn recycle(&self, linear: Linear) {
+        if !linear.pooled {
+            return;
+        }
+        let own = |p: Plane| match p {
+            Plane::Owned(i) => Some(i),
+            Plane::Borrowed(_) => None,
+        };
+        let imgs: Vec<Image<f32>> = match linear.planes {
+            Planes::Grey(p) | Planes::Mosaic(p) => own(p).into_iter().collect(),
+            Planes::Colour(ps) => ps.into_iter().filter_map(own).collect(),
+        };
+        if !imgs.is_empty() {
+            self.source_pool
+                .put_bounded(imgs, rayon::current_num_threads() + 1);
+        }
     }
 
     /// Validate the model and options.
@@ -527,6 +561,7 @@ impl Detector {
             score_weights_i8,
             pool: ScratchPool::default(),
             approx_pool: Pool::default(),
+            source_pool: Pool::default(),
         })
     }
     /// The model.
@@ -650,6 +685,7 @@ impl Detector {
                 prof.windows += s.windows;
             }
         }
+        self.recycle(linear);
         prof.resize = stats.resize;
         prof.hits = hits.len();
         let t = Instant::now();
@@ -685,6 +721,7 @@ impl Detector {
             Exec::Parallel => groups.par_iter().map(run).collect(),
             Exec::Serial => groups.iter().map(run).collect(),
         };
+        self.recycle(linear);
         let mut stats = DetectStats {
             levels: levels.len(),
             ..up_stats
@@ -933,6 +970,7 @@ impl Detector {
             count += scores.len();
         }
         self.pool.put(sc);
+        self.recycle(linear);
         Ok(count)
     }
 
@@ -1146,6 +1184,37 @@ mod tests {
         // Rounding happens on the magnified frame too.
         let up8 = resized(&f, &levels[0], &round_in_place);
         assert_eq!(u8_levels[0], up8);
+    }
+
+    #[test]
+    fn magnified_frames_reuse_their_buffers() {
+        let opts = DetectorOptions {
+            upsample: 2.0,
+            hit_threshold: -1e9,
+            ..Default::default()
+        };
+        let d = Detector::new(model(5), &opts).unwrap();
+        let img = Image::<f32>::from_fn(96, 80, |x, y| ((x * 13 + y * 7) % 97) as f32);
+        let first = d.detect(&HogInput::Mosaic(img.view())).unwrap().0;
+        assert!(!first.is_empty());
+        let ptr = d.source_pool.free.lock().unwrap()[0][0].as_slice().as_ptr();
+        for _ in 0..5 {
+            assert_eq!(d.detect(&HogInput::Mosaic(img.view())).unwrap().0, first);
+        }
+        {
+            let free = d.source_pool.free.lock().unwrap();
+            assert_eq!(free.len(), 1);
+            assert_eq!(
+                free[0][0].as_slice().as_ptr(),
+                ptr,
+                "the same buffer, not a new one"
+            );
+        }
+        // Without magnification nothing is pooled (converted u8 planes are not kept).
+        let d1 = Detector::new(model(5), &DetectorOptions::default()).unwrap();
+        let g = Image::<u8>::from_fn(96, 160, |x, y| ((x * 5 + y) % 251) as u8);
+        d1.detect(&HogInput::GreyU8(g.view())).unwrap();
+        assert!(d1.source_pool.free.lock().unwrap().is_empty());
     }
 
     #[test]
