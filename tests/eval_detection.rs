@@ -330,6 +330,14 @@ fn phases_bootstrap_and_detection_csvs() {
     let (m2, _) = run(&["--upsample", "2.0", "--external", &back], "back");
     let r2 = rows(&m2);
     assert_eq!(r2[0][3..], r2[1][3..], "{m2}");
+    // A detector listed twice writes two sets of files.
+    let (_, twice) = run(&["--upsample", "2.0", "opencv-default=grey"], "twice");
+    for f in [
+        "opencv-default_Grey_on_grey_sampled.csv",
+        "opencv-default_Grey_on_grey_sampled_2.csv",
+    ] {
+        assert!(twice.join("detections").join(f).exists(), "{f}");
+    }
     // A phase that is not a number is a clear error.
     let o = mosaicd(&[
         "eval",

@@ -92,7 +92,7 @@ pub struct EvalDetectionArgs {
     pub upsample_phases: Vec<String>,
     /// AP: paired bootstrap over images with this many resamples (0 = off; e.g. 1000), seeded by
     /// --seed: 95 % intervals of each row's AP and log-average miss rate and of their differences
-    /// from the first row, and how often the row's AP is at least the first row's.
+    /// from the --reference row, and how often the row's AP is at least the reference's.
     #[arg(long, default_value_t = 0)]
     pub bootstrap: usize,
     /// AP: the bootstrap's reference row, counted from 1 in the table's order (detectors, then
@@ -410,10 +410,18 @@ fn run_ap(
     // Every row's detections, per phase, in the --external format.
     let dir = a.out.join("detections");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut used = std::collections::HashSet::new();
     for r in &rows {
+        // A row listed twice gets `_2`, `_3`, … rather than overwriting the first one's files.
+        let mut name = slug(&r.label());
+        let mut k = 1;
+        while !used.insert(name.clone()) {
+            k += 1;
+            name = format!("{}_{k}", slug(&r.label()));
+        }
         for ((text, _), dets) in phases.iter().zip(&r.phases) {
             let suffix = if multi { format!("_u{text}") } else { String::new() };
-            let p = dir.join(format!("{}{suffix}.csv", slug(&r.label())));
+            let p = dir.join(format!("{name}{suffix}.csv"));
             std::fs::write(&p, detections_csv(&images, dets))
                 .with_context(|| format!("writing {}", p.display()))?;
         }

@@ -23,8 +23,9 @@
 //! OpenCV); mosaic levels use the CFA-preserving super-pixel resize so mosaic gradients stay valid.
 //! With `upsample > 1` the frame is first magnified to level 0's size (into buffers reused from
 //! frame to frame) and every other level is resized from that magnified frame, as
-//! `cv2.resize(img, u)` followed by `detectMultiScale` does. Levels of 8-bit input (grey u8, RGB) are rounded to integers, as OpenCV keeps an 8-bit
-//! image's pyramid in 8 bits; f32, u16 and mosaic input keep f32 levels.
+//! `cv2.resize(img, u)` followed by `detectMultiScale` does. Levels of 8-bit input (grey u8, RGB)
+//! are rounded to integers, as OpenCV keeps an 8-bit image's pyramid in 8 bits; f32, u16 and
+//! mosaic input keep f32 levels.
 //! A window at block (wx, wy) of a level scores `b + Σ_{bx<7, by<15} w_{bx,by} · B(wx+bx, wy+by)`
 //! where `B` is the level's normalised block grid — each block is computed once per level, never per
 //! window, and the sum is evaluated as one GEMM per block row ([`super::score`]). A hit (`score ≥ hit_threshold`) becomes the box `(8wx·s, 8wy·s, 64s, 128s)` in full-frame
@@ -35,7 +36,7 @@
 //! Pyramid levels are interpolated in f32 and then rounded (8-bit input); OpenCV interpolates in
 //! 11-bit fixed point, so a level's pixels can differ by one grey level and only level 0 is
 //! bit-comparable. Without the rounding, OpenCV's weights fired on 6 % more windows at the hit
-//! threshold −0.5 on USC and lost about a point of AP (docs/detection.md).
+//! threshold −0.5 on USC and lost 0.7 points of AP (docs/detection.md).
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -483,7 +484,8 @@ impl Detector {
     /// first magnified to level 0's size (every plane, linear values, no gamma), so that every
     /// level is resized from the magnified frame as `cv2.resize(img, u) + detectMultiScale` resizes
     /// it; resizing each level straight from the input instead gives sharper levels that OpenCV's
-    /// weights score lower (USC AP 0.645 against 0.650 over seven phases, docs/detection.md).
+    /// weights score lower (USC AP over seven phases 0.645 from the input, 0.648 from the
+    /// magnified frame, docs/detection.md).
     fn source<'a>(
         &self,
         input: &HogInput<'a>,
