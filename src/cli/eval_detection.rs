@@ -22,9 +22,7 @@ use mosaicd::eval::detection::{
     paired_bootstrap, parse_detections_csv, pr_plot, subsample, usc_root, ApSummary, Interval,
     PerImageMatches, Shrink,
 };
-use mosaicd::metrics::detection::{
-    log_average_miss_rate, match_detections, mr_fppi_curve, ImageDetections, PASCAL_IOU,
-};
+use mosaicd::metrics::detection::{ImageDetections, PASCAL_IOU};
 use mosaicd::raw::Cfa;
 
 use super::detect::{load_model, DetectorArgs, DomainArg};
@@ -351,15 +349,14 @@ fn run_ap(
     let mut k = 0;
     for pipe in pipelines {
         for (m, domain, d) in runs {
+            let model = load_model(m, Domain::Grey)?;
+            let name = format!("{m} ({:?})", model.domain);
             let mut per_phase = Vec::with_capacity(phases.len());
-            let mut name = m.clone();
             for (text, u) in &phases {
                 k += 1;
-                let model = load_model(m, Domain::Grey)?;
-                name = format!("{m} ({:?})", model.domain);
                 let mut o = opts;
                 o.upsample = *u;
-                let det = Detector::new(model, &o)?;
+                let det = Detector::new(model.clone(), &o)?;
                 let phase = if multi {
                     format!(" upsample {text}")
                 } else {
@@ -445,20 +442,9 @@ fn run_ap(
     for r in &rows {
         let mut raw = Vec::new();
         let mut shr = Vec::new();
-        let mut lamr = Vec::new();
         for dets in &r.phases {
             raw.push(ap_summary(dets, None, PASCAL_IOU)?);
             shr.push(ap_summary(dets, Some(shrink), PASCAL_IOU)?);
-            let shrunk: Vec<ImageDetections> = dets
-                .iter()
-                .map(|i| ImageDetections {
-                    detections: i.detections.iter().map(|d| shrink.apply(d)).collect(),
-                    ground_truth: i.ground_truth.clone(),
-                })
-                .collect();
-            lamr.push(log_average_miss_rate(&mr_fppi_curve(&match_detections(
-                &shrunk, PASCAL_IOU,
-            )?)?));
         }
         let ap_s: Vec<f64> = shr.iter().map(|s| s.ap).collect();
         let dets_mean = mean(&raw.iter().map(|s| s.detections as f64).collect::<Vec<_>>());
@@ -481,7 +467,7 @@ fn run_ap(
             row.push(format!("{}–{}", fmt(lo, 3), fmt(hi, 3)));
         }
         row.push(fmt(mean(&shr.iter().map(|s| s.recall).collect::<Vec<_>>()), 3));
-        row.push(fmt(mean(&lamr), 3));
+        row.push(fmt(mean(&shr.iter().map(|s| s.lamr).collect::<Vec<_>>()), 3));
         table.row(row);
         curves.push((r.label(), raw.swap_remove(0), shr.swap_remove(0)));
     }
@@ -502,16 +488,7 @@ fn run_ap(
             a.reference,
             rows.len()
         );
-        let r0 = a.reference - 1;
-        // The reference goes first for the bootstrap, then back to its place in the table.
-        let mut order: Vec<usize> = vec![r0];
-        order.extend((0..rows.len()).filter(|&i| i != r0));
-        let reordered: Vec<Vec<PerImageMatches>> = order.iter().map(|&i| matched[i].clone()).collect();
-        let boot = paired_bootstrap(&reordered, a.bootstrap, a.seed)?;
-        let mut b = boot.clone();
-        for (k, &i) in order.iter().enumerate() {
-            b[i] = boot[k];
-        }
+        let b = paired_bootstrap(&matched, a.reference - 1, a.bootstrap, a.seed)?;
         let iv = |i: &Interval| format!("[{}, {}]", fmt(i.lo, 3), fmt(i.hi, 3));
         let mut t = Table::new(
             format!(

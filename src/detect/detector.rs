@@ -542,8 +542,8 @@ impl Detector {
             Planes::Colour(ps) => ps.into_iter().filter_map(own).collect(),
         };
         if !imgs.is_empty() {
-            self.source_pool
-                .put_bounded(imgs, rayon::current_num_threads() + 1);
+            // At most as many frames in flight as level buffers: the same bound.
+            self.source_pool.put_bounded(imgs, ScratchPool::capacity());
         }
     }
 

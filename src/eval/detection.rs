@@ -549,6 +549,14 @@ impl Shrink {
         height: 0.8,
     };
 
+    /// An image's detections shrunk, its ground truth as it is.
+    pub fn apply_image(&self, img: &ImageDetections) -> ImageDetections {
+        ImageDetections {
+            detections: img.detections.iter().map(|d| self.apply(d)).collect(),
+            ground_truth: img.ground_truth.clone(),
+        }
+    }
+
     /// The shrunk detection (score unchanged).
     pub fn apply(&self, d: &Detection) -> Detection {
         Detection {
@@ -670,6 +678,8 @@ pub struct ApSummary {
     pub ap: f64,
     /// Recall at the loosest threshold (`true_positives / boxes`).
     pub recall: f64,
+    /// Log-average miss rate over FPPI 10⁻² … 10⁰.
+    pub lamr: f64,
     /// `(recall, precision)` points, thinned for plotting.
     pub pr: Vec<(f64, f64)>,
 }
@@ -679,13 +689,7 @@ pub fn ap_summary(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) 
     let mapped: Vec<ImageDetections>;
     let used = match shrink {
         Some(s) => {
-            mapped = images
-                .iter()
-                .map(|i| ImageDetections {
-                    detections: i.detections.iter().map(|d| s.apply(d)).collect(),
-                    ground_truth: i.ground_truth.clone(),
-                })
-                .collect();
+            mapped = images.iter().map(|i| s.apply_image(i)).collect();
             &mapped
         }
         None => images,
@@ -713,6 +717,7 @@ pub fn ap_summary(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) 
         true_positives: tp,
         ap: r.ap,
         recall: tp as f64 / m.n_ground_truth as f64,
+        lamr: log_average_miss_rate(&mr_fppi_curve(&m)?),
         pr,
     })
 }
@@ -790,12 +795,9 @@ impl PerImageMatches {
         let mut per_image = Vec::with_capacity(images.len());
         let mut ground_truth = Vec::with_capacity(images.len());
         for img in images {
-            let one = ImageDetections {
-                detections: match shrink {
-                    Some(s) => img.detections.iter().map(|d| s.apply(d)).collect(),
-                    None => img.detections.clone(),
-                },
-                ground_truth: img.ground_truth.clone(),
+            let one = match shrink {
+                Some(s) => s.apply_image(img),
+                None => img.clone(),
             };
             let m = match_detections(std::slice::from_ref(&one), iou)?;
             per_image.push(m.ranked);
@@ -869,7 +871,7 @@ pub struct BootstrapRow {
 /// Paired bootstrap over images: `rows[r][p]` is detector `r` at phase `p`, all over the same
 /// images. Each of `resamples` draws (seeded `ChaCha8`, so the result is reproducible) takes the
 /// images with replacement, scores every detector at every phase on them, averages AP and LAMR
-/// over the phases, and differences them from row 0 (the reference). A draw whose images hold no
+/// over the phases, and differences them from row `reference`. A draw whose images hold no
 /// ground-truth box is redrawn.
 ///
 /// The interval is the 2.5–97.5 % percentile interval of the draws; it describes the variation
@@ -877,6 +879,7 @@ pub struct BootstrapRow {
 /// not of the pyramid's phase.
 pub fn paired_bootstrap(
     rows: &[Vec<PerImageMatches>],
+    reference: usize,
     resamples: usize,
     seed: u64,
 ) -> Result<Vec<BootstrapRow>> {
@@ -893,6 +896,11 @@ pub fn paired_bootstrap(
     if rows.iter().flatten().any(|m| m.per_image.len() != n) || rows.iter().any(|r| r.is_empty()) {
         return Err(DetEvalError::NoImages {
             what: "bootstrap rows over different image sets".into(),
+        });
+    }
+    if reference >= rows.len() {
+        return Err(DetEvalError::NoImages {
+            what: format!("bootstrap reference row {reference} of {} rows", rows.len()),
         });
     }
     let total_gt: usize = rows[0][0].ground_truth.iter().sum();
@@ -924,7 +932,7 @@ pub fn paired_bootstrap(
     Ok(draws
         .iter()
         .map(|d| {
-            let reference = &draws[0];
+            let reference = &draws[reference];
             BootstrapRow {
                 ap: Interval::of(d.iter().map(|x| x.0).collect()),
                 lamr: Interval::of(d.iter().map(|x| x.1).collect()),
@@ -1165,8 +1173,8 @@ mod tests {
             vec![PerImageMatches::new(&good, None, PASCAL_IOU).unwrap()],
             vec![PerImageMatches::new(&flaky, None, PASCAL_IOU).unwrap()],
         ];
-        let b = paired_bootstrap(&rows, 200, 7).unwrap();
-        assert_eq!(b, paired_bootstrap(&rows, 200, 7).unwrap());
+        let b = paired_bootstrap(&rows, 0, 200, 7).unwrap();
+        assert_eq!(b, paired_bootstrap(&rows, 0, 200, 7).unwrap());
         // The reference against itself: a zero difference on every draw.
         assert_eq!((b[0].ap_diff.lo, b[0].ap_diff.hi), (0.0, 0.0));
         assert_eq!(b[0].ap_not_worse, 1.0);
@@ -1182,6 +1190,12 @@ mod tests {
         assert!(b[0].ap.lo <= ap && ap <= b[0].ap.hi, "{ap} {:?}", b[0].ap);
         assert!(b[0].lamr.lo <= lamr && lamr <= b[0].lamr.hi);
         assert!(b[0].ap.lo < b[0].ap.hi);
+        // Another reference: same draws, differences taken from it.
+        let c = paired_bootstrap(&rows, 1, 200, 7).unwrap();
+        assert_eq!((c[1].ap_diff.lo, c[1].ap_diff.hi), (0.0, 0.0));
+        assert_eq!(c[0].ap, b[0].ap);
+        assert!(c[0].ap_diff.hi < -0.2, "{:?}", c[0]);
+        assert_eq!(c[0].ap_not_worse, 0.0);
         // Phases are averaged: the reference at two phases (flaky, good) sits between them.
         let two = vec![
             vec![
@@ -1193,7 +1207,7 @@ mod tests {
                 PerImageMatches::new(&good, None, PASCAL_IOU).unwrap(),
             ],
         ];
-        let t = paired_bootstrap(&two, 100, 1).unwrap();
+        let t = paired_bootstrap(&two, 0, 100, 1).unwrap();
         assert!(t[0].ap.hi < 1.0 && t[0].ap.lo > b[0].ap.lo, "{:?}", t[0]);
     }
 
@@ -1202,12 +1216,13 @@ mod tests {
         let (good, _) = bootstrap_fixture(5);
         let m = PerImageMatches::new(&good, None, PASCAL_IOU).unwrap();
         let short = PerImageMatches::new(&good[..3], None, PASCAL_IOU).unwrap();
-        assert!(paired_bootstrap(&[vec![m.clone()], vec![short]], 10, 1).is_err());
-        assert!(paired_bootstrap(&[vec![m.clone()]], 0, 1).is_err());
-        assert!(paired_bootstrap(&[], 10, 1).is_err());
+        assert!(paired_bootstrap(&[vec![m.clone()], vec![short]], 0, 10, 1).is_err());
+        assert!(paired_bootstrap(&[vec![m.clone()]], 0, 0, 1).is_err());
+        assert!(paired_bootstrap(&[], 0, 10, 1).is_err());
+        assert!(paired_bootstrap(&[vec![m.clone()]], 1, 10, 1).is_err());
         let no_gt = vec![ImageDetections::default(); 4];
         let e = PerImageMatches::new(&no_gt, None, PASCAL_IOU).unwrap();
-        let err = paired_bootstrap(&[vec![e]], 10, 1).unwrap_err();
+        let err = paired_bootstrap(&[vec![e]], 0, 10, 1).unwrap_err();
         assert!(err.to_string().contains("ground truth"), "{err}");
     }
 
