@@ -200,6 +200,65 @@ fn window_protocol_noise_rows_are_deterministic_and_plot_det() {
 }
 
 #[test]
+fn window_protocol_bootstrap_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("winboot");
+    let args = |reference: &str| -> Vec<String> {
+        [
+            "eval",
+            "detection",
+            "opencv-default=colour",
+            "opencv-default=mosaic",
+            "--max-neg-images",
+            "2",
+            "--max-pos",
+            "16",
+            "--bootstrap",
+            "40",
+            "--reference",
+            reference,
+            "--threads",
+            "2",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let a2 = args("2");
+    let md = ok(&a2.iter().map(String::as_str).collect::<Vec<_>>());
+    let r = rows(&md);
+    // The window table (2 rows), then the bootstrap table (its header and 2 rows).
+    assert_eq!(r.len(), 5, "{md}");
+    assert!(
+        md.contains("Paired bootstrap over the 3 held-out photos and 2 negative images (40 resamples")
+            && md.contains("Δ = row − opencv-default on mosaic, sampled"),
+        "{md}"
+    );
+    let boot = &r[3..];
+    assert_eq!(boot[1][3], "[0.000, 0.000]", "the reference against itself: {md}");
+    assert_eq!(boot[1][5], "[0.000, 0.000]", "{md}");
+    assert_eq!(boot[1][6], "1.000", "{md}");
+    // The interval holds the plain miss rate of the table above.
+    let iv = |c: &str| -> (f64, f64) {
+        let (lo, hi) = c.trim_matches(['[', ']']).split_once(", ").unwrap();
+        (lo.parse().unwrap(), hi.parse().unwrap())
+    };
+    for k in 0..2 {
+        let plain: f64 = r[k][6].parse().unwrap();
+        let (lo, hi) = iv(&boot[k][4]);
+        assert!(lo <= plain && plain <= hi, "row {k}: {md}");
+    }
+    // Seeded: the same table again.
+    assert_eq!(ok(&a2.iter().map(String::as_str).collect::<Vec<_>>()), md);
+    let a3 = args("3");
+    let o = mosaicd(&a3.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--reference 3"));
+}
+
+#[test]
 fn bad_inputs_give_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.csv");

@@ -3,7 +3,8 @@
 //!
 //! - Default: the Dalal–Triggs window protocol (miss rate at FPPW, DET curves) on the held-out split
 //!   `mosaicd train` used, for each input pipeline of `--inputs` (training-style sampling, or the
-//!   reverse ISP clean and with the paper's three noise levels).
+//!   reverse ISP clean and with the paper's three noise levels); `--bootstrap N` adds a paired
+//!   bootstrap over held-out photos and negative images.
 //! - `--usc` or `--boxes CSV`: full-image average precision (PASCAL, IoU ≥ 0.5) on images with
 //!   ground-truth boxes, with raw and shrunk detections, plus detections of other detectors read
 //!   from CSV files (`--external NAME=CSV`, e.g. OpenCV's own `detectMultiScale` written by
@@ -14,7 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use mosaicd::detect::train::{evaluate_windows_via, split_data, InputPipeline, WindowEval};
+use mosaicd::detect::train::{evaluate_windows_via, split_data, window_bootstrap, InputPipeline, WindowEval};
 use mosaicd::detect::{Detector, Domain, ScorePrecision};
 use mosaicd::eval::common::{fmt, Progress, Report, Table};
 use mosaicd::eval::detection::{
@@ -88,13 +89,17 @@ pub struct EvalDetectionArgs {
     /// replaces --upsample. One factor alone can move AP by several points.
     #[arg(long, value_delimiter = ',')]
     pub upsample_phases: Vec<String>,
-    /// AP: paired bootstrap over images with this many resamples (0 = off; e.g. 1000), seeded by
-    /// --seed: 95 % intervals of each row's AP and log-average miss rate and of their differences
-    /// from the --reference row, and how often the row's AP is at least the reference's.
+    /// Paired bootstrap with this many resamples (0 = off; e.g. 1000), seeded by --seed. AP: over
+    /// images; 95 % intervals of each row's AP and log-average miss rate and of their differences
+    /// from the --reference row, and how often the row's AP is at least the reference's. Window
+    /// protocol: over held-out photos (a crop with its mirror) and negative images; 95 % intervals
+    /// of each row's miss rate at 1e-3 and 1e-4 FPPW and of its difference from the reference
+    /// row's, and how often the row misses no more than the reference.
     #[arg(long, default_value_t = 0)]
     pub bootstrap: usize,
-    /// AP: the bootstrap's reference row, counted from 1 in the table's order (detectors, then
-    /// --external files), e.g. an --external OpenCV run.
+    /// The bootstrap's reference row, counted from 1 in the table's order (AP: detectors, then
+    /// --external files, e.g. an --external OpenCV run; window protocol: the models in the order
+    /// given, for each input pipeline in turn).
     #[arg(long, default_value_t = 1)]
     pub reference: usize,
     #[command(flatten)]
@@ -219,6 +224,52 @@ fn run_windows(
         table.row(row);
         curves.push((label, *pipe, ev));
     }
+    let mut tables = vec![table];
+    if a.bootstrap > 0 && !curves.is_empty() {
+        anyhow::ensure!(
+            (1..=curves.len()).contains(&a.reference),
+            "--reference {}: the table has rows 1..={}",
+            a.reference,
+            curves.len()
+        );
+        const FPPW: [f64; 2] = [1e-3, 1e-4];
+        let scores: Vec<_> = curves.iter().map(|(_, _, e)| &e.scores).collect();
+        let b = window_bootstrap(&scores, a.reference - 1, &FPPW, a.bootstrap, a.seed)?;
+        let iv = |i: Interval| format!("[{}, {}]", fmt(i.lo, 3), fmt(i.hi, 3));
+        let (rl, rp, _) = &curves[a.reference - 1];
+        let mut t = Table::new(
+            format!(
+                "Paired bootstrap over the {} held-out photos and {} negative images ({} resamples, \
+                 seed {}): 95 % intervals; Δ = row − {rl}, {}",
+                scores[0].positive_photo.iter().max().map_or(0, |&m| m + 1),
+                scores[0].windows_per_image.len(),
+                a.bootstrap,
+                a.seed,
+                rp.name()
+            ),
+            &[
+                "model on input",
+                "pipeline",
+                "MR@1e-3",
+                "Δ MR@1e-3",
+                "MR@1e-4",
+                "Δ MR@1e-4",
+                "share of resamples with Δ MR@1e-4 ≤ 0",
+            ],
+        );
+        for ((label, pipe, _), b) in curves.iter().zip(&b) {
+            t.row(vec![
+                label.clone(),
+                pipe.name(),
+                iv(b.miss_rate[0]),
+                iv(b.diff[0]),
+                iv(b.miss_rate[1]),
+                iv(b.diff[1]),
+                fmt(b.not_worse[1], 3),
+            ]);
+        }
+        tables.push(t);
+    }
     // One DET plot per input pipeline (a plot with every run is unreadable).
     let mut plots = Vec::new();
     for pipe in pipelines {
@@ -238,7 +289,7 @@ fn run_windows(
     Ok(Report {
         name: "detection".into(),
         heading: "Pedestrian detection: window protocol".into(),
-        tables: vec![table],
+        tables,
         plots,
         notes: vec![format!(
             "command: mosaicd {}",

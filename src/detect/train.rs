@@ -46,6 +46,7 @@ use super::pyramid::{resize_bilinear, resize_mosaic};
 use super::score::ScorePrecision;
 use super::svm::{train_linear_svm, SvmOptions};
 use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
+use crate::eval::detection::Interval;
 use crate::features::hog::{
     block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE,
 };
@@ -543,7 +544,30 @@ pub struct WindowEval {
     /// the first and last points and every point where the miss rate changes by a plot-visible
     /// step are kept.
     pub det: Vec<DetPoint>,
+    /// The scores behind the numbers, kept for [`window_bootstrap`] (not serialized).
+    #[serde(skip)]
+    pub scores: WindowScores,
 }
+
+/// Per-window scores of one [`evaluate_windows_via`] run, enough to recompute the miss rate at
+/// FPPW up to [`BOOTSTRAP_MAX_FPPW`] on any resample of the held-out photos and negative images.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WindowScores {
+    /// Score of each held-out positive, in `Split::val_pos` order.
+    pub positives: Vec<f32>,
+    /// Photo of each positive (an index into the distinct [`photo_prefix`]es, in order of first
+    /// appearance): the bootstrap draws photos, so a crop and its mirror stay together.
+    pub positive_photo: Vec<u32>,
+    /// Windows scored in each negative image, in `Split::val_neg` order.
+    pub windows_per_image: Vec<usize>,
+    /// The highest negative scores, descending (ties by image index), each with its image index;
+    /// all scores down to the one at rank `2 · BOOTSTRAP_MAX_FPPW · windows + 64`, and every score
+    /// tied with that one.
+    pub top_negatives: Vec<(f32, u32)>,
+}
+
+/// Highest FPPW [`window_bootstrap`] can evaluate.
+pub const BOOTSTRAP_MAX_FPPW: f64 = 1e-2;
 
 /// Thin a DET curve to at most about `max_points` points: the positive-FPPW range is cut into
 /// `max_points` equal steps in log FPPW and the last point of each step (lowest miss rate there) is
@@ -604,15 +628,27 @@ pub fn evaluate_windows_via(
     let det = Detector::new(model.clone(), &opts)?;
     let spec = det.hog_spec().clone();
     let mut pos = Vec::new();
+    let mut positive_photo = Vec::new();
+    let mut photos: Vec<&str> = Vec::new();
     for (i, p) in split.val_pos.iter().enumerate() {
         let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64)?;
         pos.push(det.score_descriptor(&positive_descriptor(&spec, &img)?));
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        let photo = photo_prefix(name);
+        let k = photos.iter().position(|&q| q == photo).unwrap_or_else(|| {
+            photos.push(photo);
+            photos.len() - 1
+        });
+        positive_photo.push(k as u32);
     }
     let mut neg = Vec::new();
+    let mut windows_per_image = Vec::with_capacity(split.val_neg.len());
     for (i, p) in split.val_neg.iter().enumerate() {
         let img =
             DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, NEG_SEED_OFFSET + i as u64)?;
+        let before = neg.len();
         det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
+        windows_per_image.push(neg.len() - before);
         if i % 10 == 0 {
             progress(&format!(
                 "eval: negatives {}/{} ({} windows)",
@@ -622,6 +658,7 @@ pub fn evaluate_windows_via(
             ));
         }
     }
+    let top_negatives = top_scores(&neg, &windows_per_image);
     neg.sort_by(|a, b| b.total_cmp(a));
     let miss_rate_at = [1e-2, 1e-3, 1e-4]
         .iter()
@@ -633,7 +670,182 @@ pub fn evaluate_windows_via(
         negative_windows: neg.len(),
         miss_rate_at,
         det,
+        scores: WindowScores {
+            positives: pos,
+            positive_photo,
+            windows_per_image,
+            top_negatives,
+        },
     })
+}
+
+/// The top negative scores with their image index (see [`WindowScores::top_negatives`]); `neg`
+/// holds each image's windows in turn, `windows_per_image[i]` of image `i`.
+fn top_scores(neg: &[f32], windows_per_image: &[usize]) -> Vec<(f32, u32)> {
+    let mut all: Vec<(f32, u32)> = Vec::with_capacity(neg.len());
+    let mut start = 0;
+    for (i, &n) in windows_per_image.iter().enumerate() {
+        all.extend(neg[start..start + n].iter().map(|&s| (s, i as u32)));
+        start += n;
+    }
+    all.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let keep = (2.0 * BOOTSTRAP_MAX_FPPW * neg.len() as f64).ceil() as usize + 64;
+    if keep < all.len() {
+        let last = all[keep - 1].0;
+        let end = keep + all[keep..].iter().take_while(|x| x.0 == last).count();
+        all.truncate(end);
+    }
+    all
+}
+
+impl WindowScores {
+    /// Miss rate at `fppw` with photo `p` counted `photo_w[p]` times and negative image `i`
+    /// counted `image_w[i]` times, as [`miss_rate_at_fppw`] computes it on that multiset (with
+    /// every weight 1, equal to it). An error if the threshold lies below the kept scores.
+    pub fn weighted_miss_rate(&self, photo_w: &[u32], image_w: &[u32], fppw: f64) -> Result<f64, TrainError> {
+        let windows: u64 = self
+            .windows_per_image
+            .iter()
+            .zip(image_w)
+            .map(|(&n, &w)| n as u64 * w as u64)
+            .sum();
+        let k = (fppw * windows as f64).floor() as u64;
+        // The (k + 1)-th highest drawn negative: walk down the kept scores, each counted as often
+        // as its image was drawn.
+        let mut seen = 0u64;
+        let mut thr = None;
+        for &(s, i) in &self.top_negatives {
+            seen += image_w[i as usize] as u64;
+            if seen > k {
+                thr = Some(s);
+                break;
+            }
+        }
+        let thr = match thr {
+            Some(t) => t,
+            None if self.top_negatives.len() == self.windows_per_image.iter().sum::<usize>() => {
+                f32::NEG_INFINITY
+            }
+            None => {
+                return Err(TrainError::BadOption {
+                    what: "window bootstrap",
+                    value: format!("FPPW {fppw} on a draw of {windows} windows"),
+                    allowed: "a draw within the kept negative scores",
+                })
+            }
+        };
+        let (mut missed, mut total) = (0u64, 0u64);
+        for (&s, &p) in self.positives.iter().zip(&self.positive_photo) {
+            let w = photo_w[p as usize] as u64;
+            total += w;
+            if s <= thr {
+                missed += w;
+            }
+        }
+        Ok(if total == 0 {
+            f64::NAN
+        } else {
+            missed as f64 / total as f64
+        })
+    }
+}
+
+/// One row of [`window_bootstrap`]: 95 % intervals (2.5–97.5 % percentiles of the draws).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct WindowBootstrapRow {
+    /// Per FPPW of the call: the interval of the miss rate.
+    pub miss_rate: Vec<Interval>,
+    /// Per FPPW: the interval of the miss rate minus the reference row's on the same draw.
+    pub diff: Vec<Interval>,
+    /// Per FPPW: the share of draws in which this row misses no more than the reference row.
+    pub not_worse: Vec<f64>,
+}
+
+/// Paired bootstrap of the window protocol: every draw (seeded `ChaCha8`, reproducible) takes the
+/// held-out *photos* (a crop and its mirror together) and the negative *images* with replacement,
+/// the same draw for every row, and recomputes each row's miss rate at each `fppw` as
+/// [`miss_rate_at_fppw`] does on the drawn multiset: the threshold is the `(floor(fppw · N) + 1)`-th
+/// highest negative score, `N` the drawn images' window count. The rows must come from the same
+/// split (any models, domains or pipelines); `reference` indexes `rows`.
+pub fn window_bootstrap(
+    rows: &[&WindowScores],
+    reference: usize,
+    fppw: &[f64],
+    resamples: usize,
+    seed: u64,
+) -> Result<Vec<WindowBootstrapRow>, TrainError> {
+    let bad = |value: String, allowed: &'static str| TrainError::BadOption {
+        what: "window bootstrap",
+        value,
+        allowed,
+    };
+    let first = rows.get(reference).ok_or_else(|| {
+        bad(
+            format!("reference row {reference} of {} rows", rows.len()),
+            "a row of the table",
+        )
+    })?;
+    if resamples == 0 || first.positives.is_empty() || first.windows_per_image.is_empty() {
+        return Err(bad(
+            format!(
+                "{resamples} resamples, {} positives, {} negative images",
+                first.positives.len(),
+                first.windows_per_image.len()
+            ),
+            "at least one resample, positive and negative image",
+        ));
+    }
+    if rows.iter().any(|r| {
+        r.positive_photo != first.positive_photo || r.windows_per_image.len() != first.windows_per_image.len()
+    }) {
+        return Err(bad(
+            "rows over different held-out files".into(),
+            "rows of the same split",
+        ));
+    }
+    if let Some(f) = fppw.iter().find(|f| !(0.0..=BOOTSTRAP_MAX_FPPW).contains(*f)) {
+        return Err(bad(f.to_string(), "FPPW in 0 ..= 1e-2"));
+    }
+    use rand::{Rng, SeedableRng};
+    let photos = first.positive_photo.iter().max().map_or(0, |&m| m as usize + 1);
+    let images = first.windows_per_image.len();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut photo_w = vec![0u32; photos];
+    let mut image_w = vec![0u32; images];
+    // draws[row][f] = miss rates over the resamples.
+    let mut draws = vec![vec![Vec::with_capacity(resamples); fppw.len()]; rows.len()];
+    for _ in 0..resamples {
+        photo_w.iter_mut().for_each(|w| *w = 0);
+        image_w.iter_mut().for_each(|w| *w = 0);
+        for _ in 0..photos {
+            photo_w[rng.random_range(0..photos)] += 1;
+        }
+        for _ in 0..images {
+            image_w[rng.random_range(0..images)] += 1;
+        }
+        for (r, row) in rows.iter().enumerate() {
+            for (j, &f) in fppw.iter().enumerate() {
+                draws[r][j].push(row.weighted_miss_rate(&photo_w, &image_w, f)?);
+            }
+        }
+    }
+    let interval = Interval::of;
+    Ok(draws
+        .iter()
+        .map(|d| WindowBootstrapRow {
+            miss_rate: d.iter().map(|v| interval(v.clone())).collect(),
+            diff: d
+                .iter()
+                .zip(&draws[reference])
+                .map(|(v, w)| interval(v.iter().zip(w).map(|(x, y)| x - y).collect()))
+                .collect(),
+            not_worse: d
+                .iter()
+                .zip(&draws[reference])
+                .map(|(v, w)| v.iter().zip(w).filter(|(x, y)| x <= y).count() as f64 / resamples as f64)
+                .collect(),
+        })
+        .collect())
 }
 
 /// One candidate of [`select_c`]: the cost and its inner-validation result.
@@ -928,6 +1140,105 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Scores of `images` negative images with `per` windows each and `photos` photos of two crops
+    /// each, from a fixed generator.
+    fn window_scores(
+        images: usize,
+        per: usize,
+        photos: usize,
+        shift: f32,
+        seed: u64,
+    ) -> (WindowScores, Vec<f32>) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let neg: Vec<f32> = (0..images * per)
+            .map(|_| (rng.random::<f32>() * 4.0 - 2.0).round() / 2.0)
+            .collect();
+        let positives: Vec<f32> = (0..2 * photos)
+            .map(|_| rng.random::<f32>() * 3.0 - 1.0 + shift)
+            .collect();
+        let windows_per_image = vec![per; images];
+        let scores = WindowScores {
+            positive_photo: (0..2 * photos as u32).map(|i| i / 2).collect(),
+            positives,
+            top_negatives: top_scores(&neg, &windows_per_image),
+            windows_per_image,
+        };
+        (scores, neg)
+    }
+
+    #[test]
+    fn weighted_miss_rate_equals_the_plain_one_and_duplicated_files() {
+        // 20 000 windows, scores on a coarse grid so that ties cross the kept cut.
+        let (w, neg) = window_scores(40, 500, 30, 0.0, 3);
+        assert!(w.top_negatives.len() < neg.len(), "the cut keeps a part");
+        let mut sorted = neg.clone();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        let ones_p = vec![1; 30];
+        let ones_i = vec![1; 40];
+        for f in [0.0, 1e-4, 1e-3, 5e-3, 1e-2] {
+            assert_eq!(
+                w.weighted_miss_rate(&ones_p, &ones_i, f).unwrap(),
+                miss_rate_at_fppw(&w.positives, &sorted, f),
+                "fppw {f}"
+            );
+        }
+        // Weights equal duplicating the files (and 0 dropping them).
+        let mut photo_w = vec![1u32; 30];
+        photo_w[3] = 3;
+        photo_w[7] = 0;
+        let mut image_w = vec![1u32; 40];
+        image_w[0] = 2;
+        image_w[5] = 0;
+        let mut pos = Vec::new();
+        for (i, &s) in w.positives.iter().enumerate() {
+            for _ in 0..photo_w[i / 2] {
+                pos.push(s);
+            }
+        }
+        let mut dup = Vec::new();
+        for (i, chunk) in neg.chunks(500).enumerate() {
+            for _ in 0..image_w[i] {
+                dup.extend_from_slice(chunk);
+            }
+        }
+        dup.sort_by(|a, b| b.total_cmp(a));
+        for f in [1e-4, 1e-3, 1e-2] {
+            assert_eq!(
+                w.weighted_miss_rate(&photo_w, &image_w, f).unwrap(),
+                miss_rate_at_fppw(&pos, &dup, f),
+                "fppw {f}"
+            );
+        }
+    }
+
+    #[test]
+    fn window_bootstrap_is_paired_reproducible_and_checks_its_input() {
+        let (a, _) = window_scores(30, 400, 40, 0.0, 5);
+        let (b, _) = window_scores(30, 400, 40, 0.8, 6);
+        let rows = [&a, &b];
+        let f = [1e-3, 1e-2];
+        let r1 = window_bootstrap(&rows, 0, &f, 200, 9).unwrap();
+        assert_eq!(r1, window_bootstrap(&rows, 0, &f, 200, 9).unwrap());
+        assert_ne!(r1, window_bootstrap(&rows, 0, &f, 200, 10).unwrap());
+        // The reference against itself: a zero difference on every draw.
+        assert_eq!(r1[0].diff, vec![Interval { lo: 0.0, hi: 0.0 }; 2]);
+        assert_eq!(r1[0].not_worse, vec![1.0; 2]);
+        // Row b's positives score 0.8 higher: it misses less on every draw.
+        for (j, &fj) in f.iter().enumerate() {
+            assert!(r1[1].diff[j].hi < 0.0, "{:?}", r1[1].diff);
+            assert_eq!(r1[1].not_worse[j], 1.0);
+            let plain = a.weighted_miss_rate(&[1; 40], &[1; 30], fj).unwrap();
+            assert!(r1[0].miss_rate[j].lo <= plain && plain <= r1[0].miss_rate[j].hi);
+        }
+        // Bad input: no resamples, a reference past the rows, an FPPW above the kept range, rows
+        // over different files.
+        assert!(window_bootstrap(&rows, 0, &f, 0, 9).is_err());
+        assert!(window_bootstrap(&rows, 2, &f, 10, 9).is_err());
+        assert!(window_bootstrap(&rows, 0, &[0.05], 10, 9).is_err());
+        let (c, _) = window_scores(31, 400, 40, 0.0, 5);
+        assert!(window_bootstrap(&[&a, &c], 0, &f, 10, 9).is_err());
+    }
 
     #[test]
     fn miss_rate_by_hand() {

@@ -843,7 +843,8 @@ pub struct Interval {
 }
 
 impl Interval {
-    fn of(mut v: Vec<f64>) -> Self {
+    /// The 2.5–97.5 % percentile interval of `v` (not empty).
+    pub(crate) fn of(mut v: Vec<f64>) -> Self {
         v.sort_by(f64::total_cmp);
         let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
         Self {
