@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::detect::ScorePrecision;
+use crate::features::hog::MosaicTaps;
 use crate::raw::Cfa;
 
 /// Largest worker pool we accept (a sanity bound, not a tuning hint).
@@ -229,6 +230,11 @@ pub struct ComputeConfig {
     /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6) or `"i8"` (8-bit blocks and weights,
     /// exact integer sums with AVX-512 VNNI: SVM stage ≈2.7x faster, scores within ≈0.04 of f32).
     pub svm: String,
+    /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
+    /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or
+    /// `"paper"` (`I(x+1) − I(x−1)`, the paper's `[-1, 0, 1]` on the mosaic: better on clean
+    /// frames, worse under noise; docs/detection.md, "The mosaic derivative").
+    pub mosaic_taps: String,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -249,6 +255,7 @@ impl Default for ComputeConfig {
             upsample: 1.0,
             approx_levels: 1,
             svm: "f32".into(),
+            mosaic_taps: "model".into(),
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
@@ -359,6 +366,20 @@ impl CameraConfig {
 }
 
 impl ComputeConfig {
+    /// `mosaic_taps` parsed: `None` = the model's own.
+    pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
+        match self.mosaic_taps.as_str() {
+            "model" => Ok(None),
+            "same-site" => Ok(Some(MosaicTaps::SameSite)),
+            "paper" => Ok(Some(MosaicTaps::Paper)),
+            _ => Err(ConfigError::OutOfRange {
+                key: "compute.mosaic_taps".into(),
+                value: format!("{:?}", self.mosaic_taps),
+                allowed: "one of \"model\", \"same-site\", \"paper\"".into(),
+            }),
+        }
+    }
+
     /// `svm` parsed.
     pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
         self.svm.parse().map_err(|_| ConfigError::OutOfRange {
@@ -459,6 +480,7 @@ impl Config {
         range("compute.upsample", c.upsample, 1.0, 4.0)?;
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
         c.svm_precision()?;
+        c.mosaic_taps_override()?;
         if c.model.is_empty() {
             return Err(ConfigError::Missing {
                 key: "compute.model".into(),
@@ -586,6 +608,7 @@ mod tests {
             ("[compute]\napprox_levels = 0\n", "compute.approx_levels"),
             ("[compute]\napprox_levels = 65\n", "compute.approx_levels"),
             ("[compute]\nsvm = \"f16\"\n", "compute.svm"),
+            ("[compute]\nmosaic_taps = \"diagonal\"\n", "compute.mosaic_taps"),
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
         ];
         for (extra, key) in cases {
@@ -607,6 +630,19 @@ mod tests {
                 .to_string();
             assert!(msg.contains(key), "{msg} should name {key}");
         }
+    }
+
+    #[test]
+    fn mosaic_taps_default_to_the_model_and_parse() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.compute.mosaic_taps_override().unwrap(), None);
+        let c = Config::from_toml_str(&format!("[compute]\nmosaic_taps = \"paper\"\n{MIN}")).unwrap();
+        assert_eq!(c.compute.mosaic_taps_override().unwrap(), Some(MosaicTaps::Paper));
+        let c = Config::from_toml_str(&format!("[compute]\nmosaic_taps = \"same-site\"\n{MIN}")).unwrap();
+        assert_eq!(
+            c.compute.mosaic_taps_override().unwrap(),
+            Some(MosaicTaps::SameSite)
+        );
     }
 
     #[test]

@@ -259,6 +259,52 @@ fn window_protocol_bootstrap_table() {
 }
 
 #[test]
+fn mosaic_taps_override_the_models() {
+    let img = data().join("kodak/kodim09.png");
+    let scores = |extra: &[&str]| -> Vec<f64> {
+        let out = ok(&[
+            &[
+                "detect",
+                img.to_str().unwrap(),
+                "--as",
+                "mosaic",
+                "--threshold",
+                "-1e9",
+                "--nms",
+                "none",
+                "--max-levels",
+                "2",
+                "--threads",
+                "2",
+                "--json",
+            ][..],
+            extra,
+        ]
+        .concat());
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        v["detections"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| d["score"].as_f64().unwrap())
+            .collect()
+    };
+    let default = scores(&[]);
+    assert!(!default.is_empty());
+    assert_eq!(
+        scores(&["--mosaic-taps", "same-site"]),
+        default,
+        "OpenCV's weights read as same-site"
+    );
+    let paper = scores(&["--mosaic-taps", "paper"]);
+    assert_eq!(paper.len(), default.len());
+    assert_ne!(paper, default);
+    let o = mosaicd(&["detect", img.to_str().unwrap(), "--mosaic-taps", "sideways"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("paper, same-site"));
+}
+
+#[test]
 fn bad_inputs_give_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.csv");

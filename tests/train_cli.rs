@@ -122,6 +122,26 @@ fn jittered_positives_join_the_training_set() {
     assert_ne!(plain.weights, jit.weights);
 }
 
+#[test]
+fn mosaic_taps_are_chosen_and_written_into_the_model() {
+    use mosaicd::features::hog::MosaicTaps;
+    let dir = tempfile::tempdir().unwrap();
+    let (site, _) = train_with(&dir.path().join("s.json"), "sampled", "2", &[]);
+    let (paper, _) = train_with(
+        &dir.path().join("p.json"),
+        "sampled",
+        "2",
+        &["--mosaic-taps", "paper"],
+    );
+    assert_eq!(paper.mosaic_taps, MosaicTaps::Paper);
+    assert_eq!(site.mosaic_taps, MosaicTaps::SameSite);
+    assert_ne!(paper.weights, site.weights);
+    let o = mosaicd(&["train", "--domain", "mosaic", "--mosaic-taps", "diagonal"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("diagonal") && e.contains("paper, same-site"), "{e}");
+}
+
 /// Two synthetic 160x256 PNGs (a seeded texture with a few edges) in `dir`.
 fn write_negatives(dir: &Path) {
     for (k, name) in ["b.png", "a.png"].iter().enumerate() {

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
-use mosaicd::features::hog::{mosaic_from_raw, HogInput};
+use mosaicd::features::hog::{mosaic_from_raw, HogInput, MosaicTaps};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
@@ -89,6 +89,11 @@ pub struct DetectorArgs {
     /// without AVX-512 VNNI it runs a slow scalar kernel).
     #[arg(long, value_enum, default_value_t = SvmArg::F32)]
     pub svm: SvmArg,
+    /// Derivative of mosaic features, overriding the model's: `same-site` (`(I(x+2) −
+    /// I(x−2))/2`; OpenCV's weights and the shipped models) or `paper` (`I(x+1) − I(x−1)`, the
+    /// paper's `[-1, 0, 1]` on the mosaic).
+    #[arg(long, value_parser = super::train::parse_taps)]
+    pub mosaic_taps: Option<MosaicTaps>,
 }
 
 /// `--svm` values.
@@ -142,6 +147,14 @@ impl From<DomainArg> for Domain {
 }
 
 impl DetectorArgs {
+    /// `model` with `--mosaic-taps` applied.
+    pub fn model(&self, mut model: LinearModel) -> LinearModel {
+        if let Some(t) = self.mosaic_taps {
+            model.mosaic_taps = t;
+        }
+        model
+    }
+
     /// To library options.
     pub fn options(&self) -> anyhow::Result<DetectorOptions> {
         let nms = match self.nms {
@@ -367,7 +380,7 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     let frame = load_frame(&args.input, &args.raw, args.as_domain)?;
-    let model = load_model(&args.model, Domain::Grey)?;
+    let model = args.det.model(load_model(&args.model, Domain::Grey)?);
     let det = Detector::new(model, &args.det.options()?)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)

@@ -197,7 +197,7 @@ fn run_windows(
         .flat_map(|p| runs.iter().map(move |r| (p, r)))
         .enumerate()
     {
-        let model = load_model(m, Domain::Colour)?;
+        let model = a.det.model(load_model(m, Domain::Colour)?);
         let label = format!("{m} on {d}");
         let quiet = a.quiet;
         let mut progress = |s: &str| {
@@ -400,7 +400,7 @@ fn run_ap(
     let mut k = 0;
     for pipe in pipelines {
         for (m, domain, d) in runs {
-            let model = load_model(m, Domain::Grey)?;
+            let model = a.det.model(load_model(m, Domain::Grey)?);
             let name = format!("{m} ({:?})", model.domain);
             let mut per_phase = Vec::with_capacity(phases.len());
             for (text, u) in &phases {

@@ -7,6 +7,7 @@ use mosaicd::detect::train::{
     evaluate_windows_via, list_negative_dirs, select_c, split_data, train_on, InputPipeline, TrainOptions,
 };
 use mosaicd::detect::ScorePrecision;
+use mosaicd::features::hog::MosaicTaps;
 use mosaicd::raw::Cfa;
 
 use super::detect::DomainArg;
@@ -62,6 +63,11 @@ pub struct TrainArgs {
     /// Also train on the five person-free Infinite-ISP raw scenes (rendered by the forward ISP).
     #[arg(long)]
     pub raw_negatives: bool,
+    /// Derivative of mosaic features: `same-site` (`(I(x+2) − I(x−2))/2`, the centre's own
+    /// colour; the shipped mosaic models) or `paper` (`I(x+1) − I(x−1)`, the paper's central
+    /// difference on the mosaic). Written into the model file.
+    #[arg(long, default_value = "same-site", value_parser = parse_taps)]
+    pub mosaic_taps: MosaicTaps,
     /// Also train on the PNG/JPEG images of this directory (repeatable), e.g. scikit-image's
     /// person-free photographs written by `scripts/skimage_negatives.py`. Training only: never
     /// held out, so the validation split is the same with or without them.
@@ -77,6 +83,15 @@ pub struct TrainArgs {
     /// Threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+}
+
+/// `--mosaic-taps` values.
+pub(crate) fn parse_taps(s: &str) -> Result<MosaicTaps, String> {
+    match s {
+        "paper" => Ok(MosaicTaps::Paper),
+        "same-site" => Ok(MosaicTaps::SameSite),
+        _ => Err(format!("'{s}' is not one of: paper, same-site")),
+    }
 }
 
 /// Run `mosaicd train`.
@@ -97,6 +112,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         mirror_negatives: a.mirror_negatives,
         jitter_positives: a.jitter_positives,
         raw_negatives: a.raw_negatives,
+        mosaic_taps: a.mosaic_taps,
     };
     let root = mosaicd::data::data_root();
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;

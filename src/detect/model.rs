@@ -9,6 +9,8 @@
 //!   "win_width": 64, "win_height": 128, "cell_size": 8, "block_size": 16, "block_stride": 8,
 //!   "nbins": 9, "gamma_correction": true, "l2hys_threshold": 0.2,
 //!   "domain": "mosaic",            // mosaic | grey | colour: the input the weights were trained on
+//!   "mosaic_taps": "same-site",    // mosaic input's derivative: same-site ((I(x+2) − I(x−2))/2)
+//!                                  // or paper (I(x+1) − I(x−1)); absent = same-site
 //!   "provenance": { ... },         // free-form: command, seed, data, date, metrics
 //!   "bias": -0.5, "weights": [ ... 3780 values in OpenCV descriptor order ... ] }
 //! ```
@@ -28,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::features::hog::{HogOptions, HogSpec, BLOCK_SIZE, BLOCK_STRIDE, CELL_SIZE};
+use crate::features::hog::{HogOptions, HogSpec, MosaicTaps, BLOCK_SIZE, BLOCK_STRIDE, CELL_SIZE};
 use crate::npy::NpyArray;
 
 /// Format tag written in every model file.
@@ -120,6 +122,10 @@ impl std::str::FromStr for Domain {
     }
 }
 
+fn same_site() -> MosaicTaps {
+    MosaicTaps::SameSite
+}
+
 /// A linear SVM over HOG descriptors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LinearModel {
@@ -145,6 +151,11 @@ pub struct LinearModel {
     pub l2hys_threshold: f32,
     /// Training input domain.
     pub domain: Domain,
+    /// The derivative the model's features use on mosaic input (applies to any model run on a
+    /// mosaic; `--mosaic-taps` and `compute.mosaic_taps` may override it). Files without the
+    /// field predate it and were made with [`MosaicTaps::SameSite`].
+    #[serde(default = "same_site")]
+    pub mosaic_taps: MosaicTaps,
     /// Where the weights came from (command, seed, data, metrics).
     #[serde(default)]
     pub provenance: serde_json::Value,
@@ -186,6 +197,7 @@ impl LinearModel {
             gamma_correction: o.gamma_correction,
             l2hys_threshold: o.l2hys_threshold,
             domain,
+            mosaic_taps: o.mosaic_taps,
             provenance: serde_json::json!({ "imported_from": origin }),
             bias,
             weights,
@@ -225,6 +237,7 @@ impl LinearModel {
             win_sigma: None,
             l2hys_threshold: self.l2hys_threshold,
             gamma_correction: self.gamma_correction,
+            mosaic_taps: self.mosaic_taps,
         };
         let spec = HogSpec::new(&opts).map_err(|e| ModelError::Parse {
             origin: origin.into(),
@@ -397,6 +410,32 @@ mod tests {
     fn model() -> LinearModel {
         let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin()).collect();
         LinearModel::from_opencv_vector(&v, Domain::Mosaic, "test").unwrap()
+    }
+
+    #[test]
+    fn mosaic_taps_are_written_and_older_files_read_as_same_site() {
+        let mut m = model();
+        assert_eq!(m.mosaic_taps, MosaicTaps::SameSite);
+        m.mosaic_taps = MosaicTaps::Paper;
+        assert!(
+            m.to_json().contains("\"mosaic_taps\":\"paper\""),
+            "{}",
+            m.to_json()
+        );
+        assert_eq!(LinearModel::from_json(&m.to_json(), "mem").unwrap(), m);
+        let mut v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+        v.as_object_mut().unwrap().remove("mosaic_taps");
+        let old = LinearModel::from_json(&v.to_string(), "old").unwrap();
+        assert_eq!(old.mosaic_taps, MosaicTaps::SameSite);
+        assert_eq!(
+            old.hog_spec("old").unwrap().options().mosaic_taps,
+            MosaicTaps::SameSite
+        );
+        v["mosaic_taps"] = serde_json::json!("sideways");
+        let e = LinearModel::from_json(&v.to_string(), "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bad") && e.contains("sideways"), "{e}");
     }
 
     #[test]

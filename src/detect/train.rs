@@ -48,7 +48,7 @@ use super::svm::{train_linear_svm, SvmOptions};
 use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
 use crate::eval::detection::Interval;
 use crate::features::hog::{
-    block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, CELL_SIZE,
+    block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, MosaicTaps, CELL_SIZE,
 };
 use crate::image::Image;
 use crate::isp::grey::grey_from_rgb_u8;
@@ -208,6 +208,8 @@ pub struct TrainOptions {
     /// Also use the five person-free Infinite-ISP raw scenes (2592x1536), rendered to sRGB by the
     /// forward ISP with the sensor's tuning, as training negatives (never held out).
     pub raw_negatives: bool,
+    /// The derivative of mosaic features (written into the model; see [`MosaicTaps`]).
+    pub mosaic_taps: MosaicTaps,
 }
 
 impl Default for TrainOptions {
@@ -226,6 +228,7 @@ impl Default for TrainOptions {
             mirror_negatives: false,
             jitter_positives: 0,
             raw_negatives: false,
+            mosaic_taps: MosaicTaps::SameSite,
         }
     }
 }
@@ -925,7 +928,10 @@ pub fn train_on(
     o: &TrainOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<LinearModel, TrainError> {
-    let spec = HogSpec::new(&HogOptions::default())?;
+    let spec = HogSpec::new(&HogOptions {
+        mosaic_taps: o.mosaic_taps,
+        ..HogOptions::default()
+    })?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x5eed);
     let mut x: Vec<Vec<f32>> = Vec::new();
     let mut y: Vec<i8> = Vec::new();
@@ -1113,6 +1119,7 @@ pub fn train_on(
 fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) -> LinearModel {
     let mut m = LinearModel::from_opencv_vector(&w, o.domain, "mosaicd train").expect("3780 weights");
     m.bias = b;
+    m.mosaic_taps = o.mosaic_taps;
     m.provenance = serde_json::json!({
         "trainer": "mosaicd train (dual coordinate descent, hinge loss, L2)",
         "seed": o.seed, "c": o.c, "domain": o.domain, "cfa": o.cfa.name(),

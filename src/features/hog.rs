@@ -31,9 +31,15 @@
 //!    when `gamma_correction` is on (OpenCV's default).
 //! 2. **Gradients** `dx = I(x+1) − I(x−1)`, `dy = I(y+1) − I(y−1)` with `BORDER_REFLECT_101`
 //!    (so the outermost pixels have zero gradient across the border). Colour: per pixel the channel
-//!    with the largest `dx²+dy²` wins, ties resolved like OpenCV (B over G over R). Mosaic: the same
-//!    operator with same-colour taps two pixels apart, `dx = (I(x+2) − I(x−2)) / 2` (reflect-101
-//!    keeps the colour phase), so no demosaicing is needed and magnitudes match the grey scale.
+//!    with the largest `dx²+dy²` wins, ties resolved like OpenCV (B over G over R). Mosaic
+//!    ([`MosaicTaps`]): by default taps of the centre's own colour two pixels away, `dx =
+//!    (I(x+2) − I(x−2)) / 2` (halved to the grey scale), so every difference is between
+//!    same-colour pixels and no demosaicing is needed; reflect-101 keeps the colour phase.
+//!    [`MosaicTaps::Paper`] is the paper's operator instead: the grey `[-1, 0, 1]` applied to the
+//!    mosaic as it is, whose taps `x−1` and `x+1` also share a colour (at green pixels `dx` and
+//!    `dy` then come from red and blue). It is finer (a two-pixel instead of a four-pixel
+//!    derivative): on clean input it suits weights trained on grey gradients much better, under
+//!    the paper's noise it is worse (docs/detection.md, "The mosaic derivative").
 //! 3. **Orientation**: `θ = atan2(dy, dx)` with OpenCV's `fastAtan2` polynomial (≈0.01° accurate),
 //!    unsigned: `a = θ·nbins/π − ½`, bin `⌊a⌋ mod nbins` gets `|g|(1−f)`, the next bin `|g|f`.
 //! 4. **Block histograms**: a pixel at block position (i, j) votes with weight
@@ -191,6 +197,33 @@ pub struct HogOptions {
     pub l2hys_threshold: f32,
     /// Square-root gamma on the input (OpenCV default `true`).
     pub gamma_correction: bool,
+    /// Mosaic input only: the derivative's taps. [`MosaicTaps::SameSite`] (the default) is
+    /// `(I(x+2) − I(x−2)) / 2`, taps of the centre pixel's own colour; [`MosaicTaps::Paper`] is the
+    /// paper's central difference `I(x+1) − I(x−1)`, whose two taps share a colour filter.
+    pub mosaic_taps: MosaicTaps,
+}
+
+/// Which same-colour pixels a mosaic's HOG derivative subtracts (see the module docs, step 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MosaicTaps {
+    /// The paper's `[-1, 0, 1]` on the mosaic: `I(x+1) − I(x−1)`, `I(y+1) − I(y−1)`. The two
+    /// taps are two pixels apart and always of one colour (not necessarily the centre's).
+    Paper,
+    /// `(I(x+2) − I(x−2)) / 2`: taps of the centre pixel's colour, four pixels apart, halved
+    /// (the default; every shipped mosaic model uses it).
+    #[default]
+    SameSite,
+}
+
+impl MosaicTaps {
+    /// Distance from the centre to each tap.
+    pub fn distance(self) -> usize {
+        match self {
+            Self::Paper => 1,
+            Self::SameSite => 2,
+        }
+    }
 }
 
 impl Default for HogOptions {
@@ -202,6 +235,7 @@ impl Default for HogOptions {
             win_sigma: None,
             l2hys_threshold: DEFAULT_L2HYS_THRESHOLD,
             gamma_correction: true,
+            mosaic_taps: MosaicTaps::SameSite,
         }
     }
 }
@@ -468,7 +502,7 @@ fn planes_from_input(spec: &HogSpec, input: &HogInput) -> Result<OwnedPlanes, Ho
             if w % 2 != 0 || h % 2 != 0 {
                 return Err(HogError::OddMosaic { width: w, height: h });
             }
-            tap = 2;
+            tap = spec.opts.mosaic_taps.distance();
             vec![gamma_plane(*v, gamma)]
         }
         HogInput::ColourF32(p) => {
@@ -1119,12 +1153,12 @@ fn blocks_in_bands_with<S>(
 fn planes_of<'a>(spec: &HogSpec, planes: &GammaPlanes<'a>) -> Result<Planes<'a>, HogError> {
     let (views, tap) = match planes {
         GammaPlanes::Grey(v) => (vec![*v], 1),
-        GammaPlanes::Mosaic(v) => (vec![*v], 2),
+        GammaPlanes::Mosaic(v) => (vec![*v], spec.opts.mosaic_taps.distance()),
         GammaPlanes::Colour(p) => (p.to_vec(), 1),
     };
     let (w, h) = (views[0].width(), views[0].height());
     check_fits(spec, w, h)?;
-    if tap == 2 && (w % 2 != 0 || h % 2 != 0) {
+    if matches!(planes, GammaPlanes::Mosaic(_)) && (w % 2 != 0 || h % 2 != 0) {
         return Err(HogError::OddMosaic { width: w, height: h });
     }
     if let Some(q) = views.iter().find(|q| (q.width(), q.height()) != (w, h)) {
@@ -2187,5 +2221,39 @@ mod tests {
         let img = Image::<f32>::from_fn(64, 128, |x, y| [10.0, 80.0, 120.0, 30.0][(y & 1) * 2 + (x & 1)]);
         let d = descriptor_from_window(&spec(), &HogInput::Mosaic(img.view())).unwrap();
         assert!(d.iter().all(|&v| v == 0.0));
+        let paper = HogSpec::new(&HogOptions {
+            mosaic_taps: MosaicTaps::Paper,
+            ..Default::default()
+        })
+        .unwrap();
+        let d = descriptor_from_window(&paper, &HogInput::Mosaic(img.view())).unwrap();
+        assert!(d.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn mosaic_taps_paper_is_the_grey_operator_on_the_raw_mosaic_and_same_site_is_not() {
+        // The paper's point: [-1, 0, 1] applied to the mosaic as if it were grey.
+        let img = Image::<f32>::from_fn(96, 160, |x, y| {
+            let c = [1.0, 0.6, 0.6, 0.3][(y & 1) * 2 + (x & 1)];
+            c * (40.0 + ((x * 7 + y * 3) % 50) as f32 + (x as f32 / 9.0).sin() * 30.0)
+        });
+        let paper = HogSpec::new(&HogOptions {
+            mosaic_taps: MosaicTaps::Paper,
+            ..Default::default()
+        })
+        .unwrap();
+        let mosaic = block_grid_from_input(&paper, &HogInput::Mosaic(img.view())).unwrap();
+        let grey = block_grid_from_input(&paper, &HogInput::GreyF32(img.view())).unwrap();
+        let d = mosaic.window_descriptor(&paper, 2, 3).unwrap();
+        assert_eq!(d, grey.window_descriptor(&paper, 2, 3).unwrap());
+        let same_site = spec();
+        let s = block_grid_from_input(&same_site, &HogInput::Mosaic(img.view())).unwrap();
+        let ds = s.window_descriptor(&same_site, 2, 3).unwrap();
+        assert!(d.iter().zip(&ds).map(|(a, b)| (a - b).abs()).sum::<f32>() > 1.0);
+        assert_eq!(MosaicTaps::default(), MosaicTaps::SameSite);
+        assert_eq!(
+            (MosaicTaps::Paper.distance(), MosaicTaps::SameSite.distance()),
+            (1, 2)
+        );
     }
 }

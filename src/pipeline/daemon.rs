@@ -175,9 +175,14 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
     } else {
         PathBuf::from(&c.model)
     };
-    let model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
+    let mut model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
         message: format!("compute.model = {:?}: {e}", c.model),
     })?;
+    if let Some(t) = c.mosaic_taps_override().map_err(|e| DaemonError::Model {
+        message: e.to_string(),
+    })? {
+        model.mosaic_taps = t;
+    }
     let opts = DetectorOptions {
         scale_step: c.scale_step,
         max_levels: c.max_levels,
@@ -383,5 +388,26 @@ async fn supervise(
         Err(_) => Err(DaemonError::ShutdownTimeout {
             timeout_ms: timeout.as_millis() as u64,
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::hog::MosaicTaps;
+
+    #[test]
+    fn compute_mosaic_taps_reaches_the_detector() {
+        crate::data::require(OPENCV_DEFAULT_MODEL);
+        let taps = |line: &str| {
+            let cfg = Config::from_toml_str(&format!(
+                "[compute]\n{line}\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n"
+            ))
+            .unwrap();
+            load_detector(&cfg).unwrap().unwrap().model().mosaic_taps
+        };
+        assert_eq!(taps(""), MosaicTaps::SameSite, "OpenCV's weights: same-site");
+        assert_eq!(taps("mosaic_taps = \"model\""), MosaicTaps::SameSite);
+        assert_eq!(taps("mosaic_taps = \"paper\""), MosaicTaps::Paper);
     }
 }
