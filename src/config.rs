@@ -370,9 +370,7 @@ impl ComputeConfig {
     pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
         match self.mosaic_taps.as_str() {
             "model" => Ok(None),
-            "same-site" => Ok(Some(MosaicTaps::SameSite)),
-            "paper" => Ok(Some(MosaicTaps::Paper)),
-            _ => Err(ConfigError::OutOfRange {
+            s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
                 key: "compute.mosaic_taps".into(),
                 value: format!("{:?}", self.mosaic_taps),
                 allowed: "one of \"model\", \"same-site\", \"paper\"".into(),

@@ -92,7 +92,7 @@ pub struct DetectorArgs {
     /// Derivative of mosaic features, overriding the model's: `same-site` (`(I(x+2) −
     /// I(x−2))/2`; OpenCV's weights and the shipped models) or `paper` (`I(x+1) − I(x−1)`, the
     /// paper's `[-1, 0, 1]` on the mosaic).
-    #[arg(long, value_parser = super::train::parse_taps)]
+    #[arg(long)]
     pub mosaic_taps: Option<MosaicTaps>,
 }
 

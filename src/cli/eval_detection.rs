@@ -241,7 +241,7 @@ fn run_windows(
             format!(
                 "Paired bootstrap over the {} held-out photos and {} negative images ({} resamples, \
                  seed {}): 95 % intervals; Δ = row − {rl}, {}",
-                scores[0].positive_photo.iter().max().map_or(0, |&m| m + 1),
+                scores[0].photos(),
                 scores[0].windows_per_image.len(),
                 a.bootstrap,
                 a.seed,

@@ -66,7 +66,7 @@ pub struct TrainArgs {
     /// Derivative of mosaic features: `same-site` (`(I(x+2) − I(x−2))/2`, the centre's own
     /// colour; the shipped mosaic models) or `paper` (`I(x+1) − I(x−1)`, the paper's central
     /// difference on the mosaic). Written into the model file.
-    #[arg(long, default_value = "same-site", value_parser = parse_taps)]
+    #[arg(long, default_value = "same-site")]
     pub mosaic_taps: MosaicTaps,
     /// Also train on the PNG/JPEG images of this directory (repeatable), e.g. scikit-image's
     /// person-free photographs written by `scripts/skimage_negatives.py`. Training only: never
@@ -83,15 +83,6 @@ pub struct TrainArgs {
     /// Threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-}
-
-/// `--mosaic-taps` values.
-pub(crate) fn parse_taps(s: &str) -> Result<MosaicTaps, String> {
-    match s {
-        "paper" => Ok(MosaicTaps::Paper),
-        "same-site" => Ok(MosaicTaps::SameSite),
-        _ => Err(format!("'{s}' is not one of: paper, same-site")),
-    }
 }
 
 /// Run `mosaicd train`.

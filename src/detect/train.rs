@@ -661,8 +661,7 @@ pub fn evaluate_windows_via(
             ));
         }
     }
-    let top_negatives = top_scores(&neg, &windows_per_image);
-    neg.sort_by(|a, b| b.total_cmp(a));
+    let (neg, top_negatives) = rank_negatives(&neg, &windows_per_image);
     let miss_rate_at = [1e-2, 1e-3, 1e-4]
         .iter()
         .map(|&f| (f, miss_rate_at_fppw(&pos, &neg, f)))
@@ -682,9 +681,10 @@ pub fn evaluate_windows_via(
     })
 }
 
-/// The top negative scores with their image index (see [`WindowScores::top_negatives`]); `neg`
-/// holds each image's windows in turn, `windows_per_image[i]` of image `i`.
-fn top_scores(neg: &[f32], windows_per_image: &[usize]) -> Vec<(f32, u32)> {
+/// Every negative score, descending, and the top ones with their image index (see
+/// [`WindowScores::top_negatives`]), from one sort; `neg` holds each image's windows in turn,
+/// `windows_per_image[i]` of image `i`.
+fn rank_negatives(neg: &[f32], windows_per_image: &[usize]) -> (Vec<f32>, Vec<(f32, u32)>) {
     let mut all: Vec<(f32, u32)> = Vec::with_capacity(neg.len());
     let mut start = 0;
     for (i, &n) in windows_per_image.iter().enumerate() {
@@ -692,16 +692,22 @@ fn top_scores(neg: &[f32], windows_per_image: &[usize]) -> Vec<(f32, u32)> {
         start += n;
     }
     all.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let sorted = all.iter().map(|x| x.0).collect();
     let keep = (2.0 * BOOTSTRAP_MAX_FPPW * neg.len() as f64).ceil() as usize + 64;
     if keep < all.len() {
         let last = all[keep - 1].0;
         let end = keep + all[keep..].iter().take_while(|x| x.0 == last).count();
         all.truncate(end);
     }
-    all
+    (sorted, all)
 }
 
 impl WindowScores {
+    /// Number of held-out photos (what the bootstrap resamples on the positive side).
+    pub fn photos(&self) -> usize {
+        self.positive_photo.iter().max().map_or(0, |&m| m as usize + 1)
+    }
+
     /// Miss rate at `fppw` with photo `p` counted `photo_w[p]` times and negative image `i`
     /// counted `image_w[i]` times, as [`miss_rate_at_fppw`] computes it on that multiset (with
     /// every weight 1, equal to it). An error if the threshold lies below the kept scores.
@@ -810,7 +816,7 @@ pub fn window_bootstrap(
         return Err(bad(f.to_string(), "FPPW in 0 ..= 1e-2"));
     }
     use rand::{Rng, SeedableRng};
-    let photos = first.positive_photo.iter().max().map_or(0, |&m| m as usize + 1);
+    let photos = first.photos();
     let images = first.windows_per_image.len();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut photo_w = vec![0u32; photos];
@@ -832,15 +838,14 @@ pub fn window_bootstrap(
             }
         }
     }
-    let interval = Interval::of;
     Ok(draws
         .iter()
         .map(|d| WindowBootstrapRow {
-            miss_rate: d.iter().map(|v| interval(v.clone())).collect(),
+            miss_rate: d.iter().map(|v| Interval::of(v.clone())).collect(),
             diff: d
                 .iter()
                 .zip(&draws[reference])
-                .map(|(v, w)| interval(v.iter().zip(w).map(|(x, y)| x - y).collect()))
+                .map(|(v, w)| Interval::of(v.iter().zip(w).map(|(x, y)| x - y).collect()))
                 .collect(),
             not_worse: d
                 .iter()
@@ -1168,7 +1173,7 @@ mod tests {
         let scores = WindowScores {
             positive_photo: (0..2 * photos as u32).map(|i| i / 2).collect(),
             positives,
-            top_negatives: top_scores(&neg, &windows_per_image),
+            top_negatives: rank_negatives(&neg, &windows_per_image).1,
             windows_per_image,
         };
         (scores, neg)
@@ -1181,6 +1186,7 @@ mod tests {
         assert!(w.top_negatives.len() < neg.len(), "the cut keeps a part");
         let mut sorted = neg.clone();
         sorted.sort_by(|a, b| b.total_cmp(a));
+        assert_eq!(rank_negatives(&neg, &[500; 40]).0, sorted);
         let ones_p = vec![1; 30];
         let ones_i = vec![1; 40];
         for f in [0.0, 1e-4, 1e-3, 5e-3, 1e-2] {

@@ -217,12 +217,31 @@ pub enum MosaicTaps {
 }
 
 impl MosaicTaps {
+    /// The name in model files, configs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::SameSite => "same-site",
+        }
+    }
+
     /// Distance from the centre to each tap.
     pub fn distance(self) -> usize {
         match self {
             Self::Paper => 1,
             Self::SameSite => 2,
         }
+    }
+}
+
+impl std::str::FromStr for MosaicTaps {
+    type Err = String;
+    /// `paper` or `same-site` (the names of [`MosaicTaps::name`]).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        [Self::Paper, Self::SameSite]
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| format!("'{s}' is not one of: paper, same-site"))
     }
 }
 
@@ -2255,5 +2274,13 @@ mod tests {
             (MosaicTaps::Paper.distance(), MosaicTaps::SameSite.distance()),
             (1, 2)
         );
+        for t in [MosaicTaps::Paper, MosaicTaps::SameSite] {
+            assert_eq!(t.name().parse::<MosaicTaps>(), Ok(t));
+            assert_eq!(serde_json::to_value(t).unwrap(), t.name());
+        }
+        assert!("Paper"
+            .parse::<MosaicTaps>()
+            .unwrap_err()
+            .contains("paper, same-site"));
     }
 }
