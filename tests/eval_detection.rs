@@ -331,6 +331,11 @@ fn bad_inputs_give_clear_errors() {
 
     let o = mosaicd(&["eval", "detection", "opencv-default", "--usc"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("expected MODEL=DOMAIN"));
+
+    let o = mosaicd(&["eval", "detection", "opencv-default=grey", "--fold", "5"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(e.contains("--fold 5") && e.contains("folds are 0..5"), "{e}");
 }
 
 #[test]

@@ -142,6 +142,34 @@ fn mosaic_taps_are_chosen_and_written_into_the_model() {
     assert!(e.contains("diagonal") && e.contains("paper, same-site"), "{e}");
 }
 
+#[test]
+fn folds_hold_out_other_photos_and_are_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let (f0, _) = train_with(&dir.path().join("f0.json"), "sampled", "2", &[]);
+    let (f3, _) = train_with(&dir.path().join("f3.json"), "sampled", "2", &["--fold", "3"]);
+    assert_eq!(f3.provenance["fold"], 3);
+    assert!(f0.provenance.get("fold").is_none(), "fold 0 files stay as before");
+    assert_ne!(f0.provenance["train_positives"], f3.provenance["train_positives"]);
+    assert_ne!(f0.weights, f3.weights);
+    let out = dir.path().join("bad.json");
+    let o = mosaicd(&[
+        "train",
+        "--domain",
+        "mosaic",
+        "--fold",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("fold") && err.contains('5') && err.contains("floor(1 / held-out fraction)"),
+        "{err}"
+    );
+    assert!(!out.exists(), "no model may be written on error");
+}
+
 /// Two synthetic 160x256 PNGs (a seeded texture with a few edges) in `dir`.
 fn write_negatives(dir: &Path) {
     for (k, name) in ["b.png", "a.png"].iter().enumerate() {
@@ -195,7 +223,7 @@ fn negatives_dir_images_are_training_only_recorded_and_deterministic() {
         b.provenance["training_only_negatives"]
     );
     // The split's own negatives are those of the plain split (nothing of the new ones held out).
-    let split = split_data(&mosaicd::data::data_root(), 1, 0.2).unwrap();
+    let split = split_data(&mosaicd::data::data_root(), 1, 0.2, 0).unwrap();
     assert_eq!(p["train_negative_images"], split.train_neg.len());
 }
 

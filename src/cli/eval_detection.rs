@@ -15,7 +15,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use mosaicd::detect::train::{evaluate_windows_via, split_data, window_bootstrap, InputPipeline, WindowEval};
+use mosaicd::detect::train::{
+    evaluate_windows_via, fold_count, split_data, window_bootstrap, InputPipeline, WindowEval,
+};
 use mosaicd::detect::{Detector, Domain, ScorePrecision};
 use mosaicd::eval::common::{fmt, Progress, Report, Table};
 use mosaicd::eval::detection::{
@@ -50,6 +52,11 @@ pub struct EvalDetectionArgs {
     /// Held-out fraction (as in training).
     #[arg(long, default_value_t = 0.2)]
     pub val_fraction: f64,
+    /// Which block of the seeded shuffle is held out (as in training): 0 is the split the shipped models
+    /// use; folds 0 .. 1/val-fraction are disjoint (0–4 at 0.2: a 5-fold cross-validation,
+    /// `scripts/detection_cv.sh`).
+    #[arg(long, default_value_t = 0)]
+    pub fold: usize,
     /// Use at most this many validation negative images (0 = all).
     #[arg(long, default_value_t = 0)]
     pub max_neg_images: usize,
@@ -163,8 +170,16 @@ fn run_windows(
     runs: &[(String, Domain, String)],
     pipelines: &[InputPipeline],
 ) -> anyhow::Result<Report> {
+    let folds = fold_count(a.val_fraction);
+    anyhow::ensure!(
+        a.val_fraction > 0.0 && a.val_fraction < 1.0 && a.fold < folds,
+        "--fold {} with --val-fraction {}: folds are 0..{} (0 <= fold < floor(1 / held-out fraction))",
+        a.fold,
+        a.val_fraction,
+        folds
+    );
     let root = mosaicd::data::data_root();
-    let mut split = split_data(&root, a.seed, a.val_fraction)
+    let mut split = split_data(&root, a.seed, a.val_fraction, a.fold)
         .with_context(|| format!("set {} to the shared data directory", mosaicd::data::DATA_ENV))?;
     if a.max_neg_images > 0 {
         split.val_neg.truncate(a.max_neg_images);
@@ -174,8 +189,13 @@ fn run_windows(
     }
     let mut table = Table::new(
         format!(
-            "Window protocol (held-out split, seed {}, {} positives, {} negative images, svm {})",
+            "Window protocol (held-out split, seed {}{}, {} positives, {} negative images, svm {})",
             a.seed,
+            if a.fold == 0 {
+                String::new()
+            } else {
+                format!(" fold {}", a.fold)
+            },
             split.val_pos.len(),
             split.val_neg.len(),
             ScorePrecision::from(a.det.svm)

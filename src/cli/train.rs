@@ -45,6 +45,11 @@ pub struct TrainArgs {
     /// Held-out fraction (photos and negative images).
     #[arg(long, default_value_t = 0.2)]
     pub val_fraction: f64,
+    /// Which block of the seeded shuffle is held out: 0 is the split the shipped models
+    /// use; folds 0 .. 1/val-fraction are disjoint (0–4 at 0.2: a 5-fold cross-validation,
+    /// `scripts/detection_cv.sh`).
+    #[arg(long, default_value_t = 0)]
+    pub fold: usize,
     /// CFA used to sample mosaics.
     #[arg(long, default_value = "RGGB")]
     pub cfa: Cfa,
@@ -96,6 +101,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         mining_rounds: a.rounds,
         max_hard_per_round: a.max_hard,
         val_fraction: a.val_fraction,
+        fold: a.fold,
         max_neg_images: a.max_neg_images,
         // Training noise streams differ from `eval detection`'s (which uses `--seed` directly).
         pipeline: InputPipeline::parse(&a.input, a.seed ^ TRAIN_NOISE_SALT)
@@ -110,7 +116,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
     let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
-    let mut split = split_data(&root, o.seed, o.val_fraction)?;
+    let mut split = split_data(&root, o.seed, o.val_fraction, o.fold)?;
     split.extra_train_neg =
         list_negative_dirs(&a.negatives_dir).map_err(|e| anyhow::anyhow!("--negatives-dir: {e}"))?;
     let mut selection = None;

@@ -24,9 +24,10 @@
 //!
 //! # Deviations
 //! OpenCV resizes 8-bit images in 11-bit fixed point; we resize f32, so pyramid levels other than
-//! the first differ from OpenCV's by up to ±0.5 grey level. This module is a stand-in with the same
-//! semantics as `features::superpixel::{resize_bilinear, resize_mosaic}` (written by the lead); the
-//! detector can switch to those once they are on main.
+//! the first differ from OpenCV's by up to ±0.5 grey level. The float resizes compute what
+//! `features::superpixel::{resize_bilinear, resize_mosaic}` compute (a test holds them within
+//! 1e-3 grey levels); the detector keeps its own for the strips that fuse a row operation into
+//! the resize and for its reused buffers.
 
 use rayon::prelude::*;
 
@@ -443,6 +444,33 @@ pub fn resize_then(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn resizes_equal_the_super_pixel_module_s() {
+        // The detector keeps its own resize (strips with a fused row operation, reused buffers);
+        // it must stay what `features::superpixel` computes, for grey planes and mosaics alike.
+        use crate::features::superpixel as sp;
+        let src = Image::<f32>::from_fn(146, 98, |x, y| ((x * 37 + y * 91 + x * y) % 251) as f32 * 0.7);
+        let worst = |a: &Image<f32>, b: &Image<f32>| {
+            assert_eq!(a.dimensions(), b.dimensions());
+            a.as_slice()
+                .iter()
+                .zip(b.as_slice())
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f32::max)
+        };
+        for (w, h) in [(146, 98), (120, 80), (62, 44), (200, 130), (10, 6)] {
+            let (mut ours, mut theirs) = (Image::new(0, 0), Image::new(0, 0));
+            resize_bilinear(src.view(), w, h, &mut ours).unwrap();
+            sp::resize_bilinear(src.view(), w, h, &mut theirs).unwrap();
+            let d = worst(&ours, &theirs);
+            assert!(d <= 1e-3, "grey {w}x{h}: {d}");
+            resize_mosaic(src.view(), w, h, &mut ours).unwrap();
+            sp::resize_mosaic(src.view(), w, h, &mut theirs).unwrap();
+            let d = worst(&ours, &theirs);
+            assert!(d <= 1e-3, "mosaic {w}x{h}: {d}");
+        }
+    }
 
     #[test]
     fn identity_size_is_a_copy() {

@@ -194,6 +194,9 @@ pub struct TrainOptions {
     pub max_hard_per_round: usize,
     /// Fraction of photos (positives) and negative images held out for validation.
     pub val_fraction: f64,
+    /// Which block of the seeded shuffle is held out ([`split_data`]; 0 = the split the shipped
+    /// models use). Recorded in the model's provenance when not 0.
+    pub fold: usize,
     /// Use at most this many of the split's training negative images (0 = all) — a speed knob;
     /// the raw scenes and [`Split::extra_train_neg`] are always used in full.
     pub max_neg_images: usize,
@@ -223,6 +226,7 @@ impl Default for TrainOptions {
             mining_rounds: 1,
             max_hard_per_round: 5000,
             val_fraction: 0.2,
+            fold: 0,
             max_neg_images: 0,
             pipeline: InputPipeline::Sampled,
             mirror_negatives: false,
@@ -293,7 +297,13 @@ fn list(dir: &Path) -> Result<Vec<PathBuf>, TrainError> {
 }
 
 /// The seeded split of the shared data (`data_root`: the directory holding `pedestrian/`, `kodak/`).
-pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Split, TrainError> {
+///
+/// Photo prefixes and negative images are shuffled with `seed`; fold `k` holds out the `k`-th
+/// block of `val_fraction` of each, `[round(k·f·n), round((k+1)·f·n))`. Folds `0 .. ⌊1/f⌋` are
+/// disjoint, so at `f = 0.2` folds 0–4 are a 5-fold cross-validation in which every photo and
+/// every negative image is held out once; fold 0 is the split the shipped models use.
+pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64, fold: usize) -> Result<Split, TrainError> {
+    check_fold(val_fraction, fold)?;
     let pos = list(&data_root.join("pedestrian/inria_pos_96x160"))?;
     let mut neg = list(&data_root.join("pedestrian/neg_inria"))?;
     neg.extend(list(&data_root.join("pedestrian/neg"))?);
@@ -302,7 +312,35 @@ pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64) -> Result<Spli
             neg.push(data_root.join(format!("kodak/kodim{k:02}.png")));
         }
     }
-    Ok(split_lists(pos, neg, seed, val_fraction))
+    Ok(split_lists(pos, neg, seed, val_fraction, fold))
+}
+
+/// Number of disjoint folds at held-out fraction `val_fraction` (`⌊1/f⌋`, with a little slack
+/// for `f` like 0.2 that is not exact in binary).
+pub fn fold_count(val_fraction: f64) -> usize {
+    if val_fraction > 0.0 && val_fraction <= 1.0 {
+        (1.0 / val_fraction + 1e-9).floor() as usize
+    } else {
+        0
+    }
+}
+
+fn check_fold(val_fraction: f64, fold: usize) -> Result<(), TrainError> {
+    if !(val_fraction > 0.0 && val_fraction < 1.0) {
+        return Err(TrainError::BadOption {
+            what: "val_fraction",
+            value: val_fraction.to_string(),
+            allowed: "0 < fraction < 1",
+        });
+    }
+    if fold >= fold_count(val_fraction) {
+        return Err(TrainError::BadOption {
+            what: "fold",
+            value: format!("{fold} (held-out fraction {val_fraction})"),
+            allowed: "0 <= fold < floor(1 / held-out fraction)",
+        });
+    }
+    Ok(())
 }
 
 /// Split the *training* part of `split` once more, the same way (positives by photo prefix,
@@ -316,12 +354,20 @@ pub fn inner_split(split: &Split, seed: u64, val_fraction: f64) -> Split {
             split.train_neg.clone(),
             seed ^ INNER_SPLIT_SALT,
             val_fraction,
+            0,
         )
     }
 }
 
-/// Seeded split of positives (`pos` sorted by name, grouped by photo prefix) and negatives.
-fn split_lists(pos: Vec<PathBuf>, mut neg: Vec<PathBuf>, seed: u64, val_fraction: f64) -> Split {
+/// The held-out block `[round(k·f·n), round((k+1)·f·n))` of `n` shuffled items.
+fn fold_range(n: usize, val_fraction: f64, fold: usize) -> std::ops::Range<usize> {
+    let at = |k: usize| ((n as f64 * val_fraction * k as f64).round() as usize).min(n);
+    at(fold)..at(fold + 1)
+}
+
+/// Seeded split of positives (`pos` sorted by name, grouped by photo prefix) and negatives; fold
+/// `fold` of [`split_data`].
+fn split_lists(pos: Vec<PathBuf>, mut neg: Vec<PathBuf>, seed: u64, val_fraction: f64, fold: usize) -> Split {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut prefixes: Vec<String> = pos
         .iter()
@@ -329,8 +375,10 @@ fn split_lists(pos: Vec<PathBuf>, mut neg: Vec<PathBuf>, seed: u64, val_fraction
         .collect();
     prefixes.dedup();
     prefixes.shuffle(&mut rng);
-    let n_val = (prefixes.len() as f64 * val_fraction).round() as usize;
-    let val: std::collections::HashSet<&str> = prefixes[..n_val].iter().map(|s| s.as_str()).collect();
+    let val: std::collections::HashSet<&str> = prefixes[fold_range(prefixes.len(), val_fraction, fold)]
+        .iter()
+        .map(|s| s.as_str())
+        .collect();
     let mut s = Split::default();
     for p in pos {
         let n = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -341,9 +389,9 @@ fn split_lists(pos: Vec<PathBuf>, mut neg: Vec<PathBuf>, seed: u64, val_fraction
         }
     }
     neg.shuffle(&mut rng);
-    let n_val = (neg.len() as f64 * val_fraction).round() as usize;
-    s.val_neg = neg[..n_val].to_vec();
-    s.train_neg = neg[n_val..].to_vec();
+    let r = fold_range(neg.len(), val_fraction, fold);
+    s.val_neg = neg[r.clone()].to_vec();
+    s.train_neg = neg[..r.start].iter().chain(&neg[r.end..]).cloned().collect();
     s
 }
 
@@ -1146,6 +1194,9 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) ->
     if let InputPipeline::ReverseIsp { seed, .. } = o.pipeline {
         m.provenance["noise_seed"] = serde_json::json!(seed);
     }
+    if o.fold != 0 {
+        m.provenance["fold"] = serde_json::json!(o.fold);
+    }
     m
 }
 
@@ -1354,7 +1405,7 @@ mod tests {
         let neg: Vec<PathBuf> = (0..30).map(|k| PathBuf::from(format!("neg{k}.jpg"))).collect();
         let outer = Split {
             extra_train_neg: vec![PathBuf::from("extra.png")],
-            ..split_lists(pos, neg, 1, 0.2)
+            ..split_lists(pos, neg, 1, 0.2, 0)
         };
         let inner = inner_split(&outer, 1, 0.2);
         // Training-only negatives stay on the training side.
@@ -1385,6 +1436,85 @@ mod tests {
     }
 
     #[test]
+    fn folds_are_disjoint_cover_everything_and_fold_zero_is_the_shipped_split() {
+        // 23 photos of 1–3 crops each (mirrors share the prefix), 41 negative images.
+        let pos: Vec<PathBuf> = (0..23)
+            .flat_map(|i| {
+                (0..1 + i % 3)
+                    .map(move |j| PathBuf::from(format!("crop{i:03}00{}.png", (b'a' + j as u8) as char)))
+            })
+            .collect();
+        let neg: Vec<PathBuf> = (0..41).map(|i| PathBuf::from(format!("n{i:02}.jpg"))).collect();
+        assert_eq!(fold_count(0.2), 5);
+        assert_eq!(fold_count(0.25), 4);
+        assert_eq!(fold_count(0.3), 3);
+        let folds: Vec<Split> = (0..5)
+            .map(|k| split_lists(pos.clone(), neg.clone(), 7, 0.2, k))
+            .collect();
+        // Fold 0 is what the split was before folds existed: the first round(f·n) of the shuffle.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut prefixes: Vec<String> = pos
+            .iter()
+            .map(|p| photo_prefix(p.to_str().unwrap()).to_string())
+            .collect();
+        prefixes.dedup();
+        prefixes.shuffle(&mut rng);
+        let mut shuffled = neg.clone();
+        shuffled.shuffle(&mut rng);
+        assert_eq!(folds[0].val_neg, shuffled[..8].to_vec());
+        assert_eq!(folds[0].train_neg, shuffled[8..].to_vec());
+        let first: std::collections::HashSet<&str> = prefixes[..5].iter().map(|s| s.as_str()).collect();
+        assert!(folds[0]
+            .val_pos
+            .iter()
+            .all(|p| first.contains(photo_prefix(p.to_str().unwrap()))));
+        let mut seen_pos: Vec<PathBuf> = Vec::new();
+        let mut seen_neg: Vec<PathBuf> = Vec::new();
+        for f in &folds {
+            assert_eq!(f.val_pos.len() + f.train_pos.len(), pos.len());
+            assert_eq!(f.val_neg.len() + f.train_neg.len(), neg.len());
+            assert!(!f.val_pos.is_empty() && !f.val_neg.is_empty());
+            for p in &f.val_pos {
+                let pre = photo_prefix(p.to_str().unwrap());
+                assert!(f
+                    .train_pos
+                    .iter()
+                    .all(|q| photo_prefix(q.to_str().unwrap()) != pre));
+            }
+            seen_pos.extend(f.val_pos.iter().cloned());
+            seen_neg.extend(f.val_neg.iter().cloned());
+        }
+        // Every photo and every negative image is held out exactly once.
+        seen_pos.sort();
+        seen_neg.sort();
+        let (mut all_pos, mut all_neg) = (pos.clone(), neg.clone());
+        all_pos.sort();
+        all_neg.sort();
+        assert_eq!(seen_pos, all_pos);
+        assert_eq!(seen_neg, all_neg);
+        // Out of range: a clear error naming the fold, before any file is read.
+        let missing = Path::new("/nonexistent/mosaicd-data");
+        match split_data(missing, 1, 0.2, 5) {
+            Err(TrainError::BadOption { what, value, .. }) => {
+                assert_eq!(what, "fold");
+                assert!(value.starts_with('5'), "{value}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            split_data(missing, 1, 0.0, 0),
+            Err(TrainError::BadOption {
+                what: "val_fraction",
+                ..
+            })
+        ));
+        assert!(matches!(
+            split_data(missing, 1, 0.2, 4),
+            Err(TrainError::Data { .. })
+        ));
+    }
+
+    #[test]
     fn select_c_rejects_empty_and_non_positive_candidates_before_training() {
         // The files do not exist: a candidate list that got past the check would fail on them.
         let split = split_lists(
@@ -1392,6 +1522,7 @@ mod tests {
             vec![PathBuf::from("neg.jpg")],
             1,
             0.2,
+            0,
         );
         let o = TrainOptions::default();
         for (cands, shown) in [(&[][..], "[]"), (&[0.1, 0.0][..], "0"), (&[f64::NAN][..], "NaN")] {
