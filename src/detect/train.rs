@@ -315,10 +315,13 @@ pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64, fold: usize) -
     Ok(split_lists(pos, neg, seed, val_fraction, fold))
 }
 
-/// Number of disjoint folds at held-out fraction `val_fraction` (`⌊1/f⌋`, with a little slack
-/// for `f` like 0.2 that is not exact in binary).
+/// Number of disjoint folds at held-out fraction `val_fraction`: `⌊1/f⌋` (with a little slack for
+/// `f` like 0.2 that is not exact in binary), 1 at `f = 0` (nothing held out: train on
+/// everything), 0 outside `[0, 1)`.
 pub fn fold_count(val_fraction: f64) -> usize {
-    if val_fraction > 0.0 && val_fraction <= 1.0 {
+    if val_fraction == 0.0 {
+        1
+    } else if val_fraction > 0.0 && val_fraction < 1.0 {
         (1.0 / val_fraction + 1e-9).floor() as usize
     } else {
         0
@@ -326,11 +329,11 @@ pub fn fold_count(val_fraction: f64) -> usize {
 }
 
 fn check_fold(val_fraction: f64, fold: usize) -> Result<(), TrainError> {
-    if !(val_fraction > 0.0 && val_fraction < 1.0) {
+    if !(0.0..1.0).contains(&val_fraction) {
         return Err(TrainError::BadOption {
             what: "val_fraction",
             value: val_fraction.to_string(),
-            allowed: "0 < fraction < 1",
+            allowed: "0 <= fraction < 1",
         });
     }
     if fold >= fold_count(val_fraction) {
@@ -1501,12 +1504,26 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+        for bad in [1.0, -0.1, f64::NAN] {
+            assert!(matches!(
+                split_data(missing, 1, bad, 0),
+                Err(TrainError::BadOption {
+                    what: "val_fraction",
+                    ..
+                })
+            ));
+        }
+        // Nothing held out (train on everything) is fold 0 only.
+        assert!(matches!(
+            split_data(missing, 1, 0.0, 1),
+            Err(TrainError::BadOption { what: "fold", .. })
+        ));
+        let all = split_lists(pos.clone(), neg.clone(), 7, 0.0, 0);
+        assert!(all.val_pos.is_empty() && all.val_neg.is_empty());
+        assert_eq!((all.train_pos.len(), all.train_neg.len()), (pos.len(), neg.len()));
         assert!(matches!(
             split_data(missing, 1, 0.0, 0),
-            Err(TrainError::BadOption {
-                what: "val_fraction",
-                ..
-            })
+            Err(TrainError::Data { .. })
         ));
         assert!(matches!(
             split_data(missing, 1, 0.2, 4),
