@@ -65,3 +65,41 @@ fn a_bad_value_in_a_file_names_the_file_key_and_range() {
         "{msg}"
     );
 }
+
+#[test]
+fn the_no_shared_data_examples_run_without_shared_data() {
+    // README and docs/daemon.md: these two commands need nothing from the shared data directory.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let empty = tempfile::tempdir().unwrap();
+    let out = empty.path().join("pan.mcap");
+    for (args, want) in [
+        (
+            vec!["run", "--config", "config/synthetic.toml", "--no-publish"],
+            "90 frames processed of 90 captured",
+        ),
+        (
+            vec![
+                "replay",
+                "recordings/synthetic_pan.mcap",
+                "--config",
+                "config/synthetic.toml",
+                "--out",
+                out.to_str().unwrap(),
+                "--no-publish",
+            ],
+            "12 frames processed of 12 captured",
+        ),
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_mosaicd"))
+            .args(&args)
+            .current_dir(root)
+            .env(mosaicd::data::DATA_ENV, empty.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{args:?}: {err}");
+        let text = format!("{}{err}", String::from_utf8_lossy(&o.stdout));
+        assert!(text.contains(want), "{args:?}: {text}");
+    }
+    assert!(out.metadata().unwrap().len() > 0);
+}

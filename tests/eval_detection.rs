@@ -144,7 +144,8 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
         .unwrap()
         .contains("full-image AP"));
 
-    // The generic form on the same two images gives the same numbers.
+    // The generic form on the same two images gives the same numbers (with the default shrink
+    // written out, in its comma form).
     let out2 = dir.path().join("csv");
     let md2 = ok(&[
         &[
@@ -155,6 +156,8 @@ fn ap_on_usc_subset_and_box_csv_form_write_tables_and_pr_plots() {
             csv_path.to_str().unwrap(),
             "--images",
             usc.to_str().unwrap(),
+            "--shrink",
+            "0.2,0.1,0.6,0.8",
         ][..],
         &common,
         &["--out", out2.to_str().unwrap()],
@@ -331,6 +334,18 @@ fn bad_inputs_give_clear_errors() {
 
     let o = mosaicd(&["eval", "detection", "opencv-default", "--usc"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("expected MODEL=DOMAIN"));
+
+    let o = mosaicd(&[
+        "eval",
+        "detection",
+        "opencv-default=grey",
+        "--usc",
+        "--shrink",
+        "0.2,0.1",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(e.contains("--shrink takes four numbers"), "{e}");
 
     let o = mosaicd(&["eval", "detection", "opencv-default=grey", "--fold", "5"]);
     let e = String::from_utf8_lossy(&o.stderr);

@@ -84,7 +84,7 @@ pub struct EvalDetectionArgs {
     pub limit: usize,
     /// AP: the shrunk-box map x,y,w,h (fractions of the detection's size) applied to every
     /// detection in the "shrunk" columns; USC boxes are tight while windows have margins.
-    #[arg(long, value_delimiter = ',', num_args = 4, default_value = "0.2,0.1,0.6,0.8")]
+    #[arg(long, value_delimiter = ',', default_value = "0.2,0.1,0.6,0.8")]
     pub shrink: Vec<f32>,
     /// AP: detections of another detector, NAME=CSV (columns image,x,y,w,h,score; image = set/name).
     /// With --upsample-phases, `{upsample}` in CSV is replaced by each factor as written there
@@ -365,6 +365,11 @@ fn run_ap(
     let n_all = all.len();
     let images = subsample(all, a.every, a.limit)?;
     let n_boxes: usize = images.iter().map(|g| g.boxes.len()).sum();
+    anyhow::ensure!(
+        a.shrink.len() == 4 && a.shrink.iter().all(|v| v.is_finite()),
+        "--shrink takes four numbers x,y,w,h (fractions of a detection's size), got {:?}",
+        a.shrink
+    );
     let shrink = Shrink {
         x: a.shrink[0],
         y: a.shrink[1],
