@@ -317,6 +317,18 @@ pub struct CameraConfig {
     /// Treat the synthetic stream as a live camera (drop-oldest) instead of a replay.
     #[serde(default)]
     pub live: bool,
+    /// V4L2 only: the preferred FourCC (4 characters, e.g. `"pRAA"`); default: the first Bayer
+    /// format the driver offers, in our preference order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fourcc: Option<String>,
+    /// V4L2 only: the sensor's black level in raw units (V4L2 does not report it); needs `white`.
+    /// Default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub black: Option<u16>,
+    /// V4L2 only: the sensor's white level in raw units. Default: full scale of the negotiated
+    /// format's bit depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub white: Option<u16>,
 }
 
 fn default_width() -> usize {
@@ -352,7 +364,23 @@ impl CameraConfig {
             fps: default_fps(),
             frames,
             live: false,
+            fourcc: None,
+            black: None,
+            white: None,
         }
+    }
+
+    /// The sensor levels for a V4L2 camera (`None`: 0 / full scale of the negotiated format).
+    pub fn levels(&self) -> Option<crate::raw::Levels> {
+        self.white
+            .map(|w| crate::raw::Levels::uniform(self.black.unwrap_or(0), w))
+    }
+
+    /// The preferred FourCC for a V4L2 camera (validated by [`Config::validate`]).
+    pub fn fourcc_bytes(&self) -> Option<[u8; 4]> {
+        self.fourcc
+            .as_ref()
+            .and_then(|f| <[u8; 4]>::try_from(f.as_bytes()).ok())
     }
 
     /// The parsed CFA pattern (validated by [`Config::validate`]).
@@ -553,6 +581,47 @@ impl Config {
                 }
                 _ => {}
             }
+            let v4l2_only = [
+                ("fourcc", cam.fourcc.as_ref().map(|f| format!("{f:?}"))),
+                ("black", cam.black.map(|v| v.to_string())),
+                ("white", cam.white.map(|v| v.to_string())),
+            ];
+            if cam.source != SourceType::V4l2 {
+                if let Some((k, Some(v))) = v4l2_only.iter().find(|(_, v)| v.is_some()) {
+                    return Err(ConfigError::OutOfRange {
+                        key: key(k),
+                        value: v.clone(),
+                        allowed:
+                            "only with source = \"v4l2\" (recordings and synthetic streams carry their own)"
+                                .into(),
+                    });
+                }
+            }
+            if let Some(f) = &cam.fourcc {
+                if f.len() != 4 || !f.is_ascii() {
+                    return Err(ConfigError::OutOfRange {
+                        key: key("fourcc"),
+                        value: format!("{f:?}"),
+                        allowed: "4 ASCII characters, e.g. \"pRAA\" or \"RGGB\"".into(),
+                    });
+                }
+            }
+            match (cam.black, cam.white) {
+                (Some(_), None) => {
+                    return Err(ConfigError::Missing {
+                        key: key("white"),
+                        when: format!("{} is set", key("black")),
+                    })
+                }
+                (b, Some(w)) if w == 0 || b.is_some_and(|b| b >= w) => {
+                    return Err(ConfigError::OutOfRange {
+                        key: key("white"),
+                        value: w.to_string(),
+                        allowed: format!("1..=65535, above black ({})", b.unwrap_or(0)),
+                    })
+                }
+                _ => {}
+            }
         }
         Ok(())
     }
@@ -575,6 +644,37 @@ mod tests {
     use super::*;
 
     const MIN: &str = "[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n";
+
+    #[test]
+    fn v4l2_cameras_take_a_fourcc_and_sensor_levels_and_others_refuse_them() {
+        let v4l2 = "[[camera]]\nname = \"a\"\nsource = \"v4l2\"\ndevice = \"/dev/video0\"\n";
+        let c =
+            Config::from_toml_str(&format!("{v4l2}fourcc = \"pRAA\"\nblack = 64\nwhite = 1023\n")).unwrap();
+        let cam = &c.cameras[0];
+        assert_eq!(cam.fourcc_bytes(), Some(*b"pRAA"));
+        assert_eq!(cam.levels(), Some(crate::raw::Levels::uniform(64, 1023)));
+        let c = Config::from_toml_str(&format!("{v4l2}white = 4095\n")).unwrap();
+        assert_eq!(c.cameras[0].levels(), Some(crate::raw::Levels::uniform(0, 4095)));
+        let c = Config::from_toml_str(v4l2).unwrap();
+        assert_eq!((c.cameras[0].levels(), c.cameras[0].fourcc_bytes()), (None, None));
+        for (extra, key, says) in [
+            ("fourcc = \"RGB\"\n", "camera[0].fourcc", "4 ASCII characters"),
+            ("black = 64\n", "camera[0].white", "camera[0].black is set"),
+            ("black = 64\nwhite = 64\n", "camera[0].white", "above black (64)"),
+            ("white = 0\n", "camera[0].white", "1..=65535"),
+        ] {
+            let msg = Config::from_toml_str(&format!("{v4l2}{extra}"))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains(key) && msg.contains(says), "{extra}: {msg}");
+        }
+        for extra in ["fourcc = \"pRAA\"\n", "black = 1\nwhite = 2\n"] {
+            let msg = Config::from_toml_str(&format!("{MIN}{extra}"))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains("only with source = \"v4l2\""), "{extra}: {msg}");
+        }
+    }
 
     #[test]
     fn defaults_fill_missing_sections() {

@@ -106,17 +106,43 @@ pub fn open_source(
                     path,
                 });
             }
-            let opts = V4l2Options {
-                width: Some(cam.width as u32),
-                height: Some(cam.height as u32),
-                fps: Some(cam.fps.round() as u32),
-                ..V4l2Options::default()
-            };
+            let opts = v4l2_options(cam);
             let src = V4l2Source::open(&path, opts).map_err(|e| SourceOpenError::Open {
                 camera: cam.name.clone(),
                 message: format!("device {}: {e}", path.display()),
             })?;
             Ok(Box::new(src))
         }
+    }
+}
+
+/// The V4L2 request of a `[[camera]]`: size, rate, preferred FourCC and sensor levels.
+pub fn v4l2_options(cam: &CameraConfig) -> V4l2Options {
+    V4l2Options {
+        width: Some(cam.width as u32),
+        height: Some(cam.height as u32),
+        fps: Some(cam.fps.round() as u32),
+        fourcc: cam.fourcc_bytes(),
+        levels: cam.levels(),
+        ..V4l2Options::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+
+    #[test]
+    fn a_v4l2_camera_s_fourcc_and_levels_reach_the_driver_request() {
+        let c = Config::from_toml_str(
+            "[[camera]]\nname = \"a\"\nsource = \"v4l2\"\ndevice = \"/dev/video0\"\nwidth = 1920\n\
+             height = 1080\nfps = 29.97\nfourcc = \"pRAA\"\nblack = 64\nwhite = 1023\n",
+        )
+        .unwrap();
+        let o = v4l2_options(&c.cameras[0]);
+        assert_eq!((o.width, o.height, o.fps), (Some(1920), Some(1080), Some(30)));
+        assert_eq!(o.fourcc, Some(*b"pRAA"));
+        assert_eq!(o.levels, Some(crate::raw::Levels::uniform(64, 1023)));
     }
 }
