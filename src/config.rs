@@ -274,6 +274,22 @@ pub enum SourceType {
     /// A deterministic synthetic stream generated in process (`width`, `height`, `bit_depth`,
     /// `cfa`, `frames`).
     Synthetic,
+    /// Raw files played as a stream (`path`: a file or a directory of files in name order; camera
+    /// raws through rawloader, mosaic PNG/PGM, RGB images sampled to a mosaic, headerless raws
+    /// described by a TOML sidecar, see [`crate::capture::files`]); timestamps at `fps`.
+    Files,
+}
+
+impl SourceType {
+    /// The name in config files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mcap => "mcap",
+            Self::V4l2 => "v4l2",
+            Self::Synthetic => "synthetic",
+            Self::Files => "files",
+        }
+    }
 }
 
 /// `[[camera]]`: one source.
@@ -284,9 +300,14 @@ pub struct CameraConfig {
     pub name: String,
     /// Source kind: `mcap`, `v4l2`, `synthetic`.
     pub source: SourceType,
-    /// MCAP recording to replay (`source = "mcap"`).
+    /// MCAP recording to replay (`source = "mcap"`), or a raw file or directory of raw files
+    /// (`source = "files"`).
     #[serde(default)]
     pub path: Option<PathBuf>,
+    /// `source = "files"` only: a sidecar (TOML) describing every headerless file, instead of the
+    /// per-file `<file>.toml` / directory `mosaicd-raw.toml` ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sidecar: Option<PathBuf>,
     /// V4L2 device (`source = "v4l2"`).
     #[serde(default)]
     pub device: Option<PathBuf>,
@@ -354,6 +375,7 @@ impl CameraConfig {
             name: name.into(),
             source: SourceType::Synthetic,
             path: None,
+            sidecar: None,
             device: None,
             realtime: false,
             looped: false,
@@ -567,10 +589,10 @@ impl Config {
                 });
             }
             match cam.source {
-                SourceType::Mcap if cam.path.is_none() => {
+                SourceType::Mcap | SourceType::Files if cam.path.is_none() => {
                     return Err(ConfigError::Missing {
                         key: key("path"),
-                        when: "source = \"mcap\"".into(),
+                        when: format!("source = {:?}", cam.source.name()),
                     })
                 }
                 SourceType::V4l2 if cam.device.is_none() => {
@@ -596,6 +618,13 @@ impl Config {
                                 .into(),
                     });
                 }
+            }
+            if let (Some(s), true) = (&cam.sidecar, cam.source != SourceType::Files) {
+                return Err(ConfigError::OutOfRange {
+                    key: key("sidecar"),
+                    value: format!("{:?}", s.display().to_string()),
+                    allowed: "only with source = \"files\"".into(),
+                });
             }
             if let Some(f) = &cam.fourcc {
                 if f.len() != 4 || !f.is_ascii() {
@@ -668,6 +697,21 @@ mod tests {
                 .to_string();
             assert!(msg.contains(key) && msg.contains(says), "{extra}: {msg}");
         }
+        let files = "[[camera]]\nname = \"a\"\nsource = \"files\"\n";
+        let msg = Config::from_toml_str(files).unwrap_err().to_string();
+        assert!(
+            msg.contains("camera[0].path") && msg.contains("source = \"files\""),
+            "{msg}"
+        );
+        let c = Config::from_toml_str(&format!("{files}path = \"raw\"\nsidecar = \"raw.toml\"\n")).unwrap();
+        assert_eq!(c.cameras[0].source, SourceType::Files);
+        let msg = Config::from_toml_str(&format!("{MIN}sidecar = \"raw.toml\"\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("camera[0].sidecar") && msg.contains("only with source = \"files\""),
+            "{msg}"
+        );
         for extra in ["fourcc = \"pRAA\"\n", "black = 1\nwhite = 2\n"] {
             let msg = Config::from_toml_str(&format!("{MIN}{extra}"))
                 .unwrap_err()

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use super::pool::BufferPool;
 use super::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::capture::files::{FileSource, FileSourceOptions};
 use crate::capture::v4l2::{V4l2Options, V4l2Source};
 use crate::capture::{McapSource, McapSourceOptions, Pacing, Source};
 use crate::config::{CameraConfig, ConfigError, SourceType};
@@ -96,6 +97,22 @@ pub fn open_source(
                 camera: cam.name.clone(),
                 message: format!("recording {}: {e}", path.display()),
             })?;
+            Ok(Box::new(src))
+        }
+        SourceType::Files => {
+            let path = cam.path.clone().unwrap_or_default();
+            let opts = FileSourceOptions {
+                fps: cam.fps,
+                pace: cam.realtime,
+                looped: cam.looped,
+                sidecar: cam.sidecar.clone(),
+                ..FileSourceOptions::default()
+            };
+            let src =
+                FileSource::open(std::slice::from_ref(&path), opts).map_err(|e| SourceOpenError::Open {
+                    camera: cam.name.clone(),
+                    message: format!("files {}: {e}", path.display()),
+                })?;
             Ok(Box::new(src))
         }
         SourceType::V4l2 => {

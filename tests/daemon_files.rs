@@ -1,0 +1,86 @@
+//! `source = "files"`: the daemon plays a directory of raw files as a stream (DESIGN's "raw files"
+//! capture). Headerless frames described by a directory sidecar, a broken file counted as a source
+//! failure without losing the others, and results identical for any thread count.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Three 160x128 8-bit GRBG frames, a directory sidecar, and a truncated frame that sorts first.
+fn frames(dir: &Path) {
+    for i in 0..3usize {
+        let data: Vec<u8> = (0..128usize)
+            .flat_map(|y| (0..160usize).map(move |x| ((x * 7 + y * 3 + i * 11) % 256) as u8))
+            .collect();
+        std::fs::write(dir.join(format!("f{i}.raw")), data).unwrap();
+    }
+    std::fs::write(
+        dir.join("mosaicd-raw.toml"),
+        "width = 160\nheight = 128\nbit_depth = 8\ncfa = \"GRBG\"\nblack = 4\nwhite = 255\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("broken.raw"), [0u8; 100]).unwrap();
+}
+
+fn run(cfg: &Path, threads: &str, results: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mosaicd"))
+        .args([
+            "run",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--no-publish",
+            "--threads",
+            threads,
+        ])
+        .args(["--results", results.to_str().unwrap()])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_directory_of_raw_files_plays_as_a_stream_and_a_broken_file_is_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("raw");
+    std::fs::create_dir(&raw).unwrap();
+    frames(&raw);
+    let cfg = dir.path().join("files.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[compute]\nmodel = \"models/mosaic.json\"\n[[camera]]\nname = \"files\"\nsource = \"files\"\n\
+             path = {:?}\nfps = 10.0\n",
+            raw.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let results = dir.path().join(format!("results-{threads}.jsonl"));
+        let o = run(&cfg, threads, &results);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let text = format!("{}{err}", String::from_utf8_lossy(&o.stdout));
+        assert!(text.contains("3 frames processed of 3 captured"), "{text}");
+        assert!(text.contains("failed: source 1"), "{text}");
+        // The input ended with an error: reported, named, and the exit status says so.
+        assert!(!o.status.success(), "{text}");
+        assert!(err.contains("broken.raw") && err.contains("needs 20480"), "{err}");
+        // Frame results without their wall-clock fields (latency) are deterministic.
+        let frames: Vec<serde_json::Value> = std::fs::read_to_string(&results)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+            .filter(|v| v["type"] == "frame")
+            .map(|mut v| {
+                v.as_object_mut().unwrap().remove("wall");
+                v
+            })
+            .collect();
+        assert_eq!(frames.len(), 3, "{frames:?}");
+        assert_eq!(
+            frames[2]["capture_timestamp_ns"], 200_000_000,
+            "timestamps at fps 10"
+        );
+        outputs.push(frames);
+    }
+    assert_eq!(outputs[0], outputs[1], "results differ between 1 and 2 threads");
+}
