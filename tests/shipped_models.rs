@@ -1,0 +1,48 @@
+//! Every model in `models/` loads and validates, is in the domain and input pipeline its name
+//! says, and records the training command (docs/detection.md, "The shipped models").
+
+use std::path::Path;
+
+use mosaicd::detect::model::LinearModel;
+use mosaicd::detect::Domain;
+
+#[test]
+fn shipped_models_load_and_say_how_they_were_made() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 5, "{names:?}");
+    for name in &names {
+        let m = LinearModel::load(&dir.join(name), Domain::Mosaic).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(m.weights.len(), 3780, "{name}");
+        let want = if name.starts_with("colour") {
+            Domain::Colour
+        } else {
+            Domain::Mosaic
+        };
+        assert_eq!(m.domain, want, "{name}");
+        let cmd = m.provenance["command"].as_str().unwrap_or_default();
+        // (Some were written under another name and renamed, so the command's --out may differ.)
+        let domain = if want == Domain::Colour {
+            "colour"
+        } else {
+            "mosaic"
+        };
+        assert!(
+            cmd.contains("mosaicd train") && cmd.contains(&format!("--domain {domain}")),
+            "{name}: {cmd:?}"
+        );
+        let input = m.provenance["input_pipeline"].as_str().unwrap_or_default();
+        let want_input = match name.trim_end_matches(".json").split('_').nth(1) {
+            None => "sampled",
+            Some("raw") if name.ends_with("_low.json") => "raw-low",
+            Some("raw") => "raw-clean",
+            Some(other) => panic!("{name}: unexpected model name part {other}"),
+        };
+        assert_eq!(input, want_input, "{name}");
+    }
+}
