@@ -208,15 +208,17 @@ impl Pipeline {
         frame_pool: BufferPool<RawPixels>,
     ) -> Result<Self, SinkError> {
         let camera: Arc<str> = Arc::from(spec.camera.as_str());
+        let stats = Arc::new(Stats::default());
         // Sink threads.
         let mut sink_txs = Vec::new();
         let mut sink_joins = Vec::new();
         for factory in sinks {
+            let sink_stats = stats.clone();
             let (tx, rx) = bounded::<SinkEvent>(256);
             let (ready_tx, ready_rx) = bounded::<Result<(), SinkError>>(1);
             let join = std::thread::Builder::new()
                 .name(format!("mosaicd-sink-{}", spec.camera))
-                .spawn(move || sink_thread(factory, rx, ready_tx))
+                .spawn(move || sink_thread(factory, rx, ready_tx, &sink_stats))
                 .map_err(|e| SinkError::Start {
                     sink: "thread".into(),
                     message: e.to_string(),
@@ -240,7 +242,6 @@ impl Pipeline {
         }
 
         let stop = Arc::new(AtomicBool::new(false));
-        let stats = Arc::new(Stats::default());
         let source_error = Arc::new(Mutex::new(None));
         let kind = source.kind();
         let queue = Arc::new(FrameQueue::<Item>::new(spec.queue_depth, kind));
@@ -319,7 +320,10 @@ impl Pipeline {
                     for j in sink_joins {
                         match j.join() {
                             Ok(errs) => errors.extend(errs),
-                            Err(_) => errors.push("a sink thread panicked".into()),
+                            Err(_) => {
+                                stats.failed_sink.fetch_add(1, Ordering::Relaxed);
+                                errors.push("a sink thread panicked".into())
+                            }
                         }
                     }
                     errors
@@ -382,14 +386,12 @@ impl Pipeline {
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
+        // A failed sink stops itself (the pipeline goes on); each counted itself in
+        // `failed_sink` when it failed, so later stats messages carry it.
         let sink_errors = match self.orderer.take().map(|j| j.join()) {
             Some(Ok(e)) => e,
             _ => vec!["the orderer thread panicked".into()],
         };
-        // A failed sink stops itself (the pipeline goes on); count how many did.
-        self.stats
-            .failed_sink
-            .fetch_add(sink_errors.len() as u64, Ordering::Relaxed);
         PipelineReport {
             camera: self.camera.clone(),
             stats: self.stats.snapshot(),
@@ -608,6 +610,7 @@ fn sink_thread(
     factory: SinkFactory,
     rx: Receiver<SinkEvent>,
     ready: Sender<Result<(), SinkError>>,
+    stats: &Stats,
 ) -> Vec<String> {
     let mut sink = match factory() {
         Ok(s) => {
@@ -631,12 +634,14 @@ fn sink_thread(
         };
         if let Err(e) = r {
             tracing::error!("{e}; this sink stops, the pipeline continues");
+            stats.failed_sink.fetch_add(1, Ordering::Relaxed);
             errors.push(e.to_string());
             failed = true;
         }
     }
     if !failed {
         if let Err(e) = sink.finish() {
+            stats.failed_sink.fetch_add(1, Ordering::Relaxed);
             errors.push(e.to_string());
         }
     }

@@ -181,6 +181,7 @@ impl StatsSnapshot {
             dropped_driver: self.dropped_driver,
             failed_source: self.failed_source,
             failed_compute: self.failed_compute,
+            failed_sink: self.failed_sink,
             detections: self.detections,
             box_overflow: self.box_overflow,
             fps,

@@ -194,3 +194,77 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
     assert!(seqs.windows(2).all(|w| w[0] < w[1]), "{seqs:?}");
     assert_eq!(seqs.len() as u64, s.processed);
 }
+
+/// A sink that fails on frame `at` (like the recorder on a full disk).
+struct FailAt(u64);
+
+impl super::engine::Sink for FailAt {
+    fn name(&self) -> String {
+        "fail-at".into()
+    }
+    fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
+        if r.index == self.0 {
+            return Err(super::engine::SinkError::Write {
+                sink: self.name(),
+                message: "no space left on device".into(),
+            });
+        }
+        Ok(())
+    }
+    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+    fn finish(&mut self) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_sink_that_fails_is_counted_and_the_others_go_on() {
+    let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
+    let frames = BufferPool::new(16);
+    let src = SyntheticSource::with_pool(
+        SyntheticSpec {
+            width: 96,
+            height: 64,
+            frames: 12,
+            ..Default::default()
+        },
+        frames.clone(),
+    );
+    let collect = CollectSink::default();
+    let failing: super::engine::SinkFactory =
+        Box::new(|| Ok(Box::new(FailAt(3)) as Box<dyn super::engine::Sink>));
+    let p = Pipeline::start(
+        PipelineSpec {
+            camera: "t".into(),
+            queue_depth: 3,
+            max_in_flight: 2,
+            stage: Stage::new(StageSpec::default(), None).unwrap(),
+            keep_frames: false,
+        },
+        Box::new(src),
+        pool,
+        Arc::new(ReplayClock::default()),
+        vec![failing, collect.factory("t")],
+        frames,
+    )
+    .unwrap();
+    let report = p.join();
+    // The pipeline went on: every frame reached the healthy sink.
+    assert_eq!(report.stats.processed, 12);
+    assert_eq!(report.stats.failed_sink, 1);
+    assert_eq!(report.sink_errors.len(), 1);
+    assert!(
+        report.sink_errors[0].contains("no space left"),
+        "{:?}",
+        report.sink_errors
+    );
+    let records = collect.take();
+    assert_eq!(records.iter().filter(|r| r["type"] == "frame").count(), 12);
+    // The stats the healthy sink received carry the counter (whether the failure is already in
+    // them depends on the two sink threads' timing, so only its presence is checked here).
+    let last = records.last().unwrap();
+    assert_eq!(last["type"], "final_stats");
+    assert!(last["failed_sink"].as_u64().is_some_and(|n| n <= 1), "{last}");
+}

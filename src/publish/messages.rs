@@ -258,7 +258,7 @@ pub struct GradientsHeader {
 /// Counters of one camera's pipeline (`<prefix>/<camera>/stats`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize)]
-#[type_name("mosaicd.StatsMsg.v1")]
+#[type_name("mosaicd.StatsMsg.v2")]
 pub struct StatsMsg {
     /// Injected-clock time of this snapshot, ns.
     pub timestamp_ns: u64,
@@ -274,6 +274,9 @@ pub struct StatsMsg {
     pub failed_source: u64,
     /// Frames whose compute failed (e.g. wrong frame size).
     pub failed_compute: u64,
+    /// Sinks that failed and stopped (e.g. the recorder on a full disk), counted when they fail:
+    /// later messages carry it (a failure among the last frames may reach only the final summary).
+    pub failed_sink: u64,
     /// Boxes published.
     pub detections: u64,
     /// Boxes beyond the message capacity.
