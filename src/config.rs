@@ -401,8 +401,8 @@ impl CameraConfig {
     /// The preferred FourCC for a V4L2 camera (validated by [`Config::validate`]).
     pub fn fourcc_bytes(&self) -> Option<[u8; 4]> {
         self.fourcc
-            .as_ref()
-            .and_then(|f| <[u8; 4]>::try_from(f.as_bytes()).ok())
+            .as_deref()
+            .and_then(crate::capture::v4l2_formats::parse_fourcc)
     }
 
     /// The parsed CFA pattern (validated by [`Config::validate`]).
@@ -627,7 +627,7 @@ impl Config {
                 });
             }
             if let Some(f) = &cam.fourcc {
-                if f.len() != 4 || !f.is_ascii() {
+                if !f.is_ascii() || crate::capture::v4l2_formats::parse_fourcc(f).is_none() {
                     return Err(ConfigError::OutOfRange {
                         key: key("fourcc"),
                         value: format!("{f:?}"),

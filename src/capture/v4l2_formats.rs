@@ -143,6 +143,12 @@ pub const SUPPORTED: [[u8; 4]; 24] = [
 /// 12-bit packed FourCCs (kept apart so [`SUPPORTED`] stays a readable table).
 pub const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
 
+/// A FourCC written as text (`"pRAA"`): its four bytes, or `None` unless it is exactly four
+/// bytes long. The inverse of [`fourcc_str`] for printable codes.
+pub fn parse_fourcc(s: &str) -> Option<[u8; 4]> {
+    <[u8; 4]>::try_from(s.as_bytes()).ok()
+}
+
 /// FourCC as printable text.
 pub fn fourcc_str(f: [u8; 4]) -> String {
     f.iter()

@@ -14,6 +14,7 @@ use anyhow::{bail, Context};
 
 use mosaicd::capture::files::{FileSource, FileSourceOptions, Sidecar};
 use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
+use mosaicd::capture::v4l2_formats::parse_fourcc;
 use mosaicd::capture::Source;
 use mosaicd::raw::Levels;
 use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
@@ -223,8 +224,9 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             bail!("--device needs --frames N");
         };
         let fourcc = match &a.opts.fourcc {
-            Some(f) if f.len() == 4 => Some(<[u8; 4]>::try_from(f.as_bytes()).expect("len 4")),
-            Some(f) => bail!("--fourcc {f:?}: expected 4 characters"),
+            Some(f) => {
+                Some(parse_fourcc(f).with_context(|| format!("--fourcc {f:?}: expected 4 characters"))?)
+            }
             None => None,
         };
         let levels = match (a.opts.black, a.opts.white) {

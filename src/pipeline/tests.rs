@@ -14,6 +14,16 @@ fn run(
     in_flight: usize,
     spec: SyntheticSpec,
 ) -> (super::engine::PipelineReport, Vec<serde_json::Value>) {
+    run_with(threads, in_flight, spec, Vec::new())
+}
+
+/// [`run`] with `sinks` started before the collecting one.
+fn run_with(
+    threads: usize,
+    in_flight: usize,
+    spec: SyntheticSpec,
+    mut sinks: Vec<super::engine::SinkFactory>,
+) -> (super::engine::PipelineReport, Vec<serde_json::Value>) {
     let pool = Arc::new(
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -23,6 +33,7 @@ fn run(
     let frames = BufferPool::new(16);
     let src = SyntheticSource::with_pool(spec, frames.clone());
     let sink = CollectSink::default();
+    sinks.push(sink.factory("t"));
     let p = Pipeline::start(
         PipelineSpec {
             camera: "t".into(),
@@ -41,7 +52,7 @@ fn run(
         Box::new(src),
         pool,
         Arc::new(ReplayClock::default()),
-        vec![sink.factory("t")],
+        sinks,
         frames,
     )
     .unwrap();
@@ -221,36 +232,15 @@ impl super::engine::Sink for FailAt {
 
 #[test]
 fn a_sink_that_fails_is_counted_and_the_others_go_on() {
-    let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
-    let frames = BufferPool::new(16);
-    let src = SyntheticSource::with_pool(
-        SyntheticSpec {
-            width: 96,
-            height: 64,
-            frames: 12,
-            ..Default::default()
-        },
-        frames.clone(),
-    );
-    let collect = CollectSink::default();
     let failing: super::engine::SinkFactory =
         Box::new(|| Ok(Box::new(FailAt(3)) as Box<dyn super::engine::Sink>));
-    let p = Pipeline::start(
-        PipelineSpec {
-            camera: "t".into(),
-            queue_depth: 3,
-            max_in_flight: 2,
-            stage: Stage::new(StageSpec::default(), None).unwrap(),
-            keep_frames: false,
-        },
-        Box::new(src),
-        pool,
-        Arc::new(ReplayClock::default()),
-        vec![failing, collect.factory("t")],
-        frames,
-    )
-    .unwrap();
-    let report = p.join();
+    let spec = SyntheticSpec {
+        width: 96,
+        height: 64,
+        frames: 12,
+        ..Default::default()
+    };
+    let (report, records) = run_with(2, 2, spec, vec![failing]);
     // The pipeline went on: every frame reached the healthy sink.
     assert_eq!(report.stats.processed, 12);
     assert_eq!(report.stats.failed_sink, 1);
@@ -260,7 +250,6 @@ fn a_sink_that_fails_is_counted_and_the_others_go_on() {
         "{:?}",
         report.sink_errors
     );
-    let records = collect.take();
     assert_eq!(records.iter().filter(|r| r["type"] == "frame").count(), 12);
     // The stats the healthy sink received carry the counter (whether the failure is already in
     // them depends on the two sink threads' timing, so only its presence is checked here).
