@@ -133,6 +133,10 @@ pub struct DaemonConfig {
     pub stats_interval_ms: u64,
     /// Time allowed for draining at shutdown, in milliseconds (`1..=90000`).
     pub shutdown_timeout_ms: u64,
+    /// Output files (the MCAP recording and the results file) leave out what depends on the wall
+    /// clock: timer-driven stats records and the `"wall"` group. A replay then writes the same
+    /// bytes for any thread count. `mosaicd replay` turns it on (`--wall-clock` keeps them).
+    pub deterministic_outputs: bool,
 }
 
 impl Default for DaemonConfig {
@@ -143,6 +147,7 @@ impl Default for DaemonConfig {
             queue_depth: 4,
             stats_interval_ms: 1000,
             shutdown_timeout_ms: 10_000,
+            deterministic_outputs: false,
         }
     }
 }

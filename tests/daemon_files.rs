@@ -61,9 +61,15 @@ fn a_directory_of_raw_files_plays_as_a_stream_and_a_broken_file_is_counted() {
         let text = format!("{}{err}", String::from_utf8_lossy(&o.stdout));
         assert!(text.contains("3 frames processed of 3 captured"), "{text}");
         assert!(text.contains("failed: source 1"), "{text}");
-        // The input ended with an error: reported, named, and the exit status says so.
+        // The input went on after the broken file, which is reported, named and counted, and
+        // the exit status of a run that reached the end of its input says so.
         assert!(!o.status.success(), "{text}");
         assert!(err.contains("broken.raw") && err.contains("needs 20480"), "{err}");
+        assert!(
+            err.contains("1 frame(s) of the input could not be read and were skipped")
+                && !err.contains("input ended"),
+            "{err}"
+        );
         // Frame results without their wall-clock fields (latency) are deterministic.
         let frames: Vec<serde_json::Value> = std::fs::read_to_string(&results)
             .unwrap()

@@ -71,9 +71,11 @@ fn canonical(path: &Path) -> String {
 fn replay_to_mcap_is_byte_identical_for_1_2_4_threads_twice_and_matches_the_golden() {
     let dir = tempfile::tempdir().unwrap();
     let mut dumps = Vec::new();
+    let mut files = Vec::new();
     for round in 0..2 {
         for threads in ["1", "2", "4"] {
             let out = dir.path().join(format!("o{round}-{threads}.mcap"));
+            let results = dir.path().join(format!("o{round}-{threads}.jsonl"));
             let o = replay(
                 &recording(),
                 &out,
@@ -84,6 +86,8 @@ fn replay_to_mcap_is_byte_identical_for_1_2_4_threads_twice_and_matches_the_gold
                     threads,
                     "--camera",
                     "pan",
+                    "--results",
+                    results.to_str().unwrap(),
                 ],
             )
             .output()
@@ -98,11 +102,26 @@ fn replay_to_mcap_is_byte_identical_for_1_2_4_threads_twice_and_matches_the_gold
             );
             assert_eq!(info.count(&topics.detections), FRAMES, "every frame's detections");
             dumps.push((format!("round {round}, {threads} threads"), canonical(&out)));
+            files.push((std::fs::read(&out).unwrap(), std::fs::read(&results).unwrap()));
         }
     }
     for (name, d) in &dumps[1..] {
         assert_eq!(d, &dumps[0].1, "{name} differs from round 0 with 1 thread");
     }
+    // A replay leaves wall-clock values out of its files (daemon.deterministic_outputs), so the
+    // files themselves, not only their canonical dumps, are the same bytes every time.
+    for (k, (mcap, jsonl)) in files.iter().enumerate().skip(1) {
+        assert!(mcap == &files[0].0, "{}: MCAP bytes differ", dumps[k].0);
+        assert!(jsonl == &files[0].1, "{}: results bytes differ", dumps[k].0);
+    }
+    let text = String::from_utf8_lossy(&files[0].1);
+    assert_eq!(
+        text.lines().count() as u64,
+        FRAMES + 1,
+        "frames and the final stats only"
+    );
+    assert!(!text.contains("\"wall\""), "{text}");
+    assert!(text.lines().last().unwrap().contains("\"final_stats\""));
     let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/golden/daemon-synthetic_pan.txt");
     if std::env::var_os("REGENERATE").is_some() {
         std::fs::write(&golden, &dumps[0].1).unwrap();
@@ -110,6 +129,40 @@ fn replay_to_mcap_is_byte_identical_for_1_2_4_threads_twice_and_matches_the_gold
     let want = std::fs::read_to_string(&golden)
         .unwrap_or_else(|e| panic!("{}: {e} (run with REGENERATE=1 to create it)", golden.display()));
     assert_eq!(dumps[0].1, want, "output differs from {}", golden.display());
+}
+
+#[test]
+fn replay_with_wall_clock_keeps_latency_and_throughput_in_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, results) = (dir.path().join("w.mcap"), dir.path().join("w.jsonl"));
+    let o = replay(
+        &recording(),
+        &out,
+        &["--wall-clock", "--results", results.to_str().unwrap()],
+    )
+    .output()
+    .unwrap();
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let text = std::fs::read_to_string(&results).unwrap();
+    let last: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    assert_eq!(last["type"], "final_stats");
+    assert!(last["wall"]["fps"].as_f64().unwrap() > 0.0, "{last}");
+    let first: serde_json::Value = text
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .find(|v| v["type"] == "frame")
+        .unwrap();
+    assert!(first["wall"]["latency_ns"].is_u64(), "{first}");
+    let mut wall_stats = 0;
+    for_each_message(&out, |m| {
+        if m.channel.topic.ends_with("/stats") {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            wall_stats += v.get("wall").is_some() as usize;
+        }
+        Ok(())
+    })
+    .unwrap();
+    assert!(wall_stats >= 1, "the recorded final stats keep the wall group");
 }
 
 #[test]

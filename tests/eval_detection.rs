@@ -308,6 +308,33 @@ fn mosaic_taps_override_the_models() {
 }
 
 #[test]
+fn detect_warns_when_a_models_domain_differs_from_the_inputs() {
+    let img = data().join("kodak/kodim09.png");
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/mosaic.json");
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "detect",
+            img.to_str().unwrap(),
+            "--model",
+            model.to_str().unwrap(),
+            "--max-levels",
+            "1",
+        ];
+        a.extend_from_slice(extra);
+        let o = mosaicd(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    // A colour photo is read as colour unless told otherwise: a transfer case, said so.
+    let e = run(&[]);
+    assert!(
+        e.contains("trained on mosaic input") && e.contains("read as colour") && e.contains("--as mosaic"),
+        "{e}"
+    );
+    assert!(!run(&["--as", "mosaic"]).contains("warning"));
+}
+
+#[test]
 fn bad_inputs_give_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.csv");
@@ -350,7 +377,14 @@ fn bad_inputs_give_clear_errors() {
     let o = mosaicd(&["eval", "detection", "opencv-default=grey", "--fold", "5"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
-    assert!(e.contains("--fold 5") && e.contains("folds are 0..5"), "{e}");
+    assert!(
+        e.contains("fold = 5") && e.contains("floor(1 / held-out fraction)") && !e.contains("MOSAICD_DATA"),
+        "{e}"
+    );
+    let o = mosaicd(&["eval", "detection", "opencv-default=grey", "--val-fraction", "0"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(e.contains("nothing to evaluate"), "{e}");
 }
 
 #[test]

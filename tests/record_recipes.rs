@@ -136,6 +136,53 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
     let frames = frames_of(&out2);
     assert_eq!(frames.last().map(|f| f.cfa()), Some(Cfa::Bggr.shifted(3, 1)));
 
+    // Rotation applies to a motion recording too: 4 frames at 2 fps, a new file after 1 s.
+    let out3 = d.join("rot.mcap");
+    let st = std::process::Command::new(exe)
+        .args(["record", d.join("f0.raw").to_str().unwrap(), "--sidecar"])
+        .arg(d.join("mosaicd-raw.toml"))
+        .args([
+            "--crop",
+            "4x4",
+            "--frames",
+            "4",
+            "--fps",
+            "2",
+            "--rotate-secs",
+            "1",
+            "-o",
+        ])
+        .arg(&out3)
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let stdout = String::from_utf8_lossy(&st.stdout);
+    let parts = [d.join("rot-0001.mcap"), d.join("rot-0002.mcap")];
+    for p in &parts {
+        assert!(stdout.contains(&*p.display().to_string()), "{stdout}");
+    }
+    assert_eq!(frames_of(&parts[0]).len() + frames_of(&parts[1]).len(), 4);
+    assert_eq!(frames_of(&parts[1])[0].meta.timestamp_ns, 1_000_000_000);
+
+    // A recipe carries its own settings: other flags are refused, not ignored.
+    let st = std::process::Command::new(exe)
+        .args([
+            "record",
+            "--recipe",
+            "recordings/synthetic_pan.toml",
+            "--camera",
+            "foo",
+            "-o",
+        ])
+        .arg(d.join("r.mcap"))
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(err.contains("--recipe") && err.contains("--camera"), "{err}");
+    assert!(!d.join("r.mcap").exists());
+
     let st = std::process::Command::new(exe)
         .args([
             "record",

@@ -382,6 +382,24 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     let frame = load_frame(&args.input, &args.raw, args.as_domain)?;
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
     let det = Detector::new(model, &args.det.options()?)?;
+    let ours = Path::new(&args.model).extension().is_some_and(|e| e == "json");
+    if ours && det.model().domain != frame.domain() {
+        let name = |d: Domain| {
+            serde_json::to_value(d)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+        };
+        let (md, fd) = (
+            name(det.model().domain).unwrap_or_default(),
+            name(frame.domain()).unwrap_or_default(),
+        );
+        eprintln!(
+            "warning: {} was trained on {md} input, but {} is read as {fd} (a transfer case; \
+             `--as {md}` reads it the way the model expects)",
+            args.model,
+            args.input.display()
+        );
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()?;

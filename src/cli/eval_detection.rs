@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use mosaicd::detect::train::{
-    evaluate_windows_via, fold_count, split_data, window_bootstrap, InputPipeline, WindowEval,
+    evaluate_windows_via, split_data, window_bootstrap, InputPipeline, TrainError, WindowEval,
 };
 use mosaicd::detect::{Detector, Domain, ScorePrecision};
 use mosaicd::eval::common::{fmt, Progress, Report, Table};
@@ -170,17 +170,19 @@ fn run_windows(
     runs: &[(String, Domain, String)],
     pipelines: &[InputPipeline],
 ) -> anyhow::Result<Report> {
-    let folds = fold_count(a.val_fraction);
     anyhow::ensure!(
-        a.val_fraction > 0.0 && a.val_fraction < 1.0 && a.fold < folds,
-        "--fold {} with --val-fraction {}: folds are 0..{} (0 <= fold < floor(1 / held-out fraction))",
-        a.fold,
-        a.val_fraction,
-        folds
+        a.val_fraction != 0.0,
+        "--val-fraction 0 holds nothing out: there is nothing to evaluate"
     );
     let root = mosaicd::data::data_root();
-    let mut split = split_data(&root, a.seed, a.val_fraction, a.fold)
-        .with_context(|| format!("set {} to the shared data directory", mosaicd::data::DATA_ENV))?;
+    let mut split = split_data(&root, a.seed, a.val_fraction, a.fold).map_err(|e| match e {
+        // Only missing or unreadable data needs the hint; a bad --fold or --val-fraction says so.
+        TrainError::Data { .. } => anyhow::Error::new(e).context(format!(
+            "set {} to the shared data directory",
+            mosaicd::data::DATA_ENV
+        )),
+        e => anyhow::Error::new(e),
+    })?;
     if a.max_neg_images > 0 {
         split.val_neg.truncate(a.max_neg_images);
     }

@@ -26,7 +26,13 @@ pub struct RecordArgs {
     /// Raw files / directories (played in order) or one image/raw file with `--crop` motion.
     pub inputs: Vec<PathBuf>,
     /// Build the recording a recipe describes (recordings/*.toml).
-    #[arg(long, conflicts_with_all = ["device", "inputs"])]
+    /// Everything but `--out` and `--data` comes from the recipe file, so the other flags are
+    /// refused with it rather than ignored.
+    #[arg(long, conflicts_with_all = [
+        "device", "inputs", "frames", "fps", "fourcc", "black", "white", "sidecar", "crop", "path",
+        "even", "noise", "seed", "profile", "cfa", "bit_depth", "camera", "preview_decimation",
+        "compression_level", "flush_frames", "rotate_mb", "rotate_secs",
+    ])]
     pub recipe: Option<PathBuf>,
     /// Record a V4L2 camera (e.g. /dev/video0).
     #[arg(long, conflicts_with = "inputs")]
@@ -116,8 +122,8 @@ fn recorder_options(a: &RecordArgs) -> RecorderOptions {
             every_ns: None,
         },
         rotate: RotatePolicy {
-            bytes: a.opts.rotate_mb.map(|m| m * 1024 * 1024),
-            duration_ns: a.opts.rotate_secs.map(|s| s * 1_000_000_000),
+            bytes: a.opts.rotate_mb.map(|m| m.saturating_mul(1024 * 1024)),
+            duration_ns: a.opts.rotate_secs.map(|s| s.saturating_mul(1_000_000_000)),
         },
         preview: (a.opts.preview_decimation > 0).then_some(PreviewOptions {
             decimation: a.opts.preview_decimation,
@@ -182,13 +188,22 @@ fn record_source(
     println!(
         "recorded {n} frames from {} ({errors} skipped) into {}",
         src.describe(),
-        s.files
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
+        joined(&s.files)
     );
     Ok(())
+}
+
+/// The files of a recording, comma-separated (more than one when it rotated).
+fn joined(files: &[PathBuf]) -> String {
+    files
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn print_files(frames: u64, files: &[PathBuf]) {
+    println!("recorded {frames} frames into {}", joined(files));
 }
 
 /// Run `mosaicd record`.
@@ -209,7 +224,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 data_root.display()
             )
         })?;
-        println!("recorded {} frames into {}", s.frames, s.files[0].display());
+        print_files(s.frames, &s.files);
         return Ok(());
     }
     let out = a
@@ -291,10 +306,12 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 preview_decimation: a.opts.preview_decimation,
                 flush_frames: a.opts.flush_frames,
                 compression_level: a.opts.compression_level,
+                rotate_mb: a.opts.rotate_mb,
+                rotate_secs: a.opts.rotate_secs,
             },
         };
         let s = build_recording(&recipe, std::path::Path::new("/"), Some(&out), progress)?;
-        println!("recorded {} frames into {}", s.frames, s.files[0].display());
+        print_files(s.frames, &s.files);
         return Ok(());
     }
     let opts = FileSourceOptions {

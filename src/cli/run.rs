@@ -74,6 +74,11 @@ pub struct ReplayArgs {
     /// Record results (and frames) to this MCAP file.
     #[arg(long, value_name = "OUT.mcap")]
     out: Option<PathBuf>,
+    /// Keep wall-clock values (timer-driven stats, latency, frames/s) in the output files. Without
+    /// it a replay's files are byte-identical for any thread count
+    /// (`daemon.deterministic_outputs`).
+    #[arg(long)]
+    wall_clock: bool,
     #[command(flatten)]
     overrides: Overrides,
 }
@@ -134,8 +139,18 @@ fn report(summary: &RunSummary, json: bool) -> anyhow::Result<()> {
     }
     let mut problems = Vec::new();
     for c in &summary.cameras {
-        if let Some(e) = &c.source_error {
-            problems.push(format!("camera {}: input ended with an error: {e}", c.camera));
+        match &c.source_error {
+            Some(e) if c.source_ended_on_error => {
+                problems.push(format!("camera {}: input ended with an error: {e}", c.camera))
+            }
+            // Frames or files the source skipped and went on after: logged and counted. A run
+            // that reached the end of its input reports them through the exit status; a service
+            // stopped by a signal does not fail its stop for them.
+            Some(e) if !summary.interrupted => problems.push(format!(
+                "camera {}: {} frame(s) of the input could not be read and were skipped (last: {e})",
+                c.camera, c.stats.failed_source
+            )),
+            _ => {}
         }
         for e in &c.sink_errors {
             problems.push(format!("camera {}: {e}", c.camera));
@@ -180,6 +195,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         cfg.record.enabled = true;
         cfg.record.path = out.clone();
     }
+    cfg.daemon.deterministic_outputs = !args.wall_clock;
     apply(&mut cfg, &args.overrides)?;
     execute(&cfg, &args.overrides)
 }

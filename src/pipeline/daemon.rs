@@ -103,8 +103,10 @@ pub struct CameraSummary {
     pub stats: StatsSnapshot,
     /// Processed frames per second of wall time.
     pub throughput_fps: f64,
-    /// The source's last error.
+    /// The source's last error (a skipped frame or file, or what the input ended on).
     pub source_error: Option<String>,
+    /// The input ended on `source_error` (truncated recording, lost device) instead of going on.
+    pub source_ended_on_error: bool,
     /// Sink errors.
     pub sink_errors: Vec<String>,
 }
@@ -238,7 +240,11 @@ pub fn run(
         let mut sinks = sink_builder(cam)?;
         if let Some(p) = &opts.results_out {
             let path = PathBuf::from(p.to_string_lossy().replace("{camera}", &cam.name));
-            sinks.push(JsonlSink::factory(&cam.name, path));
+            sinks.push(JsonlSink::factory(
+                &cam.name,
+                path,
+                cfg.daemon.deterministic_outputs,
+            ));
         }
         let spec = PipelineSpec {
             camera: cam.name.clone(),
@@ -275,6 +281,7 @@ pub fn run(
                 camera: r.camera,
                 stats: r.stats,
                 source_error: r.source_error,
+                source_ended_on_error: r.source_ended_on_error,
                 sink_errors: r.sink_errors,
             })
             .collect(),

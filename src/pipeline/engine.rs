@@ -153,8 +153,12 @@ pub struct PipelineReport {
     pub camera: String,
     /// Final counters.
     pub stats: StatsSnapshot,
-    /// The last source error, if the source ended with one (truncated recording, lost device).
+    /// The source's last error: a frame it could not deliver (skipped, counted in
+    /// `failed_source`) or, with [`Self::source_ended_on_error`], the error it ended on.
     pub source_error: Option<String>,
+    /// The source ended on [`Self::source_error`] (truncated recording, lost device) rather than
+    /// going on after it.
+    pub source_ended_on_error: bool,
     /// Sink errors.
     pub sink_errors: Vec<String>,
     /// Wall time from start to the end of the drain.
@@ -187,7 +191,8 @@ pub struct Pipeline {
     stop: Arc<AtomicBool>,
     stats: Arc<Stats>,
     events: Sender<Event>,
-    source_error: Arc<Mutex<Option<String>>>,
+    /// The last source error and whether the source ended on it.
+    source_error: Arc<Mutex<Option<(String, bool)>>>,
     threads: Vec<JoinHandle<()>>,
     orderer: Option<JoinHandle<Vec<String>>>,
     queue: Arc<FrameQueue<Item>>,
@@ -392,14 +397,16 @@ impl Pipeline {
             Some(Ok(e)) => e,
             _ => vec!["the orderer thread panicked".into()],
         };
+        let last = self
+            .source_error
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
         PipelineReport {
             camera: self.camera.clone(),
             stats: self.stats.snapshot(),
-            source_error: self
-                .source_error
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .clone(),
+            source_ended_on_error: last.as_ref().is_some_and(|(_, ended)| *ended),
+            source_error: last.map(|(e, _)| e),
             sink_errors,
             elapsed: self.started.elapsed(),
         }
@@ -415,7 +422,7 @@ fn capture_loop(
     stop: &AtomicBool,
     stats: &Stats,
     queue: &FrameQueue<Item>,
-    err: &Mutex<Option<String>>,
+    err: &Mutex<Option<(String, bool)>>,
     frame_pool: &BufferPool<RawPixels>,
 ) {
     let mut last_sensor_seq: Option<u64> = None;
@@ -452,8 +459,9 @@ fn capture_loop(
             Err(e) => {
                 Stats::inc(&stats.failed_source);
                 tracing::warn!(source = %source.describe(), "source error: {e}");
-                *err.lock().unwrap_or_else(|e| e.into_inner()) = Some(e.to_string());
-                if source.is_finished() {
+                let ended = source.is_finished();
+                *err.lock().unwrap_or_else(|e| e.into_inner()) = Some((e.to_string(), ended));
+                if ended {
                     break;
                 }
                 std::thread::sleep(SOURCE_ERROR_BACKOFF);

@@ -3,7 +3,8 @@
 //! Per processed frame: the detections as `foxglove.ImageAnnotations` and `mosaicd.Detections`
 //! (log time = the frame's capture timestamp), the mosaic SIFT keypoints when `compute.keypoints`
 //! is on, optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
-//! ([`super::sinks::stats_json`]). Chunks are flushed every `record.flush_frames` frames, so a crash
+//! ([`super::sinks::stats_json`]; with `daemon.deterministic_outputs` only the final stats,
+//! without that group: [`super::sinks::stats_record`]). Chunks are flushed every `record.flush_frames` frames, so a crash
 //! loses at most that many; [`Sink::finish`] writes the summary and index. A write error (disk full)
 //! stops this sink and is reported; detection and publishing go on.
 
@@ -13,7 +14,7 @@ use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions};
 
 use super::daemon::DaemonError;
 use super::engine::{FrameResult, Sink, SinkError, SinkFactory};
-use super::sinks::stats_json;
+use super::sinks::stats_record;
 
 /// The recorder sink.
 pub struct McapSink {
@@ -22,6 +23,7 @@ pub struct McapSink {
     frames: bool,
     flush_every: u32,
     since_flush: u32,
+    deterministic: bool,
 }
 
 /// The recorder sink of a camera (`record.path`, `{camera}` substituted). The file is created in
@@ -46,6 +48,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
         cfg.record.frames || cfg.record.preview_decimation > 0,
     );
     let flush_every = cfg.record.flush_frames;
+    let deterministic = cfg.daemon.deterministic_outputs;
     Ok(Box::new(move || {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| SinkError::Start {
@@ -63,6 +66,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             frames,
             flush_every,
             since_flush: 0,
+            deterministic,
         }) as Box<dyn Sink>)
     }))
 }
@@ -112,7 +116,9 @@ impl Sink for McapSink {
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
-        let v = stats_json(&self.camera, s);
+        let Some(v) = stats_record(&self.camera, s, self.deterministic) else {
+            return Ok(());
+        };
         self.recorder
             .write_stats(s.timestamp_ns, &v)
             .map_err(|e| self.err(e))

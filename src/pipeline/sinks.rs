@@ -5,7 +5,8 @@
 //! gradient magnitude, boxes, and keypoints when `compute.keypoints` is on) and the final stats. Wall-clock fields are grouped under the key
 //! `"wall"` so a comparison can drop them; everything else is a function of the input alone, so
 //! replaying a recording gives a byte-identical file for any thread count once `"wall"` is removed
-//! ([`strip_wall_clock`]).
+//! ([`strip_wall_clock`]), or at once with `daemon.deterministic_outputs` (the default of
+//! `mosaicd replay`), which leaves the group and the timer-driven stats records out of the file.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -60,6 +61,21 @@ pub fn stats_json(camera: &str, s: &StatsMsg) -> serde_json::Value {
     })
 }
 
+/// A stats record as an output file stores it: `None` for a timer-driven (periodic) record when
+/// `deterministic`, and the final record without its `"wall"` group.
+pub fn stats_record(camera: &str, s: &StatsMsg, deterministic: bool) -> Option<serde_json::Value> {
+    if deterministic && s.is_final == 0 {
+        return None;
+    }
+    let mut v = stats_json(camera, s);
+    if deterministic {
+        if let Some(o) = v.as_object_mut() {
+            o.remove(WALL_KEY);
+        }
+    }
+    Some(v)
+}
+
 /// Remove the wall-clock group from a JSON-lines text, and periodic (timer-driven) stats lines,
 /// leaving only what must be deterministic.
 pub fn strip_wall_clock(text: &str) -> String {
@@ -87,11 +103,13 @@ pub struct JsonlSink {
     camera: String,
     path: PathBuf,
     out: std::io::BufWriter<std::fs::File>,
+    deterministic: bool,
 }
 
 impl JsonlSink {
-    /// A factory for the pipeline (the file is created in the sink thread).
-    pub fn factory(camera: &str, path: PathBuf) -> SinkFactory {
+    /// A factory for the pipeline (the file is created in the sink thread). `deterministic`
+    /// leaves wall-clock values out (`daemon.deterministic_outputs`).
+    pub fn factory(camera: &str, path: PathBuf, deterministic: bool) -> SinkFactory {
         let camera = camera.to_string();
         Box::new(move || {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -102,6 +120,7 @@ impl JsonlSink {
                 camera,
                 path,
                 out: std::io::BufWriter::new(f),
+                deterministic,
             }) as Box<dyn Sink>)
         })
     }
@@ -126,11 +145,19 @@ impl Sink for JsonlSink {
         format!("jsonl {}", self.path.display())
     }
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
-        self.write(frame_json(r))
+        let mut v = frame_json(r);
+        if self.deterministic {
+            if let Some(o) = v.as_object_mut() {
+                o.remove(WALL_KEY);
+            }
+        }
+        self.write(v)
     }
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
-        let v = stats_json(&self.camera, s);
-        self.write(v)
+        match stats_record(&self.camera, s, self.deterministic) {
+            Some(v) => self.write(v),
+            None => Ok(()),
+        }
     }
     fn finish(&mut self) -> Result<(), SinkError> {
         self.out.flush().map_err(|e| SinkError::Write {

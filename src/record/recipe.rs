@@ -49,7 +49,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 
-use super::{FlushPolicy, McapRecorder, PreviewOptions, RecordError, RecorderOptions, RecordingSummary};
+use super::{
+    FlushPolicy, McapRecorder, PreviewOptions, RecordError, RecorderOptions, RecordingSummary, RotatePolicy,
+};
 use crate::capture::files::Sidecar;
 use crate::image::Image;
 use crate::isp::{add_noise_to_raw, raw_from_srgb, CameraProfile, NoiseLevel, ReverseIspOptions};
@@ -118,6 +120,12 @@ pub struct RecipeRecorder {
     /// overlapping crops of 8-bit frames about 2x better, at about 4x the time).
     #[serde(default = "default_level")]
     pub compression_level: u32,
+    /// Start a new file after this many MiB (none by default).
+    #[serde(default)]
+    pub rotate_mb: Option<u64>,
+    /// Start a new file after this many seconds of recorded time (none by default).
+    #[serde(default)]
+    pub rotate_secs: Option<u64>,
 }
 
 fn default_decimation() -> u32 {
@@ -136,6 +144,8 @@ impl Default for RecipeRecorder {
             preview_decimation: default_decimation(),
             flush_frames: default_flush(),
             compression_level: default_level(),
+            rotate_mb: None,
+            rotate_secs: None,
         }
     }
 }
@@ -483,6 +493,13 @@ pub fn build_recording(
         flush: FlushPolicy {
             every_frames: Some(recipe.recorder.flush_frames.max(1)),
             every_ns: None,
+        },
+        rotate: RotatePolicy {
+            bytes: recipe.recorder.rotate_mb.map(|m| m.saturating_mul(1024 * 1024)),
+            duration_ns: recipe
+                .recorder
+                .rotate_secs
+                .map(|s| s.saturating_mul(1_000_000_000)),
         },
         preview: (recipe.recorder.preview_decimation > 0).then_some(PreviewOptions {
             decimation: recipe.recorder.preview_decimation,
