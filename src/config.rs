@@ -195,6 +195,13 @@ pub struct RecordConfig {
     pub preview_decimation: u32,
     /// Flush (close the chunk) every n frames: what a crash can lose (`1..=10000`).
     pub flush_frames: u32,
+    /// Start a new file after this many MiB (`0` = never, `0..=1048576`).
+    pub rotate_mb: u64,
+    /// Start a new file after this many seconds of recorded time (`0` = never, `0..=31536000`).
+    pub rotate_secs: u64,
+    /// With rotation, keep at most this many files of this path, deleting the oldest (`0` = keep
+    /// all, `0..=1000000`).
+    pub max_files: u32,
 }
 
 impl Default for RecordConfig {
@@ -205,6 +212,9 @@ impl Default for RecordConfig {
             frames: false,
             preview_decimation: 0,
             flush_frames: 30,
+            rotate_mb: 0,
+            rotate_secs: 0,
+            max_files: 0,
         }
     }
 }
@@ -524,6 +534,16 @@ impl Config {
         }
         range("record.preview_decimation", self.record.preview_decimation, 0, 16)?;
         range("record.flush_frames", self.record.flush_frames, 1, 10_000)?;
+        range("record.rotate_mb", self.record.rotate_mb, 0, 1 << 20)?;
+        range("record.rotate_secs", self.record.rotate_secs, 0, 31_536_000)?;
+        range("record.max_files", self.record.max_files, 0, 1_000_000)?;
+        if self.record.max_files > 0 && self.record.rotate_mb == 0 && self.record.rotate_secs == 0 {
+            return Err(ConfigError::OutOfRange {
+                key: "record.max_files".into(),
+                value: self.record.max_files.to_string(),
+                allowed: "0 unless record.rotate_mb or record.rotate_secs is set".into(),
+            });
+        }
         let c = &self.compute;
         range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
         range("compute.strip_rows", c.strip_rows, 2, 4096)?;
@@ -757,6 +777,8 @@ mod tests {
             ("[compute]\nsvm = \"f16\"\n", "compute.svm"),
             ("[compute]\nmosaic_taps = \"diagonal\"\n", "compute.mosaic_taps"),
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
+            ("[record]\nrotate_secs = 31536001\n", "record.rotate_secs"),
+            ("[record]\nmax_files = 3\n", "record.max_files"),
         ];
         for (extra, key) in cases {
             let err = Config::from_toml_str(&format!("{extra}{MIN}")).unwrap_err();

@@ -3,7 +3,7 @@
 //! and detections, and equals the golden (recordings/golden/daemon-synthetic_pan.txt) byte for byte
 //! after removing wall-clock fields, for 1, 2 and 4 threads, twice. `REGENERATE=1` rewrites it.
 //! Also: SIGTERM mid-replay gives a complete, indexed MCAP; SIGKILL mid-recording leaves a file
-//! whose complete chunks read back and the next start succeeds; truncated and corrupt inputs give
+//! whose complete chunks read back and the next start succeeds without overwriting it; truncated and corrupt inputs give
 //! clear errors with what was already processed kept.
 
 use std::path::{Path, PathBuf};
@@ -166,6 +166,47 @@ fn replay_with_wall_clock_keeps_latency_and_throughput_in_its_files() {
 }
 
 #[test]
+fn the_daemon_rotates_its_recording_and_keeps_at_most_max_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("ring.toml");
+    let base = dir.path().join("ring.mcap");
+    // 90 synthetic frames at 30 fps: 3 s of recorded time, a new file every second, two kept.
+    std::fs::write(
+        &cfg,
+        format!(
+            "[publish]\nenabled = false\n[compute]\ndetect = false\n\
+             [record]\nenabled = true\npath = {:?}\nrotate_secs = 1\nmax_files = 2\n\
+             [[camera]]\nname = \"ring\"\nsource = \"synthetic\"\nwidth = 64\nheight = 48\nfps = 30.0\nframes = 90\n",
+            base.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let o = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&cfg)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let mut left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".mcap"))
+        .collect();
+    left.sort();
+    assert_eq!(left, ["ring-0002.mcap", "ring-0003.mcap"]);
+    let topics = Topics::new("ring");
+    let n: u64 = left
+        .iter()
+        .map(|f| {
+            RecordingInfo::read(dir.path().join(f))
+                .unwrap()
+                .count(&topics.detections)
+        })
+        .sum();
+    assert_eq!(n, 60, "the last two seconds' results");
+}
+
+#[test]
 fn sigterm_mid_replay_gives_a_complete_indexed_mcap() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("looped.mcap");
@@ -223,14 +264,20 @@ fn sigkill_mid_recording_keeps_complete_chunks_and_the_next_start_succeeds() {
         Ok(())
     });
     assert!(n >= 4, "flushed chunks read back: {n} detections");
-    let o = replay(
-        &recording(),
-        &dir.path().join("again.mcap"),
-        &["--camera", "kill"],
-    )
-    .output()
-    .unwrap();
+    // The restart (as systemd would do it: same config, same path) succeeds and keeps the killed
+    // run's file as it was: the new recording is numbered next to it.
+    let killed = std::fs::read(&out).unwrap();
+    let o = replay(&recording(), &out, &["--camera", "kill"])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr_of(&o));
+    assert!(
+        std::fs::read(&out).unwrap() == killed,
+        "the killed run's recording was overwritten"
+    );
+    let again = dir.path().join("killed-0001.mcap");
+    let info = RecordingInfo::read(&again).unwrap();
+    assert_eq!(info.count(&Topics::new("kill").detections), FRAMES);
 }
 
 #[test]

@@ -380,6 +380,82 @@ fn rotation_by_size_and_time_splits_into_readable_files() {
 }
 
 #[test]
+fn keep_existing_never_overwrites_and_max_files_keeps_a_ring() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = dir.path().join("cam.mcap");
+    let keep = RecorderOptions {
+        keep_existing: true,
+        ..Default::default()
+    };
+    // The first run takes the plain path; a second run (a restart) must not truncate it.
+    let first = record(&base, 3, keep.clone());
+    assert_eq!(first.files, vec![base.clone()]);
+    let before = std::fs::read(&base).unwrap();
+    let second = record(&base, 2, keep.clone());
+    assert_eq!(second.files, vec![dir.path().join("cam-0001.mcap")]);
+    assert_eq!(
+        std::fs::read(&base).unwrap(),
+        before,
+        "the earlier run is untouched"
+    );
+    assert_eq!(replay_all(&second.files[0]).0.len(), 2);
+    // Rotating, it numbers after the highest file already there (an unrelated name is ignored).
+    std::fs::write(dir.path().join("cam-notes.mcap"), b"x").unwrap();
+    let ring = RecorderOptions {
+        rotate: RotatePolicy {
+            bytes: None,
+            duration_ns: Some(2 * FRAME_NS),
+        },
+        max_files: Some(3),
+        ..keep
+    };
+    let third = record(&base, 8, ring.clone());
+    let names = |files: &[std::path::PathBuf]| -> Vec<String> {
+        files
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect()
+    };
+    assert_eq!(
+        names(&third.files),
+        ["cam-0002.mcap", "cam-0003.mcap", "cam-0004.mcap", "cam-0005.mcap"]
+    );
+    // At most three numbered files remain, the newest; the plain path and other names stay.
+    let mut left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(
+        left,
+        [
+            "cam-0003.mcap",
+            "cam-0004.mcap",
+            "cam-0005.mcap",
+            "cam-notes.mcap",
+            "cam.mcap"
+        ]
+    );
+    for f in &third.files[1..] {
+        assert!(replay_all(f).1.is_none(), "{f:?} reads back whole");
+    }
+    // max_files needs rotation and at least 1.
+    for bad in [Some(0), Some(2)] {
+        let opts = RecorderOptions {
+            max_files: bad,
+            rotate: if bad == Some(0) {
+                ring.rotate
+            } else {
+                RotatePolicy::default()
+            },
+            ..Default::default()
+        };
+        let e = McapRecorder::create(dir.path().join("y.mcap"), opts).unwrap_err();
+        assert!(e.to_string().contains("max_files"), "{e}");
+    }
+}
+
+#[test]
 fn bad_options_name_the_option() {
     let dir = tempfile::tempdir().unwrap();
     let opts = RecorderOptions {

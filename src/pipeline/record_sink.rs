@@ -10,7 +10,7 @@
 
 use crate::config::{CameraConfig, Config};
 use crate::publish::messages::StatsMsg;
-use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions};
+use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
 
 use super::daemon::DaemonError;
 use super::engine::{FrameResult, Sink, SinkError, SinkFactory};
@@ -41,6 +41,13 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             decimation: cfg.record.preview_decimation,
         }),
         keypoints: cfg.compute.keypoints,
+        rotate: RotatePolicy {
+            bytes: (cfg.record.rotate_mb > 0).then_some(cfg.record.rotate_mb << 20),
+            duration_ns: (cfg.record.rotate_secs > 0).then_some(cfg.record.rotate_secs * 1_000_000_000),
+        },
+        max_files: (cfg.record.max_files > 0).then_some(cfg.record.max_files),
+        // A restart (systemd, crash) must not truncate the run before it.
+        keep_existing: true,
         ..RecorderOptions::default()
     };
     let (camera, frames) = (

@@ -106,6 +106,14 @@ pub struct RecorderOptions {
     pub preview: Option<PreviewOptions>,
     /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations).
     pub keypoints: bool,
+    /// Never overwrite an existing file (the daemon: a restart must not truncate the recording of
+    /// the run before it). Files are then numbered as rotation numbers them, `stem-NNNN.mcap`,
+    /// after the highest number already in the directory; the plain path is used only while it
+    /// does not exist and nothing rotates. Files are opened with `create_new`.
+    pub keep_existing: bool,
+    /// With rotation: keep at most this many `stem-NNNN.mcap` files of this path (earlier runs'
+    /// included), deleting the lowest-numbered after each new file is opened. `None` keeps all.
+    pub max_files: Option<u32>,
 }
 
 impl Default for RecorderOptions {
@@ -120,6 +128,8 @@ impl Default for RecorderOptions {
             raw: true,
             preview: Some(PreviewOptions { decimation: 2 }),
             keypoints: false,
+            keep_existing: false,
+            max_files: None,
         }
     }
 }
@@ -153,6 +163,11 @@ impl RecorderOptions {
         if let Some(p) = self.preview {
             if p.decimation == 0 {
                 return bad("preview.decimation", "0".into(), "at least 1");
+            }
+        }
+        if let Some(n) = self.max_files {
+            if n == 0 || !self.rotate.enabled() {
+                return bad("max_files", n.to_string(), "at least 1, and only with rotation");
             }
         }
         if self.compression_level > 22 {
@@ -285,6 +300,8 @@ pub struct McapRecorder {
     stats: u64,
     frames_since_flush: u32,
     last_flush_ns: Option<u64>,
+    /// Capture time of the last frame written with `write_frame` (its detections follow it).
+    last_frame_ns: Option<u64>,
     buf: Vec<u8>,
 }
 
@@ -337,6 +354,7 @@ impl McapRecorder {
             stats: 0,
             frames_since_flush: 0,
             last_flush_ns: None,
+            last_frame_ns: None,
             buf: Vec::new(),
         }
     }
@@ -356,35 +374,59 @@ impl McapRecorder {
         matches!(self.state, State::Failed(_))
     }
 
-    fn segment_path(&self, base: &Path) -> PathBuf {
-        if !self.opts.rotate.enabled() {
+    /// The next file's path: `base` itself, or `stem-NNNN.ext` when rotating or when `base`
+    /// exists and must be kept. Advances the file number.
+    fn next_segment_path(&mut self, base: &Path) -> PathBuf {
+        let keep = self.opts.keep_existing;
+        if !(self.opts.rotate.enabled() || keep && base.exists()) {
+            self.segment_index += 1;
             return base.to_path_buf();
         }
-        let stem = base
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let ext = base
-            .extension()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "mcap".into());
-        base.with_file_name(format!("{stem}-{:04}.{ext}", self.segment_index))
+        if keep && self.segment_index == 0 {
+            self.segment_index = numbered_files(base).last().map_or(0, |(n, _)| *n);
+        }
+        self.segment_index += 1;
+        numbered_path(base, self.segment_index)
+    }
+
+    /// Delete the lowest-numbered files of `base` beyond `max_files` (never the one just opened).
+    fn prune(&self, base: &Path, current: &Path) {
+        let Some(keep) = self.opts.max_files else {
+            return;
+        };
+        let files = numbered_files(base);
+        let excess = files.len().saturating_sub(keep as usize);
+        for (_, p) in files.iter().take(excess).filter(|(_, p)| p != current) {
+            match std::fs::remove_file(p) {
+                Ok(()) => tracing::info!(file = %p.display(), "recording rotated out (record.max_files)"),
+                Err(e) => tracing::warn!(file = %p.display(), "cannot remove an old recording: {e}"),
+            }
+        }
     }
 
     fn open_segment(&mut self) -> Result<(), RecordError> {
-        self.segment_index += 1;
         let (sink, path): (Box<dyn RecordSink>, PathBuf) = match &mut self.target {
             Target::Path(base) => {
                 let base = base.clone();
-                let path = self.segment_path(&base);
-                let file = File::create(&path).map_err(|source| RecordError::Create {
+                let path = self.next_segment_path(&base);
+                let file = if self.opts.keep_existing {
+                    File::options().write(true).create_new(true).open(&path)
+                } else {
+                    File::create(&path)
+                };
+                let file = file.map_err(|source| RecordError::Create {
                     path: path.clone(),
                     source,
                 })?;
+                tracing::info!(file = %path.display(), "recording");
+                self.prune(&base, &path);
                 (Box::new(BufWriter::with_capacity(FILE_BUFFER, file)), path)
             }
             Target::Sink(s) => match s.take() {
-                Some(s) => (s, PathBuf::from("<writer>")),
+                Some(s) => {
+                    self.segment_index += 1;
+                    (s, PathBuf::from("<writer>"))
+                }
                 None => return Err(RecordError::Finished),
             },
         };
@@ -625,6 +667,7 @@ impl McapRecorder {
         if let State::Open(seg) = &mut self.state {
             seg.first_log_ns.get_or_insert(t);
         }
+        self.last_frame_ns = Some(t);
         self.frames += 1;
         self.frames_since_flush += 1;
         let last = *self.last_flush_ns.get_or_insert(t);
@@ -648,6 +691,15 @@ impl McapRecorder {
         frame_height: u32,
         detections: &[Detection],
     ) -> Result<(), RecordError> {
+        self.segment()?;
+        if self.last_frame_ns != Some(timestamp_ns) {
+            // Results recorded without their frame: they start the frame, so rotation (and the
+            // file's first time) is decided here, as `write_frame` does it otherwise.
+            self.maybe_rotate(timestamp_ns)?;
+            if let State::Open(seg) = &mut self.state {
+                seg.first_log_ns.get_or_insert(timestamp_ns);
+            }
+        }
         let ids = self.segment()?.ids;
         let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
         let ann = schema::annotations_from_detections(timestamp_ns, detections, scale);
@@ -731,4 +783,51 @@ impl McapRecorder {
             stats: self.stats,
         }
     }
+}
+
+/// `base`'s file name with a file number: `stem-NNNN.ext` (the rotation naming).
+fn numbered_path(base: &Path, n: u32) -> PathBuf {
+    let (stem, ext) = stem_ext(base);
+    base.with_file_name(format!("{stem}-{n:04}.{ext}"))
+}
+
+fn stem_ext(base: &Path) -> (String, String) {
+    let stem = base
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = base
+        .extension()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mcap".into());
+    (stem, ext)
+}
+
+/// The numbered files of `base` in its directory (`stem-` + at least four digits + `.ext`),
+/// lowest number first.
+fn numbered_files(base: &Path) -> Vec<(u32, PathBuf)> {
+    let (stem, ext) = stem_ext(base);
+    let dir = base
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut v: Vec<(u32, PathBuf)> = entries
+        .filter_map(|e| {
+            let name = e.ok()?.file_name().into_string().ok()?;
+            let digits = name
+                .strip_prefix(&stem)?
+                .strip_prefix('-')?
+                .strip_suffix(&ext)?
+                .strip_suffix('.')?;
+            if digits.len() < 4 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                return None;
+            }
+            Some((digits.parse().ok()?, base.with_file_name(&name)))
+        })
+        .collect();
+    v.sort();
+    v
 }
