@@ -200,8 +200,11 @@ pub struct RecordConfig {
     /// Start a new file after this many seconds of recorded time (`0` = never, `0..=31536000`).
     pub rotate_secs: u64,
     /// With rotation, keep at most this many files of this path, deleting the oldest (`0` = keep
-    /// all, `0..=1000000`).
+    /// all, `0..=1000000`; not with `overwrite`).
     pub max_files: u32,
+    /// Overwrite an existing file at `path` instead of numbering the new recording after it
+    /// (`mosaicd replay --out` sets it: a command-line output).
+    pub overwrite: bool,
 }
 
 impl Default for RecordConfig {
@@ -215,6 +218,7 @@ impl Default for RecordConfig {
             rotate_mb: 0,
             rotate_secs: 0,
             max_files: 0,
+            overwrite: false,
         }
     }
 }
@@ -537,11 +541,25 @@ impl Config {
         range("record.rotate_mb", self.record.rotate_mb, 0, 1 << 20)?;
         range("record.rotate_secs", self.record.rotate_secs, 0, 31_536_000)?;
         range("record.max_files", self.record.max_files, 0, 1_000_000)?;
-        if self.record.max_files > 0 && self.record.rotate_mb == 0 && self.record.rotate_secs == 0 {
+        if self.record.max_files > 0
+            && (self.record.overwrite || self.record.rotate_mb == 0 && self.record.rotate_secs == 0)
+        {
             return Err(ConfigError::OutOfRange {
                 key: "record.max_files".into(),
                 value: self.record.max_files.to_string(),
-                allowed: "0 unless record.rotate_mb or record.rotate_secs is set".into(),
+                allowed:
+                    "0 unless record.rotate_mb or record.rotate_secs is set, and not with record.overwrite"
+                        .into(),
+            });
+        }
+        if self.record.enabled
+            && self.cameras.len() > 1
+            && !self.record.path.to_string_lossy().contains("{camera}")
+        {
+            return Err(ConfigError::OutOfRange {
+                key: "record.path".into(),
+                value: format!("{:?}", self.record.path.display().to_string()),
+                allowed: "a path containing {camera} when more than one camera records".into(),
             });
         }
         let c = &self.compute;
@@ -779,6 +797,10 @@ mod tests {
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
             ("[record]\nrotate_secs = 31536001\n", "record.rotate_secs"),
             ("[record]\nmax_files = 3\n", "record.max_files"),
+            (
+                "[record]\nrotate_mb = 1\nmax_files = 3\noverwrite = true\n",
+                "record.max_files",
+            ),
         ];
         for (extra, key) in cases {
             let err = Config::from_toml_str(&format!("{extra}{MIN}")).unwrap_err();
@@ -863,5 +885,13 @@ mod tests {
     fn record_path_substitutes_camera() {
         let c = Config::from_toml_str(MIN).unwrap();
         assert_eq!(c.record_path("front"), PathBuf::from("out/front.mcap"));
+        // Two recording cameras on one path would share (and prune) one ring of files.
+        let two = format!("{MIN}[[camera]]\nname = \"b\"\nsource = \"synthetic\"\n");
+        let err = Config::from_toml_str(&format!("[record]\nenabled = true\npath = \"x.mcap\"\n{two}"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("record.path") && err.contains("{camera}"), "{err}");
+        assert!(Config::from_toml_str(&format!("[record]\nenabled = true\n{two}")).is_ok());
+        assert!(Config::from_toml_str(&format!("[record]\npath = \"x.mcap\"\n{two}")).is_ok());
     }
 }

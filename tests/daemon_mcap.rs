@@ -267,7 +267,20 @@ fn sigkill_mid_recording_keeps_complete_chunks_and_the_next_start_succeeds() {
     // The restart (as systemd would do it: same config, same path) succeeds and keeps the killed
     // run's file as it was: the new recording is numbered next to it.
     let killed = std::fs::read(&out).unwrap();
-    let o = replay(&recording(), &out, &["--camera", "kill"])
+    let cfg = dir.path().join("service.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[publish]\nenabled = false\n[record]\nenabled = true\npath = {:?}\n\
+             [[camera]]\nname = \"kill\"\nsource = \"mcap\"\npath = {:?}\n",
+            out.to_str().unwrap(),
+            recording().to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let o = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&cfg)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", stderr_of(&o));
@@ -278,6 +291,18 @@ fn sigkill_mid_recording_keeps_complete_chunks_and_the_next_start_succeeds() {
     let again = dir.path().join("killed-0001.mcap");
     let info = RecordingInfo::read(&again).unwrap();
     assert_eq!(info.count(&Topics::new("kill").detections), FRAMES);
+    // `replay --out FILE` is a command-line output: it overwrites FILE.
+    let o = replay(&recording(), &again, &["--camera", "kill"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    assert!(!dir.path().join("killed-0002.mcap").exists());
+    assert_eq!(
+        RecordingInfo::read(&again)
+            .unwrap()
+            .count(&Topics::new("kill").detections),
+        FRAMES
+    );
 }
 
 #[test]

@@ -421,13 +421,16 @@ fn keep_existing_never_overwrites_and_max_files_keeps_a_ring() {
         ["cam-0002.mcap", "cam-0003.mcap", "cam-0004.mcap", "cam-0005.mcap"]
     );
     // At most three numbered files remain, the newest; the plain path and other names stay.
-    let mut left: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    left.sort();
+    let listing = || -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
     assert_eq!(
-        left,
+        listing(),
         [
             "cam-0003.mcap",
             "cam-0004.mcap",
@@ -439,15 +442,33 @@ fn keep_existing_never_overwrites_and_max_files_keeps_a_ring() {
     for f in &third.files[1..] {
         assert!(replay_all(f).1.is_none(), "{f:?} reads back whole");
     }
-    // max_files needs rotation and at least 1.
-    for bad in [Some(0), Some(2)] {
+    // A restart never deletes by starting (only a rotation prunes), and numbers across a gap.
+    std::fs::write(dir.path().join("cam-0009.mcap"), b"not ours to judge").unwrap();
+    let fourth = record(&base, 1, ring.clone());
+    assert_eq!(names(&fourth.files), ["cam-0010.mcap"]);
+    assert_eq!(
+        listing(),
+        [
+            "cam-0003.mcap",
+            "cam-0004.mcap",
+            "cam-0005.mcap",
+            "cam-0009.mcap",
+            "cam-0010.mcap",
+            "cam-notes.mcap",
+            "cam.mcap"
+        ]
+    );
+    // max_files needs at least 1, rotation, and keep_existing (else a new run's files would be
+    // the lowest numbers, the first deleted).
+    for (max_files, rotate, keep_existing) in [
+        (Some(0), ring.rotate, true),
+        (Some(2), RotatePolicy::default(), true),
+        (Some(2), ring.rotate, false),
+    ] {
         let opts = RecorderOptions {
-            max_files: bad,
-            rotate: if bad == Some(0) {
-                ring.rotate
-            } else {
-                RotatePolicy::default()
-            },
+            max_files,
+            rotate,
+            keep_existing,
             ..Default::default()
         };
         let e = McapRecorder::create(dir.path().join("y.mcap"), opts).unwrap_err();

@@ -383,7 +383,8 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
     let det = Detector::new(model, &args.det.options()?)?;
     let ours = Path::new(&args.model).extension().is_some_and(|e| e == "json");
-    if ours && det.model().domain != frame.domain() {
+    // An unasked-for transfer case (the user did not choose the domain with --as).
+    if ours && args.as_domain.is_none() && det.model().domain != frame.domain() {
         let name = |d: Domain| {
             serde_json::to_value(d)
                 .ok()
@@ -393,9 +394,13 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
             name(det.model().domain).unwrap_or_default(),
             name(frame.domain()).unwrap_or_default(),
         );
+        // Raw input is read as a mosaic only; an image can be read the model's way.
+        let hint = match frame.cfa() {
+            Some(_) => String::new(),
+            None => format!("; `--as {md}` reads it the way the model expects"),
+        };
         eprintln!(
-            "warning: {} was trained on {md} input, but {} is read as {fd} (a transfer case; \
-             `--as {md}` reads it the way the model expects)",
+            "warning: {} was trained on {md} input, but {} is read as {fd} (a transfer case{hint})",
             args.model,
             args.input.display()
         );

@@ -3,7 +3,8 @@
 //! Both load a config (default `config/mosaicd.toml`), apply command-line overrides, validate once,
 //! run until the sources end or SIGTERM/SIGINT, and print a summary (frames, detections,
 //! throughput, latency p50/p99, drops and failures by reason). Exit status is non-zero when a
-//! source ended with an error (truncated or corrupt recording, lost device) or a sink failed — after
+//! source ended with an error (truncated or corrupt recording, lost device), when a run that
+//! reached the end of its input skipped frames it could not read, or when a sink failed — after
 //! everything already captured has been processed and written.
 
 use std::path::PathBuf;
@@ -194,6 +195,9 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     if let Some(out) = &args.out {
         cfg.record.enabled = true;
         cfg.record.path = out.clone();
+        // A command-line output is overwritten, as `record -o` and `--results` are.
+        cfg.record.overwrite = true;
+        cfg.record.max_files = 0;
     }
     cfg.daemon.deterministic_outputs = !args.wall_clock;
     apply(&mut cfg, &args.overrides)?;

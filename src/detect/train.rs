@@ -339,7 +339,10 @@ fn check_fold(val_fraction: f64, fold: usize) -> Result<(), TrainError> {
     if fold >= fold_count(val_fraction) {
         return Err(TrainError::BadOption {
             what: "fold",
-            value: format!("{fold} (held-out fraction {val_fraction})"),
+            value: format!(
+                "{fold} (held-out fraction {val_fraction}: folds 0..{})",
+                fold_count(val_fraction)
+            ),
             allowed: "0 <= fold < floor(1 / held-out fraction)",
         });
     }

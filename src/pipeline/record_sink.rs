@@ -32,8 +32,10 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
     let path = cfg.record_path(&cam.name);
     let opts = RecorderOptions {
         camera: cam.name.clone(),
+        // The sink flushes after each frame's results (below), so a chunk never ends between a
+        // frame and its detections; the recorder's own cadence would cut after the raw frame.
         flush: FlushPolicy {
-            every_frames: Some(cfg.record.flush_frames),
+            every_frames: None,
             every_ns: None,
         },
         raw: cfg.record.frames,
@@ -47,7 +49,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
         },
         max_files: (cfg.record.max_files > 0).then_some(cfg.record.max_files),
         // A restart (systemd, crash) must not truncate the run before it.
-        keep_existing: true,
+        keep_existing: !cfg.record.overwrite,
         ..RecorderOptions::default()
     };
     let (camera, frames) = (
@@ -112,8 +114,8 @@ impl Sink for McapSink {
                 .write_keypoints(r.meta.timestamp_ns, k)
                 .map_err(|e| self.err(e))?;
         }
-        // The recorder's own cadence counts raw frames; results-only recordings flush here, so a
-        // crash loses at most `record.flush_frames` frames' results either way.
+        // Flushed after the frame's results (the recorder has no cadence of its own here), so a
+        // crash loses at most `record.flush_frames` frames, each with its results.
         self.since_flush += 1;
         if self.since_flush >= self.flush_every {
             self.since_flush = 0;

@@ -111,8 +111,9 @@ pub struct RecorderOptions {
     /// after the highest number already in the directory; the plain path is used only while it
     /// does not exist and nothing rotates. Files are opened with `create_new`.
     pub keep_existing: bool,
-    /// With rotation: keep at most this many `stem-NNNN.mcap` files of this path (earlier runs'
-    /// included), deleting the lowest-numbered after each new file is opened. `None` keeps all.
+    /// With rotation and `keep_existing`: keep at most this many `stem-NNNN.mcap` files of this
+    /// path (earlier runs' included), deleting the lowest-numbered when a rotation opens a new
+    /// file (never at start-up). `None` keeps all.
     pub max_files: Option<u32>,
 }
 
@@ -166,8 +167,13 @@ impl RecorderOptions {
             }
         }
         if let Some(n) = self.max_files {
-            if n == 0 || !self.rotate.enabled() {
-                return bad("max_files", n.to_string(), "at least 1, and only with rotation");
+            if n == 0 || !self.rotate.enabled() || !self.keep_existing {
+                return bad(
+                    "max_files",
+                    n.to_string(),
+                    "at least 1, and only with rotation and keep_existing (a new run would restart at \
+                     0001 and its files would be the lowest numbers, the first deleted)",
+                );
             }
         }
         if self.compression_level > 22 {
@@ -376,25 +382,39 @@ impl McapRecorder {
 
     /// The next file's path: `base` itself, or `stem-NNNN.ext` when rotating or when `base`
     /// exists and must be kept. Advances the file number.
-    fn next_segment_path(&mut self, base: &Path) -> PathBuf {
+    fn next_segment_path(&mut self, base: &Path) -> Result<PathBuf, RecordError> {
         let keep = self.opts.keep_existing;
         if !(self.opts.rotate.enabled() || keep && base.exists()) {
             self.segment_index += 1;
-            return base.to_path_buf();
+            return Ok(base.to_path_buf());
         }
         if keep && self.segment_index == 0 {
-            self.segment_index = numbered_files(base).last().map_or(0, |(n, _)| *n);
+            self.segment_index = numbered_files(base)?.last().map_or(0, |(n, _)| *n);
         }
-        self.segment_index += 1;
-        numbered_path(base, self.segment_index)
+        self.segment_index = self
+            .segment_index
+            .checked_add(1)
+            .ok_or_else(|| RecordError::Option {
+                name: "rotate",
+                value: format!("{}", base.display()),
+                why: "file numbers are used up",
+            })?;
+        Ok(numbered_path(base, self.segment_index))
     }
 
     /// Delete the lowest-numbered files of `base` beyond `max_files` (never the one just opened).
+    /// Called on rotation only, so a restart (or a crash loop) never deletes anything by starting.
     fn prune(&self, base: &Path, current: &Path) {
         let Some(keep) = self.opts.max_files else {
             return;
         };
-        let files = numbered_files(base);
+        let files = match numbered_files(base) {
+            Ok(f) => f,
+            Err(e) => {
+                tracing::warn!("record.max_files: cannot list old recordings: {e}");
+                return;
+            }
+        };
         let excess = files.len().saturating_sub(keep as usize);
         for (_, p) in files.iter().take(excess).filter(|(_, p)| p != current) {
             match std::fs::remove_file(p) {
@@ -404,22 +424,40 @@ impl McapRecorder {
         }
     }
 
+    /// Create the next file; with `keep_existing`, a name taken meanwhile (another process on
+    /// the same path) moves on to the next number, a bounded number of times.
+    fn create_next(&mut self, base: &Path) -> Result<(File, PathBuf), RecordError> {
+        for _ in 0..64 {
+            let path = self.next_segment_path(base)?;
+            let file = if self.opts.keep_existing {
+                File::options().write(true).create_new(true).open(&path)
+            } else {
+                File::create(&path)
+            };
+            match file {
+                Ok(f) => return Ok((f, path)),
+                Err(e) if self.opts.keep_existing && e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    tracing::warn!(file = %path.display(), "exists already (another writer?); taking the next number");
+                }
+                Err(source) => return Err(RecordError::Create { path, source }),
+            }
+        }
+        Err(RecordError::Create {
+            path: base.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::AlreadyExists, "64 file names in a row exist"),
+        })
+    }
+
     fn open_segment(&mut self) -> Result<(), RecordError> {
+        let rotating = self.segment_index > 0;
         let (sink, path): (Box<dyn RecordSink>, PathBuf) = match &mut self.target {
             Target::Path(base) => {
                 let base = base.clone();
-                let path = self.next_segment_path(&base);
-                let file = if self.opts.keep_existing {
-                    File::options().write(true).create_new(true).open(&path)
-                } else {
-                    File::create(&path)
-                };
-                let file = file.map_err(|source| RecordError::Create {
-                    path: path.clone(),
-                    source,
-                })?;
+                let (file, path) = self.create_next(&base)?;
                 tracing::info!(file = %path.display(), "recording");
-                self.prune(&base, &path);
+                if rotating {
+                    self.prune(&base, &path);
+                }
                 (Box::new(BufWriter::with_capacity(FILE_BUFFER, file)), path)
             }
             Target::Sink(s) => match s.take() {
@@ -803,17 +841,18 @@ fn stem_ext(base: &Path) -> (String, String) {
     (stem, ext)
 }
 
-/// The numbered files of `base` in its directory (`stem-` + at least four digits + `.ext`),
-/// lowest number first.
-fn numbered_files(base: &Path) -> Vec<(u32, PathBuf)> {
+/// The numbered files of `base` in its directory (`stem-` + four to six digits + `.ext`, so a dated
+/// `stem-20240101.ext` is not taken for one), lowest number first.
+fn numbered_files(base: &Path) -> Result<Vec<(u32, PathBuf)>, RecordError> {
     let (stem, ext) = stem_ext(base);
     let dir = base
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Vec::new();
-    };
+    let entries = std::fs::read_dir(dir).map_err(|source| RecordError::Create {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut v: Vec<(u32, PathBuf)> = entries
         .filter_map(|e| {
             let name = e.ok()?.file_name().into_string().ok()?;
@@ -822,12 +861,12 @@ fn numbered_files(base: &Path) -> Vec<(u32, PathBuf)> {
                 .strip_prefix('-')?
                 .strip_suffix(&ext)?
                 .strip_suffix('.')?;
-            if digits.len() < 4 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            if !(4..=6).contains(&digits.len()) || !digits.bytes().all(|b| b.is_ascii_digit()) {
                 return None;
             }
             Some((digits.parse().ok()?, base.with_file_name(&name)))
         })
         .collect();
     v.sort();
-    v
+    Ok(v)
 }
