@@ -136,33 +136,39 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
     let frames = frames_of(&out2);
     assert_eq!(frames.last().map(|f| f.cfa()), Some(Cfa::Bggr.shifted(3, 1)));
 
+    // Motion recordings of 4x4 crops of f0.raw with more flags.
+    let motion = |out: &Path, extra: &[&str]| {
+        let st = std::process::Command::new(exe)
+            .args(["record", d.join("f0.raw").to_str().unwrap(), "--sidecar"])
+            .arg(d.join("mosaicd-raw.toml"))
+            .args(["--crop", "4x4"])
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+        String::from_utf8_lossy(&st.stdout).into_owned()
+    };
     // Rotation applies to a motion recording too: 4 frames at 2 fps, a new file after 1 s.
-    let out3 = d.join("rot.mcap");
-    let st = std::process::Command::new(exe)
-        .args(["record", d.join("f0.raw").to_str().unwrap(), "--sidecar"])
-        .arg(d.join("mosaicd-raw.toml"))
-        .args([
-            "--crop",
-            "4x4",
-            "--frames",
-            "4",
-            "--fps",
-            "2",
-            "--rotate-secs",
-            "1",
-            "-o",
-        ])
-        .arg(&out3)
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-    let stdout = String::from_utf8_lossy(&st.stdout);
+    let stdout = motion(
+        &d.join("rot.mcap"),
+        &["--frames", "4", "--fps", "2", "--rotate-secs", "1"],
+    );
     let parts = [d.join("rot-0001.mcap"), d.join("rot-0002.mcap")];
     for p in &parts {
         assert!(stdout.contains(&*p.display().to_string()), "{stdout}");
     }
     assert_eq!(frames_of(&parts[0]).len() + frames_of(&parts[1]).len(), 4);
     assert_eq!(frames_of(&parts[1])[0].meta.timestamp_ns, 1_000_000_000);
+    // 0 means never, as in the daemon's [record] keys: one file, the plain path.
+    let out4 = d.join("norot.mcap");
+    motion(
+        &out4,
+        &["--frames", "3", "--rotate-mb", "0", "--rotate-secs", "0"],
+    );
+    assert_eq!(frames_of(&out4).len(), 3);
+    assert!(!d.join("norot-0001.mcap").exists());
 
     // A recipe carries its own settings: other flags are refused, not ignored.
     let st = std::process::Command::new(exe)

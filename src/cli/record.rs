@@ -105,10 +105,10 @@ pub struct RecordOptions {
     /// Flush every N frames (bounds what a crash loses).
     #[arg(long, default_value_t = 30)]
     pub flush_frames: u32,
-    /// Start a new file after this many MB.
+    /// Start a new file after this many MiB (0 = never).
     #[arg(long)]
     pub rotate_mb: Option<u64>,
-    /// Start a new file after this many seconds of recorded time.
+    /// Start a new file after this many seconds of recorded time (0 = never).
     #[arg(long)]
     pub rotate_secs: Option<u64>,
 }
@@ -121,10 +121,7 @@ fn recorder_options(a: &RecordArgs) -> RecorderOptions {
             every_frames: Some(a.opts.flush_frames.max(1)),
             every_ns: None,
         },
-        rotate: RotatePolicy {
-            bytes: a.opts.rotate_mb.map(|m| m.saturating_mul(1024 * 1024)),
-            duration_ns: a.opts.rotate_secs.map(|s| s.saturating_mul(1_000_000_000)),
-        },
+        rotate: RotatePolicy::from_limits(a.opts.rotate_mb, a.opts.rotate_secs),
         preview: (a.opts.preview_decimation > 0).then_some(PreviewOptions {
             decimation: a.opts.preview_decimation,
         }),

@@ -43,10 +43,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             decimation: cfg.record.preview_decimation,
         }),
         keypoints: cfg.compute.keypoints,
-        rotate: RotatePolicy {
-            bytes: (cfg.record.rotate_mb > 0).then_some(cfg.record.rotate_mb << 20),
-            duration_ns: (cfg.record.rotate_secs > 0).then_some(cfg.record.rotate_secs * 1_000_000_000),
-        },
+        rotate: RotatePolicy::from_limits(Some(cfg.record.rotate_mb), Some(cfg.record.rotate_secs)),
         max_files: (cfg.record.max_files > 0).then_some(cfg.record.max_files),
         // A restart (systemd, crash) must not truncate the run before it.
         keep_existing: !cfg.record.overwrite,

@@ -120,10 +120,10 @@ pub struct RecipeRecorder {
     /// overlapping crops of 8-bit frames about 2x better, at about 4x the time).
     #[serde(default = "default_level")]
     pub compression_level: u32,
-    /// Start a new file after this many MiB (none by default).
+    /// Start a new file after this many MiB (none by default; 0 = never).
     #[serde(default)]
     pub rotate_mb: Option<u64>,
-    /// Start a new file after this many seconds of recorded time (none by default).
+    /// Start a new file after this many seconds of recorded time (none by default; 0 = never).
     #[serde(default)]
     pub rotate_secs: Option<u64>,
 }
@@ -494,13 +494,7 @@ pub fn build_recording(
             every_frames: Some(recipe.recorder.flush_frames.max(1)),
             every_ns: None,
         },
-        rotate: RotatePolicy {
-            bytes: recipe.recorder.rotate_mb.map(|m| m.saturating_mul(1024 * 1024)),
-            duration_ns: recipe
-                .recorder
-                .rotate_secs
-                .map(|s| s.saturating_mul(1_000_000_000)),
-        },
+        rotate: RotatePolicy::from_limits(recipe.recorder.rotate_mb, recipe.recorder.rotate_secs),
         preview: (recipe.recorder.preview_decimation > 0).then_some(PreviewOptions {
             decimation: recipe.recorder.preview_decimation,
         }),

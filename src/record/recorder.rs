@@ -72,6 +72,15 @@ pub struct RotatePolicy {
 }
 
 impl RotatePolicy {
+    /// From limits in MiB and seconds of recorded time, `None` or `0` meaning never (the CLI's
+    /// `--rotate-mb` / `--rotate-secs`, a recipe's and the daemon's `rotate_mb` / `rotate_secs`).
+    pub fn from_limits(mib: Option<u64>, secs: Option<u64>) -> Self {
+        Self {
+            bytes: mib.filter(|&m| m > 0).map(|m| m.saturating_mul(1024 * 1024)),
+            duration_ns: secs.filter(|&s| s > 0).map(|s| s.saturating_mul(1_000_000_000)),
+        }
+    }
+
     /// True when rotation is configured.
     pub fn enabled(&self) -> bool {
         self.bytes.is_some() || self.duration_ns.is_some()
