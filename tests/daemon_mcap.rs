@@ -32,6 +32,16 @@ fn replay(input: &Path, out: &Path, args: &[&str]) -> Command {
     c
 }
 
+/// `mosaicd run --config CFG`, which must succeed.
+fn run_config(cfg: &Path) {
+    let o = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(cfg)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr_of(&o));
+}
+
 fn stderr_of(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -181,12 +191,7 @@ fn the_daemon_rotates_its_recording_and_keeps_at_most_max_files() {
         ),
     )
     .unwrap();
-    let o = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr_of(&o));
+    run_config(&cfg);
     let mut left: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -278,12 +283,7 @@ fn sigkill_mid_recording_keeps_complete_chunks_and_the_next_start_succeeds() {
         ),
     )
     .unwrap();
-    let o = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr_of(&o));
+    run_config(&cfg);
     assert!(
         std::fs::read(&out).unwrap() == killed,
         "the killed run's recording was overwritten"

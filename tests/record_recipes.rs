@@ -121,22 +121,7 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
     assert_eq!(frames[2].value(3, 3), 85);
     assert_eq!(frames[1].meta.timestamp_ns, 33_333_333);
 
-    // Motion over one raw still with odd offsets.
-    let out2 = d.join("motion.mcap");
-    let st = std::process::Command::new(exe)
-        .args(["record", d.join("f0.raw").to_str().unwrap(), "--sidecar"])
-        .arg(d.join("mosaicd-raw.toml"))
-        .args([
-            "--crop", "4x4", "--path", "0,0:3,1", "--frames", "4", "--noise", "low", "-o",
-        ])
-        .arg(&out2)
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-    let frames = frames_of(&out2);
-    assert_eq!(frames.last().map(|f| f.cfa()), Some(Cfa::Bggr.shifted(3, 1)));
-
-    // Motion recordings of 4x4 crops of f0.raw with more flags.
+    // Motion recordings: 4x4 crops of f0.raw moved as the flags say.
     let motion = |out: &Path, extra: &[&str]| {
         let st = std::process::Command::new(exe)
             .args(["record", d.join("f0.raw").to_str().unwrap(), "--sidecar"])
@@ -150,6 +135,11 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
         assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
         String::from_utf8_lossy(&st.stdout).into_owned()
     };
+    // Motion over one raw still with odd offsets.
+    let out2 = d.join("motion.mcap");
+    motion(&out2, &["--path", "0,0:3,1", "--frames", "4", "--noise", "low"]);
+    let frames = frames_of(&out2);
+    assert_eq!(frames.last().map(|f| f.cfa()), Some(Cfa::Bggr.shifted(3, 1)));
     // Rotation applies to a motion recording too: 4 frames at 2 fps, a new file after 1 s.
     let stdout = motion(
         &d.join("rot.mcap"),

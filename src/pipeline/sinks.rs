@@ -69,11 +69,16 @@ pub fn stats_record(camera: &str, s: &StatsMsg, deterministic: bool) -> Option<s
     }
     let mut v = stats_json(camera, s);
     if deterministic {
-        if let Some(o) = v.as_object_mut() {
-            o.remove(WALL_KEY);
-        }
+        drop_wall(&mut v);
     }
     Some(v)
+}
+
+/// Remove a record's wall-clock group.
+fn drop_wall(v: &mut serde_json::Value) {
+    if let Some(o) = v.as_object_mut() {
+        o.remove(WALL_KEY);
+    }
 }
 
 /// Remove the wall-clock group from a JSON-lines text, and periodic (timer-driven) stats lines,
@@ -89,9 +94,7 @@ pub fn strip_wall_clock(text: &str) -> String {
         if v["type"] == "stats" {
             continue;
         }
-        if let Some(o) = v.as_object_mut() {
-            o.remove(WALL_KEY);
-        }
+        drop_wall(&mut v);
         out.push_str(&v.to_string());
         out.push('\n');
     }
@@ -147,9 +150,7 @@ impl Sink for JsonlSink {
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
         let mut v = frame_json(r);
         if self.deterministic {
-            if let Some(o) = v.as_object_mut() {
-                o.remove(WALL_KEY);
-            }
+            drop_wall(&mut v);
         }
         self.write(v)
     }

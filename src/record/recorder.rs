@@ -683,11 +683,22 @@ impl McapRecorder {
         Ok(())
     }
 
+    /// Start the frame captured at `t`: open a file if none is, rotate before the frame when the
+    /// file is over a limit, and note the file's first time. Called once per frame, by
+    /// `write_frame` or, for results recorded without their frame, by `write_detections`.
+    fn begin_frame(&mut self, t: u64) -> Result<(), RecordError> {
+        self.segment()?;
+        self.maybe_rotate(t)?;
+        if let State::Open(seg) = &mut self.state {
+            seg.first_log_ns.get_or_insert(t);
+        }
+        Ok(())
+    }
+
     /// Record one frame: the lossless raw message and the preview. Log time = capture timestamp.
     pub fn write_frame(&mut self, frame: &RawFrame) -> Result<(), RecordError> {
         let t = frame.meta.timestamp_ns;
-        self.segment()?;
-        self.maybe_rotate(t)?;
+        self.begin_frame(t)?;
         let ids = self.segment()?.ids;
         if let Some(ch) = ids.raw {
             let mut buf = std::mem::take(&mut self.buf);
@@ -710,9 +721,6 @@ impl McapRecorder {
                 let json = serde_json::to_vec(&msg).expect("preview serialises");
                 self.write_message(1, ch, t, &json)?;
             }
-        }
-        if let State::Open(seg) = &mut self.state {
-            seg.first_log_ns.get_or_insert(t);
         }
         self.last_frame_ns = Some(t);
         self.frames += 1;
@@ -738,14 +746,9 @@ impl McapRecorder {
         frame_height: u32,
         detections: &[Detection],
     ) -> Result<(), RecordError> {
-        self.segment()?;
         if self.last_frame_ns != Some(timestamp_ns) {
-            // Results recorded without their frame: they start the frame, so rotation (and the
-            // file's first time) is decided here, as `write_frame` does it otherwise.
-            self.maybe_rotate(timestamp_ns)?;
-            if let State::Open(seg) = &mut self.state {
-                seg.first_log_ns.get_or_insert(timestamp_ns);
-            }
+            // Results recorded without their frame start the frame themselves.
+            self.begin_frame(timestamp_ns)?;
         }
         let ids = self.segment()?.ids;
         let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
