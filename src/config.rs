@@ -205,6 +205,11 @@ pub struct RecordConfig {
     /// Overwrite an existing file at `path` instead of numbering the new recording after it
     /// (`mosaicd replay --out` sets it: a command-line output).
     pub overwrite: bool,
+    /// After a write error (disk full, I/O error), try again in a new file this many
+    /// milliseconds later, and then as often, until a write succeeds (`0` = stop recording for
+    /// the rest of the run, `0..=86400000`). Only without `overwrite`: resuming must not
+    /// truncate the file that failed.
+    pub retry_ms: u64,
 }
 
 impl Default for RecordConfig {
@@ -219,6 +224,7 @@ impl Default for RecordConfig {
             rotate_secs: 0,
             max_files: 0,
             overwrite: false,
+            retry_ms: 30_000,
         }
     }
 }
@@ -541,6 +547,7 @@ impl Config {
         range("record.rotate_mb", self.record.rotate_mb, 0, 1 << 20)?;
         range("record.rotate_secs", self.record.rotate_secs, 0, 31_536_000)?;
         range("record.max_files", self.record.max_files, 0, 1_000_000)?;
+        range("record.retry_ms", self.record.retry_ms, 0, 86_400_000)?;
         if self.record.max_files > 0
             && (self.record.overwrite || self.record.rotate_mb == 0 && self.record.rotate_secs == 0)
         {
@@ -797,6 +804,7 @@ mod tests {
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
             ("[record]\nrotate_secs = 31536001\n", "record.rotate_secs"),
             ("[record]\nmax_files = 3\n", "record.max_files"),
+            ("[record]\nretry_ms = 86400001\n", "record.retry_ms"),
             (
                 "[record]\nrotate_mb = 1\nmax_files = 3\noverwrite = true\n",
                 "record.max_files",

@@ -337,3 +337,155 @@ fn truncated_and_corrupt_inputs_are_clear_errors_and_keep_what_was_processed() {
     assert!(err.contains("corrupt.mcap"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Detections sequence numbers in `path`, in file order, and whether the whole file read back.
+fn detection_sequences(path: &Path, camera: &str) -> (Vec<u64>, bool) {
+    let topic = format!("/{camera}/detections");
+    let mut seqs = Vec::new();
+    let complete = for_each_message(path, |m| {
+        if m.channel.topic == topic {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            seqs.push(v["sequence"].as_u64().unwrap());
+        }
+        Ok(())
+    })
+    .is_ok();
+    (seqs, complete)
+}
+
+/// A full disk in the middle of a service's recording, made with a file-size limit on the
+/// running daemon (`prlimit`, as systemd's `LimitFSIZE=` would set it): the recording pauses
+/// (counted once, logged), attempts while the limit holds fail and leave no empty files, and
+/// once writes succeed again the recording resumes in a new numbered file; the file that failed
+/// keeps what it had. Detection never stopped, and a SIGTERM stop exits 0.
+#[test]
+fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
+    use std::io::{BufRead, BufReader};
+    use std::sync::{Arc, Mutex};
+
+    let dir = tempfile::tempdir().unwrap();
+    let base = dir.path().join("full.mcap");
+    let cfg = dir.path().join("full.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n[publish]\nenabled = false\n\
+             [record]\nenabled = true\npath = {:?}\nframes = true\nflush_frames = 1\nretry_ms = 200\n\
+             [compute]\ndetect = false\n\
+             [[camera]]\nname = \"full\"\nsource = \"synthetic\"\nwidth = 320\nheight = 240\n\
+             fps = 30.0\nframes = 0\nlive = true\n",
+            base.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let mut child = Command::new(BIN)
+        .args(["run", "--log", "info", "--config"])
+        .arg(&cfg)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id() as libc::pid_t;
+    let log = Arc::new(Mutex::new(String::new()));
+    let reader = {
+        let (log, stderr) = (log.clone(), child.stderr.take().unwrap());
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                let mut l = log.lock().unwrap();
+                l.push_str(&line);
+                l.push('\n');
+            }
+        })
+    };
+    let wait_for = |what: &dyn Fn() -> bool, name: &str| {
+        let start = Instant::now();
+        while !what() {
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "timed out waiting for {name}; log:\n{}",
+                log.lock().unwrap()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let has = |s: &str| log.lock().unwrap().contains(s);
+    wait_for(
+        &|| std::fs::metadata(&base).is_ok_and(|m| m.len() > 100_000),
+        "the first frames on disk",
+    );
+
+    // The disk is "full": every write past byte 1 of any file fails (EFBIG, SIGXFSZ ignored).
+    let mut old = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: prlimit(2) on our own child, reading into and from valid rlimit structs.
+    assert_eq!(
+        unsafe { libc::prlimit(pid, libc::RLIMIT_FSIZE, std::ptr::null(), &mut old) },
+        0
+    );
+    let full = libc::rlimit {
+        rlim_cur: 1,
+        rlim_max: old.rlim_max,
+    };
+    assert_eq!(
+        unsafe { libc::prlimit(pid, libc::RLIMIT_FSIZE, &full, std::ptr::null_mut()) },
+        0
+    );
+    wait_for(&|| has("recording paused"), "the pause");
+    wait_for(&|| has("still failing"), "a failed attempt");
+    wait_for(
+        &|| log.lock().unwrap().matches("still failing").count() >= 2,
+        "a second failed attempt",
+    );
+    // Space again.
+    assert_eq!(
+        unsafe { libc::prlimit(pid, libc::RLIMIT_FSIZE, &old, std::ptr::null_mut()) },
+        0
+    );
+    wait_for(&|| has("recording resumed in a new file"), "the resume");
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: plain kill(2) on our own child's pid.
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let out = child.wait_with_output().unwrap();
+    reader.join().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let log = log.lock().unwrap().clone();
+    assert!(out.status.success(), "{:?}\n{stdout}\n{log}", out.status);
+    assert!(stdout.contains("sink 1"), "the outage counted once:\n{stdout}");
+    assert!(stdout.contains("sink interrupted"), "{stdout}");
+    assert!(!stdout.contains("sink error"), "{stdout}");
+    assert!(
+        stdout.contains("File too large"),
+        "the OS error is named:\n{stdout}"
+    );
+
+    // The file that failed and the one the recording resumed in; the failed attempts' files
+    // (nothing in them) are gone.
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .collect();
+    files.sort();
+    let sizes: Vec<u64> = files
+        .iter()
+        .map(|f| std::fs::metadata(f).unwrap().len())
+        .collect();
+    assert_eq!(files.len(), 2, "{files:?} {sizes:?}\n{log}");
+    // `full-NNNN.mcap` sorts before `full.mcap`.
+    assert_eq!(files[1], base);
+    let (before, _) = detection_sequences(&files[1], "full");
+    let (after, complete) = detection_sequences(&files[0], "full");
+    assert!(!before.is_empty(), "the failed file keeps its flushed frames");
+    assert!(complete, "the resumed file is complete (finished on SIGTERM)");
+    assert!(after.len() >= 5, "{} frames after the resume", after.len());
+    assert!(before.windows(2).all(|w| w[0] < w[1]));
+    assert!(after.windows(2).all(|w| w[0] < w[1]));
+    assert!(
+        after[0] > *before.last().unwrap() + 1,
+        "frames during the outage are not recorded: {} then {}",
+        before.last().unwrap(),
+        after[0]
+    );
+}

@@ -51,6 +51,9 @@ pub struct BenchSiftArgs {
     /// Also time mosaic SIFT with doubled colour planes.
     #[arg(long)]
     pub with_doubled: bool,
+    /// Base blur sigma of the mosaic, in super-pixels (the mosaic default unless given).
+    #[arg(long)]
+    pub sigma: Option<f64>,
     /// Time mosaicd only (no OpenCV peer): for profiling.
     #[arg(long)]
     pub no_peer: bool,
@@ -96,7 +99,10 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         }
         Ok((median(times), n))
     };
-    let base = SiftSpec::mosaic().with_max_value(1.0)?;
+    let mut base = SiftSpec::mosaic().with_max_value(1.0)?;
+    if let Some(s) = args.sigma {
+        base = base.with_sigma(s)?;
+    }
     let (ours, n_ours) = run_ours(base)?;
     let doubled = if args.with_doubled {
         Some(run_ours(base.with_double_image(true))?)

@@ -44,6 +44,9 @@ pub struct EvalSiftArgs {
     /// picks every other pixel).
     #[arg(long, value_enum, default_value_t = OctaveArg::Centred)]
     pub mosaic_octaves: OctaveArg,
+    /// The mosaic's base blur sigma in super-pixels (default 1.6, OpenCV's sigma).
+    #[arg(long, default_value_t = 1.6)]
+    pub mosaic_sigma: f64,
     /// Rotation of the Fig. 10 picture, degrees.
     #[arg(long, default_value_t = 20.0)]
     pub fig10_angle: f64,
@@ -99,7 +102,8 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
     let grey_spec = SiftSpec::grey();
     let mosaic_spec = SiftSpec::mosaic()
         .with_double_image(args.mosaic_double)
-        .with_centred_octaves(args.mosaic_octaves == OctaveArg::Centred);
+        .with_centred_octaves(args.mosaic_octaves == OctaveArg::Centred)
+        .with_sigma(args.mosaic_sigma)?;
     let transforms = default_transforms();
     let warp = PlaneWarp::from(args.plane_warp);
     eprintln!(

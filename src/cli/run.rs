@@ -156,6 +156,13 @@ fn report(summary: &RunSummary, json: bool) -> anyhow::Result<()> {
         for e in &c.sink_errors {
             problems.push(format!("camera {}: {e}", c.camera));
         }
+        // A recording paused by a write error and resumed: as skipped input, a failure at the
+        // end of the input, not for a service stopped by a signal.
+        if !summary.interrupted {
+            for e in &c.sink_interruptions {
+                problems.push(format!("camera {}: {e}", c.camera));
+            }
+        }
     }
     if !problems.is_empty() {
         anyhow::bail!(

@@ -107,8 +107,10 @@ pub struct CameraSummary {
     pub source_error: Option<String>,
     /// The input ended on `source_error` (truncated recording, lost device) instead of going on.
     pub source_ended_on_error: bool,
-    /// Sink errors.
+    /// Sink errors (each stopped its sink).
     pub sink_errors: Vec<String>,
+    /// Errors a sink went on after (the recorder paused by a full disk, then tried again).
+    pub sink_interruptions: Vec<String>,
 }
 
 impl RunSummary {
@@ -136,6 +138,9 @@ impl RunSummary {
             }
             for e in &c.sink_errors {
                 out.push(format!("  sink error: {e}"));
+            }
+            for e in &c.sink_interruptions {
+                out.push(format!("  sink interrupted: {e}"));
             }
         }
         out.push(format!(
@@ -217,6 +222,11 @@ pub fn run(
     sink_builder: SinkBuilder<'_>,
 ) -> Result<RunSummary, DaemonError> {
     let started = Instant::now();
+    // A file-size limit (systemd `LimitFSIZE=`, `ulimit -f`) would kill the process with
+    // SIGXFSZ at the recorder's first write past it; ignored, the write fails with EFBIG and is
+    // handled as any write error (the recording pauses, detection and publishing go on).
+    // SAFETY: setting a signal's disposition to SIG_IGN has no handler to race with.
+    unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
     let pool = Arc::new(
         rayon::ThreadPoolBuilder::new()
             .num_threads(cfg.daemon.threads)
@@ -283,6 +293,7 @@ pub fn run(
                 source_error: r.source_error,
                 source_ended_on_error: r.source_ended_on_error,
                 sink_errors: r.sink_errors,
+                sink_interruptions: r.sink_interruptions,
             })
             .collect(),
         elapsed_s: elapsed,

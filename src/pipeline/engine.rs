@@ -58,7 +58,7 @@ pub enum SinkError {
         /// Cause.
         message: String,
     },
-    /// Writing failed.
+    /// Writing failed; the sink stops.
     #[error("sink {sink}: {message}")]
     Write {
         /// Sink name.
@@ -66,6 +66,25 @@ pub enum SinkError {
         /// Cause.
         message: String,
     },
+    /// Writing failed, but the sink goes on and tries again itself (the recorder after a full
+    /// disk): counted in `failed_sink` and logged like [`SinkError::Write`], the sink keeps
+    /// receiving events.
+    #[error("sink {sink}: {message}")]
+    Interrupted {
+        /// Sink name.
+        sink: String,
+        /// Cause, and what the sink does next.
+        message: String,
+    },
+}
+
+/// What a sink thread reports when it ends.
+#[derive(Debug, Default)]
+struct SinkOutcome {
+    /// Errors that stopped a sink (or its start, or its finish).
+    errors: Vec<String>,
+    /// Errors a sink went on after ([`SinkError::Interrupted`]).
+    interruptions: Vec<String>,
 }
 
 /// A consumer of results, living on its own thread.
@@ -159,8 +178,11 @@ pub struct PipelineReport {
     /// The source ended on [`Self::source_error`] (truncated recording, lost device) rather than
     /// going on after it.
     pub source_ended_on_error: bool,
-    /// Sink errors.
+    /// Sink errors (each stopped its sink).
     pub sink_errors: Vec<String>,
+    /// Errors a sink went on after ([`SinkError::Interrupted`]: the recorder paused by a full
+    /// disk, then tried again).
+    pub sink_interruptions: Vec<String>,
     /// Wall time from start to the end of the drain.
     pub elapsed: Duration,
 }
@@ -194,7 +216,7 @@ pub struct Pipeline {
     /// The last source error and whether the source ended on it.
     source_error: Arc<Mutex<Option<(String, bool)>>>,
     threads: Vec<JoinHandle<()>>,
-    orderer: Option<JoinHandle<Vec<String>>>,
+    orderer: Option<JoinHandle<SinkOutcome>>,
     queue: Arc<FrameQueue<Item>>,
     maps_pool: BufferPool<GradientMaps>,
     frame_pool: BufferPool<RawPixels>,
@@ -321,17 +343,20 @@ impl Pipeline {
                 .spawn(move || {
                     order_loop(ev_rx, permit_tx, &stats, &*clock, camera, mpool, &sink_txs, kind);
                     drop(sink_txs);
-                    let mut errors = Vec::new();
+                    let mut all = SinkOutcome::default();
                     for j in sink_joins {
                         match j.join() {
-                            Ok(errs) => errors.extend(errs),
+                            Ok(o) => {
+                                all.errors.extend(o.errors);
+                                all.interruptions.extend(o.interruptions);
+                            }
                             Err(_) => {
                                 stats.failed_sink.fetch_add(1, Ordering::Relaxed);
-                                errors.push("a sink thread panicked".into())
+                                all.errors.push("a sink thread panicked".into())
                             }
                         }
                     }
-                    errors
+                    all
                 })
                 .expect("spawn orderer thread")
         };
@@ -393,9 +418,12 @@ impl Pipeline {
         }
         // A failed sink stops itself (the pipeline goes on); each counted itself in
         // `failed_sink` when it failed, so later stats messages carry it.
-        let sink_errors = match self.orderer.take().map(|j| j.join()) {
-            Some(Ok(e)) => e,
-            _ => vec!["the orderer thread panicked".into()],
+        let sinks = match self.orderer.take().map(|j| j.join()) {
+            Some(Ok(o)) => o,
+            _ => SinkOutcome {
+                errors: vec!["the orderer thread panicked".into()],
+                interruptions: Vec::new(),
+            },
         };
         let last = self
             .source_error
@@ -407,7 +435,8 @@ impl Pipeline {
             stats: self.stats.snapshot(),
             source_ended_on_error: last.as_ref().is_some_and(|(_, ended)| *ended),
             source_error: last.map(|(e, _)| e),
-            sink_errors,
+            sink_errors: sinks.errors,
+            sink_interruptions: sinks.interruptions,
             elapsed: self.started.elapsed(),
         }
     }
@@ -619,7 +648,7 @@ fn sink_thread(
     rx: Receiver<SinkEvent>,
     ready: Sender<Result<(), SinkError>>,
     stats: &Stats,
-) -> Vec<String> {
+) -> SinkOutcome {
     let mut sink = match factory() {
         Ok(s) => {
             let _ = ready.send(Ok(()));
@@ -627,10 +656,10 @@ fn sink_thread(
         }
         Err(e) => {
             let _ = ready.send(Err(e));
-            return Vec::new();
+            return SinkOutcome::default();
         }
     };
-    let mut errors = Vec::new();
+    let mut out = SinkOutcome::default();
     let mut failed = false;
     for ev in rx {
         if failed {
@@ -640,18 +669,26 @@ fn sink_thread(
             SinkEvent::Frame(f) => sink.frame(f),
             SinkEvent::Stats(s) => sink.stats(s),
         };
-        if let Err(e) = r {
-            tracing::error!("{e}; this sink stops, the pipeline continues");
-            stats.failed_sink.fetch_add(1, Ordering::Relaxed);
-            errors.push(e.to_string());
-            failed = true;
+        match r {
+            Ok(()) => {}
+            Err(e @ SinkError::Interrupted { .. }) => {
+                tracing::error!("{e}");
+                stats.failed_sink.fetch_add(1, Ordering::Relaxed);
+                out.interruptions.push(e.to_string());
+            }
+            Err(e) => {
+                tracing::error!("{e}; this sink stops, the pipeline continues");
+                stats.failed_sink.fetch_add(1, Ordering::Relaxed);
+                out.errors.push(e.to_string());
+                failed = true;
+            }
         }
     }
     if !failed {
         if let Err(e) = sink.finish() {
             stats.failed_sink.fetch_add(1, Ordering::Relaxed);
-            errors.push(e.to_string());
+            out.errors.push(e.to_string());
         }
     }
-    errors
+    out
 }

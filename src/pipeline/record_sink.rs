@@ -5,8 +5,16 @@
 //! is on, optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
 //! ([`super::sinks::stats_json`]; with `daemon.deterministic_outputs` only the final stats,
 //! without that group: [`super::sinks::stats_record`]). Chunks are flushed every `record.flush_frames` frames, so a crash
-//! loses at most that many; [`Sink::finish`] writes the summary and index. A write error (disk full)
-//! stops this sink and is reported; detection and publishing go on.
+//! loses at most that many; [`Sink::finish`] writes the summary and index.
+//!
+//! A write error (disk full, I/O error) never stops detection or publishing. With
+//! `record.retry_ms > 0` (default 30 s) and without `record.overwrite`, it pauses the recording:
+//! the error is counted (`failed_sink`, once per outage) and logged, the frames that arrive
+//! meanwhile are not recorded (counted in the log), and every `retry_ms` the sink tries again in a
+//! new numbered file ([`McapRecorder::resume`]), until a write succeeds. The file that failed
+//! stays as it was, cut at the failure. Otherwise the first error stops this sink for the run.
+
+use std::time::{Duration, Instant};
 
 use crate::config::{CameraConfig, Config};
 use crate::publish::messages::StatsMsg;
@@ -24,6 +32,21 @@ pub struct McapSink {
     flush_every: u32,
     since_flush: u32,
     deterministic: bool,
+    /// `record.retry_ms`, when the recorder can resume (`None`: the first error stops the sink).
+    retry: Option<Duration>,
+    /// While paused by a write error.
+    outage: Option<Outage>,
+}
+
+/// A recording paused by a write error.
+#[derive(Debug)]
+struct Outage {
+    /// Next attempt.
+    retry_at: Instant,
+    /// Frames not recorded so far.
+    frames_lost: u64,
+    /// Attempts that failed again.
+    failed_attempts: u64,
 }
 
 /// The recorder sink of a camera (`record.path`, `{camera}` substituted). The file is created in
@@ -55,6 +78,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
     );
     let flush_every = cfg.record.flush_frames;
     let deterministic = cfg.daemon.deterministic_outputs;
+    let retry_ms = cfg.record.retry_ms;
     Ok(Box::new(move || {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| SinkError::Start {
@@ -66,6 +90,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             sink: format!("mcap {}", path.display()),
             message: e.to_string(),
         })?;
+        let retry = (retry_ms > 0 && recorder.can_resume()).then(|| Duration::from_millis(retry_ms));
         Ok(Box::new(McapSink {
             camera,
             recorder,
@@ -73,16 +98,102 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             flush_every,
             since_flush: 0,
             deterministic,
+            retry,
+            outage: None,
         }) as Box<dyn Sink>)
     }))
 }
 
 impl McapSink {
-    fn err(&self, e: impl std::fmt::Display) -> SinkError {
-        SinkError::Write {
-            sink: self.name(),
-            message: e.to_string(),
+    /// While paused: true when this event is to be skipped (the next attempt is not due), else
+    /// re-arms the recorder for a new file and returns false.
+    fn paused(&mut self) -> bool {
+        let Some(o) = &self.outage else {
+            return false;
+        };
+        if Instant::now() < o.retry_at {
+            return true;
         }
+        self.recorder.resume();
+        false
+    }
+
+    /// After a successful write: end the outage, if any.
+    fn written(&mut self) {
+        if let Some(o) = self.outage.take() {
+            tracing::info!(
+                camera = %self.camera,
+                file = ?self.recorder.files().last(),
+                frames_not_recorded = o.frames_lost,
+                failed_attempts = o.failed_attempts,
+                "recording resumed in a new file"
+            );
+        }
+    }
+
+    /// A write failed: stop (no retry), start an outage (counted once, by the engine), or note
+    /// a failed attempt.
+    fn failed(&mut self, e: impl std::fmt::Display) -> Result<(), SinkError> {
+        let Some(retry) = self.retry else {
+            return Err(SinkError::Write {
+                sink: self.name(),
+                message: e.to_string(),
+            });
+        };
+        let retry_at = Instant::now() + retry;
+        match &mut self.outage {
+            Some(o) => {
+                o.retry_at = retry_at;
+                o.failed_attempts += 1;
+                tracing::warn!(
+                    camera = %self.camera,
+                    frames_not_recorded = o.frames_lost,
+                    "recording: still failing ({e}); next attempt in {} ms",
+                    retry.as_millis()
+                );
+                Ok(())
+            }
+            None => {
+                self.outage = Some(Outage {
+                    retry_at,
+                    frames_lost: 0,
+                    failed_attempts: 0,
+                });
+                Err(SinkError::Interrupted {
+                    sink: self.name(),
+                    message: format!(
+                        "{e}; recording paused (detection and publishing go on), trying a new file every {} ms",
+                        retry.as_millis()
+                    ),
+                })
+            }
+        }
+    }
+
+    fn write_frame(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
+        if self.frames {
+            if let Some(f) = &r.frame {
+                self.recorder.write_frame(f)?;
+            }
+        }
+        self.recorder.write_detections(
+            r.meta.sequence,
+            r.meta.timestamp_ns,
+            r.width as u32,
+            r.height as u32,
+            &r.output.detections,
+        )?;
+        if let Some(k) = &r.output.keypoints {
+            self.recorder.write_keypoints(r.meta.timestamp_ns, k)?;
+        }
+        // Flushed after the frame's results (the recorder has no cadence of its own here), so a
+        // crash loses at most `record.flush_frames` frames, each with its results.
+        self.since_flush += 1;
+        if self.since_flush >= self.flush_every {
+            self.since_flush = 0;
+            self.recorder.flush()?;
+        }
+        Ok(())
     }
 }
 
@@ -92,45 +203,58 @@ impl Sink for McapSink {
     }
 
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
-        if self.frames {
-            if let Some(f) = &r.frame {
-                self.recorder.write_frame(f).map_err(|e| self.err(e))?;
+        if self.paused() {
+            if let Some(o) = &mut self.outage {
+                o.frames_lost += 1;
+            }
+            return Ok(());
+        }
+        match self.write_frame(r) {
+            Ok(()) => {
+                self.written();
+                Ok(())
+            }
+            Err(e) => {
+                let r = self.failed(e);
+                if let Some(o) = &mut self.outage {
+                    o.frames_lost += 1;
+                }
+                r
             }
         }
-        self.recorder
-            .write_detections(
-                r.meta.sequence,
-                r.meta.timestamp_ns,
-                r.width as u32,
-                r.height as u32,
-                &r.output.detections,
-            )
-            .map_err(|e| self.err(e))?;
-        if let Some(k) = &r.output.keypoints {
-            self.recorder
-                .write_keypoints(r.meta.timestamp_ns, k)
-                .map_err(|e| self.err(e))?;
-        }
-        // Flushed after the frame's results (the recorder has no cadence of its own here), so a
-        // crash loses at most `record.flush_frames` frames, each with its results.
-        self.since_flush += 1;
-        if self.since_flush >= self.flush_every {
-            self.since_flush = 0;
-            self.recorder.flush().map_err(|e| self.err(e))?;
-        }
-        Ok(())
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
         let Some(v) = stats_record(&self.camera, s, self.deterministic) else {
             return Ok(());
         };
-        self.recorder
-            .write_stats(s.timestamp_ns, &v)
-            .map_err(|e| self.err(e))
+        if self.paused() {
+            return Ok(());
+        }
+        match self.recorder.write_stats(s.timestamp_ns, &v) {
+            Ok(()) => {
+                self.written();
+                Ok(())
+            }
+            Err(e) => self.failed(e),
+        }
     }
 
     fn finish(&mut self) -> Result<(), SinkError> {
-        self.recorder.finish().map(|_| ()).map_err(|e| self.err(e))
+        if let Some(o) = &self.outage {
+            // Still paused at the end: the files written are complete up to the failure; a
+            // last attempt's file that holds nothing goes.
+            self.recorder.discard_empty_failed_file();
+            tracing::warn!(
+                camera = %self.camera,
+                frames_not_recorded = o.frames_lost,
+                "recording was still paused by a write error at the end"
+            );
+            return Ok(());
+        }
+        self.recorder.finish().map(|_| ()).map_err(|e| SinkError::Write {
+            sink: self.name(),
+            message: e.to_string(),
+        })
     }
 }

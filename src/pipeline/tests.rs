@@ -206,19 +206,45 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
     assert_eq!(seqs.len() as u64, s.processed);
 }
 
-/// A sink that fails on frame `at` (like the recorder on a full disk).
-struct FailAt(u64);
+/// A sink that fails on frame `at` (like the recorder on a full disk): with `interrupt`, as
+/// [`super::engine::SinkError::Interrupted`] and going on (counting the later frames it gets in
+/// `seen`), else as a write error that stops it.
+struct FailAt {
+    at: u64,
+    interrupt: bool,
+    seen: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl FailAt {
+    fn factory(at: u64, interrupt: bool) -> (super::engine::SinkFactory, Arc<std::sync::atomic::AtomicU64>) {
+        let seen = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let s = seen.clone();
+        let f: super::engine::SinkFactory = Box::new(move || {
+            Ok(Box::new(FailAt {
+                at,
+                interrupt,
+                seen: s,
+            }) as Box<dyn super::engine::Sink>)
+        });
+        (f, seen)
+    }
+}
 
 impl super::engine::Sink for FailAt {
     fn name(&self) -> String {
         "fail-at".into()
     }
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
-        if r.index == self.0 {
-            return Err(super::engine::SinkError::Write {
-                sink: self.name(),
-                message: "no space left on device".into(),
+        let (sink, message) = (self.name(), "no space left on device".to_string());
+        if r.index == self.at {
+            return Err(if self.interrupt {
+                super::engine::SinkError::Interrupted { sink, message }
+            } else {
+                super::engine::SinkError::Write { sink, message }
             });
+        }
+        if r.index > self.at {
+            self.seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
         Ok(())
     }
@@ -232,8 +258,7 @@ impl super::engine::Sink for FailAt {
 
 #[test]
 fn a_sink_that_fails_is_counted_and_the_others_go_on() {
-    let failing: super::engine::SinkFactory =
-        Box::new(|| Ok(Box::new(FailAt(3)) as Box<dyn super::engine::Sink>));
+    let (failing, _) = FailAt::factory(3, false);
     let spec = SyntheticSpec {
         width: 96,
         height: 64,
@@ -256,4 +281,26 @@ fn a_sink_that_fails_is_counted_and_the_others_go_on() {
     let last = records.last().unwrap();
     assert_eq!(last["type"], "final_stats");
     assert!(last["failed_sink"].as_u64().is_some_and(|n| n <= 1), "{last}");
+}
+
+#[test]
+fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
+    let (sink, seen) = FailAt::factory(3, true);
+    let spec = SyntheticSpec {
+        width: 96,
+        height: 64,
+        frames: 12,
+        ..Default::default()
+    };
+    let (report, _) = run_with(2, 2, spec, vec![sink]);
+    assert_eq!(report.stats.processed, 12);
+    assert_eq!(report.stats.failed_sink, 1);
+    assert!(report.sink_errors.is_empty(), "{:?}", report.sink_errors);
+    assert_eq!(report.sink_interruptions.len(), 1);
+    assert!(report.sink_interruptions[0].contains("no space left"));
+    assert_eq!(
+        seen.load(std::sync::atomic::Ordering::Relaxed),
+        8,
+        "frames 4..12 still reached the sink"
+    );
 }

@@ -33,7 +33,18 @@ pub fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
 pub fn mcap_detail(e: &mcap::McapError) -> String {
     match e {
         mcap::McapError::Io(io) => format!("I/O error: {io}"),
-        other => other.to_string(),
+        other => {
+            // A write error while the writer encodes a record comes wrapped in a parse error
+            // ("Record parse failed"): name what is under it (the OS error).
+            let mut text = other.to_string();
+            let mut cause = std::error::Error::source(other);
+            while let Some(c) = cause {
+                text.push_str(": ");
+                text.push_str(&c.to_string());
+                cause = c.source();
+            }
+            text
+        }
     }
 }
 

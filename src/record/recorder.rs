@@ -279,6 +279,8 @@ struct Segment {
     first_log_ns: Option<u64>,
     /// Bytes that reached the sink.
     len: Arc<AtomicU64>,
+    /// Bytes before the first message (magic, header, schemas and channels written so far).
+    preamble: u64,
 }
 
 enum State {
@@ -318,6 +320,8 @@ pub struct McapRecorder {
     /// Capture time of the last frame written with `write_frame` (its detections follow it).
     last_frame_ns: Option<u64>,
     buf: Vec<u8>,
+    /// The file a write error stopped, and its preamble length (for [`McapRecorder::resume`]).
+    failed_file: Option<(PathBuf, u64)>,
 }
 
 impl std::fmt::Debug for McapRecorder {
@@ -371,6 +375,7 @@ impl McapRecorder {
             last_flush_ns: None,
             last_frame_ns: None,
             buf: Vec::new(),
+            failed_file: None,
         }
     }
 
@@ -387,6 +392,54 @@ impl McapRecorder {
     /// True after a write error stopped the recorder.
     pub fn is_failed(&self) -> bool {
         matches!(self.state, State::Failed(_))
+    }
+
+    /// True when [`McapRecorder::resume`] can go on after a write error: the recorder writes
+    /// to a path and its next file gets a new name (`keep_existing` or rotation), so resuming
+    /// never truncates the file that failed.
+    pub fn can_resume(&self) -> bool {
+        matches!(self.target, Target::Path(_)) && (self.opts.keep_existing || self.opts.rotate.enabled())
+    }
+
+    /// After a write error, go on in a new file: the next write opens the next `stem-NNNN`
+    /// file (pruning the ring as a rotation does) and everything after it is recorded as
+    /// before. The failed file stays as it is, cut at the failure (readers that tolerate a
+    /// truncated file, such as [`crate::capture::McapSource`], read its complete messages).
+    /// Returns false, changing nothing, when the recorder has not failed or
+    /// [cannot resume](McapRecorder::can_resume).
+    pub fn resume(&mut self) -> bool {
+        if !(self.is_failed() && self.can_resume()) {
+            return false;
+        }
+        self.discard_empty_failed_file();
+        self.state = State::Idle;
+        // The frame being written when the error came is not in any file: its results start
+        // the next frame themselves.
+        self.last_frame_ns = None;
+        true
+    }
+
+    /// Remove the file a write error stopped if it holds no message (it is no longer than its
+    /// preamble: the error came before any message reached the disk), so attempts on a disk
+    /// that is still full leave no empty files behind. Called by [`McapRecorder::resume`], and
+    /// by a caller giving up while paused. Returns the removed path.
+    pub fn discard_empty_failed_file(&mut self) -> Option<PathBuf> {
+        let (path, preamble) = self.failed_file.take()?;
+        let len = std::fs::metadata(&path).ok()?.len();
+        if len > preamble {
+            return None;
+        }
+        match std::fs::remove_file(&path) {
+            Ok(()) => {
+                self.files.retain(|p| p != &path);
+                tracing::debug!(file = %path.display(), "removed a recording that holds no message");
+                Some(path)
+            }
+            Err(e) => {
+                tracing::warn!(file = %path.display(), "cannot remove an empty recording: {e}");
+                None
+            }
+        }
     }
 
     /// The next file's path: `base` itself, or `stem-NNNN.ext` when rotating or when `base`
@@ -488,9 +541,17 @@ impl McapRecorder {
             pos: 0,
             len: len.clone(),
         };
-        let fail = |path: &Path, source| RecordError::Write {
-            path: path.to_path_buf(),
-            source: Box::new(source),
+        // A file that fails before its first message holds nothing: resume removes it.
+        let is_file = matches!(self.target, Target::Path(_));
+        let failed_file = &mut self.failed_file;
+        let mut fail = |path: &Path, source| {
+            if is_file {
+                *failed_file = Some((path.to_path_buf(), u64::MAX));
+            }
+            RecordError::Write {
+                path: path.to_path_buf(),
+                source: Box::new(source),
+            }
         };
         let mut writer = mcap::WriteOptions::new()
             .compression(compression)
@@ -504,12 +565,14 @@ impl McapRecorder {
             .map_err(|e| fail(&path, e))?;
         let ids = Self::add_channels(&mut writer, &self.topics, &self.opts).map_err(|e| fail(&path, e))?;
         self.files.push(path.clone());
+        let preamble = len.load(Ordering::Relaxed);
         self.state = State::Open(Box::new(Segment {
             writer,
             ids,
             path,
             first_log_ns: None,
             len,
+            preamble,
         }));
         Ok(())
     }
@@ -603,7 +666,12 @@ impl McapRecorder {
     /// Mark failed, drop the writer (its summary attempt may fail too; ignored) and build the error.
     fn fail(&mut self, source: mcap::McapError) -> RecordError {
         let path = match &self.state {
-            State::Open(s) => s.path.clone(),
+            State::Open(s) => {
+                if matches!(self.target, Target::Path(_)) {
+                    self.failed_file = Some((s.path.clone(), s.preamble));
+                }
+                s.path.clone()
+            }
             _ => PathBuf::from("<writer>"),
         };
         let err = RecordError::Write {

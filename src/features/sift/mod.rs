@@ -293,6 +293,20 @@ impl SiftSpec {
         self
     }
 
+    /// The same spec with base blur `sigma` (in the spec's unit; see
+    /// [`SiftOptions::sigma_in_super_pixels`]); must lie in (0.5, 10].
+    pub fn with_sigma(mut self, sigma: f64) -> Result<Self, SiftError> {
+        if !(sigma.is_finite() && sigma > 0.5 && sigma <= 10.0) {
+            return Err(SiftError::InvalidOption {
+                name: "sigma",
+                value: sigma,
+                allowed: "(0.5, 10]",
+            });
+        }
+        self.sigma = sigma;
+        Ok(self)
+    }
+
     /// The same spec with centred octaves ([`SiftOptions::centred_octaves`]) on or off.
     pub fn with_centred_octaves(mut self, centred: bool) -> Self {
         self.centred_octaves = centred;
