@@ -353,6 +353,61 @@ fn detection_sequences(path: &Path, camera: &str) -> (Vec<u64>, bool) {
     (seqs, complete)
 }
 
+/// A live synthetic camera `name` recorded (results, `record_extra` keys) into `dir/name.mcap`,
+/// no publishing, no detection; `mosaicd run` on it with stdout and stderr piped. Returns the
+/// child and the recording's base path.
+fn spawn_recording_service(
+    dir: &Path,
+    name: &str,
+    record_extra: &str,
+    camera_extra: &str,
+) -> (std::process::Child, PathBuf) {
+    let base = dir.join(format!("{name}.mcap"));
+    let cfg = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n[publish]\nenabled = false\n\
+             [record]\nenabled = true\npath = {:?}\n{record_extra}\n[compute]\ndetect = false\n\
+             [[camera]]\nname = \"{name}\"\nsource = \"synthetic\"\nframes = 0\nlive = true\n{camera_extra}\n",
+            base.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let child = Command::new(BIN)
+        .args(["run", "--log", "info", "--config"])
+        .arg(&cfg)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    (child, base)
+}
+
+/// The `.mcap` files in `dir`, sorted (`name-NNNN.mcap` sorts before `name.mcap`).
+fn mcap_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .collect();
+    v.sort();
+    v
+}
+
+/// Poll `what` every 20 ms for up to 30 s; on time-out fail naming `name` with `context()`.
+fn wait_until(what: impl Fn() -> bool, name: &str, context: impl Fn() -> String) {
+    let start = Instant::now();
+    while !what() {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "timed out waiting for {name}\n{}",
+            context()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// A full disk in the middle of a service's recording, made with a file-size limit on the
 /// running daemon (`prlimit`, as systemd's `LimitFSIZE=` would set it): the recording pauses
 /// (counted once, logged), attempts while the limit holds fail and leave no empty files, and
@@ -364,27 +419,12 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
     use std::sync::{Arc, Mutex};
 
     let dir = tempfile::tempdir().unwrap();
-    let base = dir.path().join("full.mcap");
-    let cfg = dir.path().join("full.toml");
-    std::fs::write(
-        &cfg,
-        format!(
-            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n[publish]\nenabled = false\n\
-             [record]\nenabled = true\npath = {:?}\nframes = true\nflush_frames = 1\nretry_ms = 200\n\
-             [compute]\ndetect = false\n\
-             [[camera]]\nname = \"full\"\nsource = \"synthetic\"\nwidth = 320\nheight = 240\n\
-             fps = 30.0\nframes = 0\nlive = true\n",
-            base.to_str().unwrap()
-        ),
-    )
-    .unwrap();
-    let mut child = Command::new(BIN)
-        .args(["run", "--log", "info", "--config"])
-        .arg(&cfg)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let (mut child, base) = spawn_recording_service(
+        dir.path(),
+        "full",
+        "frames = true\nretry_ms = 200",
+        "width = 320\nheight = 240\nfps = 30.0",
+    );
     let pid = child.id() as libc::pid_t;
     let log = Arc::new(Mutex::new(String::new()));
     let reader = {
@@ -397,20 +437,11 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
             }
         })
     };
-    let wait_for = |what: &dyn Fn() -> bool, name: &str| {
-        let start = Instant::now();
-        while !what() {
-            assert!(
-                start.elapsed() < Duration::from_secs(30),
-                "timed out waiting for {name}; log:\n{}",
-                log.lock().unwrap()
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    };
+    let wait_for =
+        |what: &dyn Fn() -> bool, name: &str| wait_until(what, name, || log.lock().unwrap().clone());
     let has = |s: &str| log.lock().unwrap().contains(s);
     wait_for(
-        &|| std::fs::metadata(&base).is_ok_and(|m| m.len() > 100_000),
+        &|| base.exists() && detection_sequences(&base, "full").0.len() >= 3,
         "the first frames on disk",
     );
 
@@ -444,7 +475,13 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
         0
     );
     wait_for(&|| has("recording resumed in a new file"), "the resume");
-    std::thread::sleep(Duration::from_millis(500));
+    wait_for(
+        &|| {
+            let files = mcap_files(dir.path());
+            files.len() >= 2 && detection_sequences(&files[files.len() - 2], "full").0.len() >= 5
+        },
+        "five frames in the new file",
+    );
     // SAFETY: plain kill(2) on our own child's pid.
     unsafe { libc::kill(pid, libc::SIGTERM) };
     let out = child.wait_with_output().unwrap();
@@ -462,12 +499,7 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
 
     // The file that failed and the one the recording resumed in; the failed attempts' files
     // (nothing in them) are gone.
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .collect();
-    files.sort();
+    let files = mcap_files(dir.path());
     let sizes: Vec<u64> = files
         .iter()
         .map(|f| std::fs::metadata(f).unwrap().len())
@@ -488,4 +520,63 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
         before.last().unwrap(),
         after[0]
     );
+}
+
+/// SIGHUP (`systemctl reload`): the recording file is finished (complete, indexed) and the next
+/// frame starts a new numbered one; no frame is lost between them, and the daemon goes on.
+#[test]
+fn sighup_finishes_the_recording_file_and_starts_the_next_without_losing_a_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let (child, base) = spawn_recording_service(
+        dir.path(),
+        "hup",
+        "flush_frames = 1",
+        "width = 96\nheight = 64\nfps = 60.0",
+    );
+    let pid = child.id() as libc::pid_t;
+    let files = || mcap_files(dir.path());
+    let wait_for = |what: &dyn Fn() -> bool, name: &str| wait_until(what, name, String::new);
+    let frames_in_newest = |n: usize| {
+        let f = files();
+        // `hup-NNNN.mcap` sorts before `hup.mcap`: the newest is the last numbered one.
+        let newest = f.iter().rev().find(|p| **p != base).unwrap_or(&base).clone();
+        detection_sequences(&newest, "hup").0.len() >= n
+    };
+    wait_for(
+        &|| base.exists() && frames_in_newest(5),
+        "frames in the first file",
+    );
+    for k in 1..=2 {
+        // SAFETY: plain kill(2) on our own child's pid.
+        unsafe { libc::kill(pid, libc::SIGHUP) };
+        wait_for(&|| files().len() == k + 1, "a new file");
+        wait_for(&|| frames_in_newest(5), "frames in the new file");
+    }
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{:?}\n{stdout}", out.status);
+    assert!(stdout.contains("sink 0"), "{stdout}");
+    // Three complete files (each finished with its index), frames contiguous across them.
+    let f = files();
+    assert_eq!(f.len(), 3, "{f:?}");
+    let order = [&base, &f[0], &f[1]];
+    let mut all = Vec::new();
+    for p in order {
+        let (seqs, complete) = detection_sequences(p, "hup");
+        assert!(complete, "{} is complete", p.display());
+        assert!(RecordingInfo::read(p).is_ok(), "{} has its summary", p.display());
+        assert!(!seqs.is_empty());
+        all.extend(seqs);
+    }
+    // Every processed frame is in exactly one file (a live source may drop frames before
+    // processing: those are neither processed nor recorded).
+    assert!(all.windows(2).all(|w| w[0] < w[1]), "in order, none repeated");
+    let processed: usize = stdout
+        .split("camera hup: ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no frame count in {stdout}"));
+    assert_eq!(all.len(), processed, "no processed frame lost between the files");
 }

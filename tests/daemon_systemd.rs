@@ -31,6 +31,10 @@ fn units_verify() {
             text.contains("Type=notify") && text.contains("WatchdogSec=") && text.contains("RemoveIPC=no")
         );
         assert!(text.contains("DeviceAllow=char-video4linux rw") && text.contains("ProtectSystem=strict"));
+        assert!(
+            text.contains("ExecReload=/bin/kill -HUP $MAINPID"),
+            "{unit}: reload sends SIGHUP"
+        );
         std::fs::write(dir.path().join(unit), text.replace("/usr/local/bin/mosaicd", bin)).unwrap();
     }
     verify(dir.path(), "mosaicd.service");

@@ -305,6 +305,9 @@ fn disk_full_is_reported_once_then_recorder_stops() {
     }
     assert!(first_error.is_some() && after > 0);
     assert!(rec.is_failed());
+    // A caller-provided writer has no next file: no resume, no new file.
+    assert!(!rec.can_resume() && !rec.resume());
+    assert!(matches!(rec.start_new_file(), Ok(false)));
     assert!(matches!(rec.finish(), Err(RecordError::Stopped { .. })));
     assert!(matches!(
         rec.write_detections(0, 0, 1, 1, &[]),
@@ -656,4 +659,36 @@ fn crash_without_finish_keeps_flushed_frames() {
     assert!(RecordingInfo::read(&path).is_err());
     record(&path, 2, RecorderOptions::default());
     assert_eq!(RecordingInfo::read(&path).unwrap().count("/camera/raw"), 2);
+}
+
+/// `start_new_file` (the daemon's SIGHUP) finishes the open file and the next write starts the
+/// next numbered one; without `keep_existing` or rotation it is refused (it would truncate).
+#[test]
+fn start_new_file_finishes_this_file_and_numbers_the_next() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cam.mcap");
+    let keep = RecorderOptions {
+        keep_existing: true,
+        ..Default::default()
+    };
+    let mut rec = McapRecorder::create(&path, keep).unwrap();
+    rec.write_frame(&frame(0, 64, 48)).unwrap();
+    assert!(matches!(rec.start_new_file(), Ok(true)));
+    // Finished: complete with its summary, before anything else is written.
+    let info = RecordingInfo::read(&path).unwrap();
+    assert_eq!(info.count("/camera/raw"), 1);
+    rec.write_frame(&frame(1, 64, 48)).unwrap();
+    rec.finish().unwrap();
+    assert_eq!(rec.files(), [path.clone(), dir.path().join("cam-0002.mcap")]);
+    let (frames, err) = replay_all(&rec.files()[1]);
+    assert!(err.is_none());
+    assert_eq!(frames.len(), 1);
+
+    // Overwriting, not rotating: refused, the file goes on.
+    let mut rec = McapRecorder::create(dir.path().join("ow.mcap"), RecorderOptions::default()).unwrap();
+    rec.write_frame(&frame(0, 64, 48)).unwrap();
+    assert!(matches!(rec.start_new_file(), Ok(false)));
+    assert!(!rec.can_resume());
+    rec.write_frame(&frame(1, 64, 48)).unwrap();
+    assert_eq!(rec.finish().unwrap().frames, 2);
 }

@@ -238,6 +238,18 @@ pub fn run(
             })?,
     );
     let stage = Stage::new(stage_spec(cfg), load_detector(cfg)?)?;
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| DaemonError::Start {
+            what: "tokio runtime",
+            message: e.to_string(),
+        })?;
+    // Handlers before the first frame: a signal while the pipelines start waits for them.
+    let signals = {
+        let _rt = rt.enter();
+        Signals::new()?
+    };
     let mut pipelines = Vec::new();
     for cam in &cfg.cameras {
         let frame_pool = BufferPool::new(cfg.daemon.queue_depth + cfg.daemon.max_in_flight + 2);
@@ -272,16 +284,9 @@ pub fn run(
         pipelines.push(p);
     }
 
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| DaemonError::Start {
-            what: "tokio runtime",
-            message: e.to_string(),
-        })?;
     let stats_every = Duration::from_millis(cfg.daemon.stats_interval_ms);
     let timeout = Duration::from_millis(cfg.daemon.shutdown_timeout_ms);
-    let (reports, interrupted) = rt.block_on(supervise(pipelines, stats_every, timeout))?;
+    let (reports, interrupted) = rt.block_on(supervise(pipelines, signals, stats_every, timeout))?;
     let elapsed = started.elapsed().as_secs_f64();
     Ok(RunSummary {
         cameras: reports
@@ -326,20 +331,44 @@ fn status_line(pipelines: &[Pipeline], fps: f64) -> String {
     parts.join("; ")
 }
 
+/// The signals the daemon handles.
+struct Signals {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+    /// SIGHUP (`systemctl reload`): new recording files, nothing else changes. Without a
+    /// handler it would end the process without a drain.
+    hup: tokio::signal::unix::Signal,
+}
+
+impl Signals {
+    /// Install the handlers (inside a tokio runtime context).
+    fn new() -> Result<Self, DaemonError> {
+        use tokio::signal::unix::{signal, SignalKind};
+        let sig = |k| {
+            signal(k).map_err(|e| DaemonError::Start {
+                what: "signal handlers",
+                message: e.to_string(),
+            })
+        };
+        Ok(Self {
+            term: sig(SignalKind::terminate())?,
+            int: sig(SignalKind::interrupt())?,
+            hup: sig(SignalKind::hangup())?,
+        })
+    }
+}
+
 async fn supervise(
     pipelines: Vec<Pipeline>,
+    signals: Signals,
     stats_every: Duration,
     timeout: Duration,
 ) -> Result<(Vec<PipelineReport>, bool), DaemonError> {
-    use tokio::signal::unix::{signal, SignalKind};
-    let sig = |k| {
-        signal(k).map_err(|e| DaemonError::Start {
-            what: "signal handlers",
-            message: e.to_string(),
-        })
-    };
-    let mut term = sig(SignalKind::terminate())?;
-    let mut int = sig(SignalKind::interrupt())?;
+    let Signals {
+        mut term,
+        mut int,
+        mut hup,
+    } = signals;
     let watchdog = sd_notify::watchdog_enabled();
     notify(&[
         sd_notify::NotifyState::Ready,
@@ -364,6 +393,10 @@ async fn supervise(
         tokio::select! {
             _ = term.recv() => { tracing::info!("SIGTERM: draining"); interrupted = true; break; }
             _ = int.recv() => { tracing::info!("SIGINT: draining"); interrupted = true; break; }
+            _ = hup.recv() => {
+                tracing::info!("SIGHUP: starting new recording files (the config is read only at start: restart to change it)");
+                for p in &pipelines { p.reopen(); }
+            }
             _ = stats_tick.tick() => {
                 for p in &pipelines { p.publish_stats(); }
                 let n = processed(&pipelines);

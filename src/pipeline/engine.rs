@@ -45,6 +45,9 @@ pub enum SinkEvent {
     Frame(Arc<FrameResult>),
     /// A periodic stats snapshot.
     Stats(StatsMsg),
+    /// Start new output files where a sink has them (SIGHUP: the recorder starts its next
+    /// numbered file before the next frame). Comes between two frames.
+    Reopen,
 }
 
 /// Errors from sinks (publishers, recorders).
@@ -97,6 +100,11 @@ pub trait Sink {
     fn stats(&mut self, stats: &StatsMsg) -> Result<(), SinkError>;
     /// Flush and close (MCAP: summary and index).
     fn finish(&mut self) -> Result<(), SinkError>;
+    /// Start new output files before the next frame, if the sink has files (SIGHUP). Default:
+    /// nothing to do.
+    fn reopen(&mut self) -> Result<(), SinkError> {
+        Ok(())
+    }
 }
 
 /// Builds a sink inside its own thread (ports that are not `Send` are created there).
@@ -196,6 +204,7 @@ enum Event {
     Done(u64, Box<Computed>),
     DispatchFinished(u64),
     Stats,
+    Reopen,
 }
 
 struct Computed {
@@ -384,6 +393,11 @@ impl Pipeline {
     /// Ask the orderer to send a stats snapshot to the sinks.
     pub fn publish_stats(&self) {
         let _ = self.events.send(Event::Stats);
+    }
+
+    /// Ask the sinks to start new output files before the next frame (SIGHUP).
+    pub fn reopen(&self) {
+        let _ = self.events.send(Event::Reopen);
     }
 
     /// Live counters.
@@ -595,6 +609,7 @@ fn order_loop(
                 let msg = stats_msg(&mut last_tick, false);
                 send_all(SinkEvent::Stats(msg));
             }
+            Event::Reopen => send_all(SinkEvent::Reopen),
         }
         while let Some(c) = pending.remove(&next) {
             let index = next;
@@ -668,6 +683,7 @@ fn sink_thread(
         let r = match &ev {
             SinkEvent::Frame(f) => sink.frame(f),
             SinkEvent::Stats(s) => sink.stats(s),
+            SinkEvent::Reopen => sink.reopen(),
         };
         match r {
             Ok(()) => {}

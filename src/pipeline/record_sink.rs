@@ -105,19 +105,6 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
 }
 
 impl McapSink {
-    /// While paused: true when this event is to be skipped (the next attempt is not due), else
-    /// re-arms the recorder for a new file and returns false.
-    fn paused(&mut self) -> bool {
-        let Some(o) = &self.outage else {
-            return false;
-        };
-        if Instant::now() < o.retry_at {
-            return true;
-        }
-        self.recorder.resume();
-        false
-    }
-
     /// After a successful write: end the outage, if any.
     fn written(&mut self) {
         if let Some(o) = self.outage.take() {
@@ -134,7 +121,8 @@ impl McapSink {
     /// A write failed: stop (no retry), start an outage (counted once, by the engine), or note
     /// a failed attempt.
     fn failed(&mut self, e: impl std::fmt::Display) -> Result<(), SinkError> {
-        let Some(retry) = self.retry else {
+        // Only a write error (the recorder stopped) pauses; anything else stops the sink.
+        let Some(retry) = self.retry.filter(|_| self.recorder.is_failed()) else {
             return Err(SinkError::Write {
                 sink: self.name(),
                 message: e.to_string(),
@@ -203,13 +191,21 @@ impl Sink for McapSink {
     }
 
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
-        if self.paused() {
-            if let Some(o) = &mut self.outage {
+        let attempt = match &mut self.outage {
+            None => false,
+            Some(o) if Instant::now() < o.retry_at => {
                 o.frames_lost += 1;
+                return Ok(());
             }
-            return Ok(());
+            Some(_) => self.recorder.resume(),
+        };
+        let mut written = self.write_frame(r);
+        if attempt && written.is_ok() {
+            // Buffers take writes on a full disk too: only a flush that reached the new file
+            // ends the outage.
+            written = self.recorder.flush();
         }
-        match self.write_frame(r) {
+        match written {
             Ok(()) => {
                 self.written();
                 Ok(())
@@ -228,12 +224,33 @@ impl Sink for McapSink {
         let Some(v) = stats_record(&self.camera, s, self.deterministic) else {
             return Ok(());
         };
-        if self.paused() {
-            return Ok(());
+        if self.outage.is_some() {
+            return Ok(()); // frames make the attempts (a flush tells whether one worked)
         }
         match self.recorder.write_stats(s.timestamp_ns, &v) {
             Ok(()) => {
                 self.written();
+                Ok(())
+            }
+            Err(e) => self.failed(e),
+        }
+    }
+
+    fn reopen(&mut self) -> Result<(), SinkError> {
+        if self.outage.is_some() {
+            return Ok(()); // the next attempt opens a new file anyway
+        }
+        let closed = self.recorder.files().last().cloned();
+        match self.recorder.start_new_file() {
+            Ok(true) => {
+                tracing::info!(camera = %self.camera, file = ?closed, "recording file finished; the next frame starts a new one");
+                Ok(())
+            }
+            Ok(false) => {
+                tracing::warn!(
+                    camera = %self.camera,
+                    "no new recording file: record.overwrite would truncate the open one"
+                );
                 Ok(())
             }
             Err(e) => self.failed(e),

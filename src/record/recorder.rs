@@ -395,10 +395,10 @@ impl McapRecorder {
     }
 
     /// True when [`McapRecorder::resume`] can go on after a write error: the recorder writes
-    /// to a path and its next file gets a new name (`keep_existing` or rotation), so resuming
-    /// never truncates the file that failed.
+    /// to a path with `keep_existing`, so the next file gets a name no file has (resuming never
+    /// truncates the file that failed, nor any other).
     pub fn can_resume(&self) -> bool {
-        matches!(self.target, Target::Path(_)) && (self.opts.keep_existing || self.opts.rotate.enabled())
+        matches!(self.target, Target::Path(_)) && self.opts.keep_existing
     }
 
     /// After a write error, go on in a new file: the next write opens the next `stem-NNNN`
@@ -417,6 +417,20 @@ impl McapRecorder {
         // the next frame themselves.
         self.last_frame_ns = None;
         true
+    }
+
+    /// Finish the open file now (summary and index: complete, ready to copy) and start the next
+    /// numbered file at the next write, as a rotation would (the daemon's SIGHUP). Returns
+    /// `Ok(false)`, changing nothing, when no file is open or the next file would not get a new
+    /// name (a path with neither `keep_existing` nor rotation: it would truncate this one).
+    pub fn start_new_file(&mut self) -> Result<bool, RecordError> {
+        let new_name = self.opts.keep_existing || self.opts.rotate.enabled();
+        if !(matches!(self.state, State::Open(_)) && matches!(self.target, Target::Path(_)) && new_name) {
+            return Ok(false);
+        }
+        self.close_segment()?;
+        self.last_frame_ns = None;
+        Ok(true)
     }
 
     /// Remove the file a write error stopped if it holds no message (it is no longer than its
@@ -450,8 +464,11 @@ impl McapRecorder {
             self.segment_index += 1;
             return Ok(base.to_path_buf());
         }
-        if keep && self.segment_index == 0 {
-            self.segment_index = numbered_files(base)?.last().map_or(0, |(n, _)| *n);
+        if keep {
+            // After the highest number there: at the first file (a restart), and again at every
+            // later one (a resume, a rotation), which other writers may have gone past meanwhile.
+            let highest = numbered_files(base)?.last().map_or(0, |(n, _)| *n);
+            self.segment_index = self.segment_index.max(highest);
         }
         self.segment_index = self
             .segment_index
