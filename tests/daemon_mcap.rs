@@ -353,35 +353,103 @@ fn detection_sequences(path: &Path, camera: &str) -> (Vec<u64>, bool) {
     (seqs, complete)
 }
 
-/// A live synthetic camera `name` recorded (results, `record_extra` keys) into `dir/name.mcap`,
-/// no publishing, no detection; `mosaicd run` on it with stdout and stderr piped. Returns the
-/// child and the recording's base path.
-fn spawn_recording_service(
-    dir: &Path,
-    name: &str,
-    record_extra: &str,
-    camera_extra: &str,
-) -> (std::process::Child, PathBuf) {
-    let base = dir.join(format!("{name}.mcap"));
-    let cfg = dir.join(format!("{name}.toml"));
-    std::fs::write(
-        &cfg,
-        format!(
-            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n[publish]\nenabled = false\n\
-             [record]\nenabled = true\npath = {:?}\n{record_extra}\n[compute]\ndetect = false\n\
-             [[camera]]\nname = \"{name}\"\nsource = \"synthetic\"\nframes = 0\nlive = true\n{camera_extra}\n",
-            base.to_str().unwrap()
-        ),
-    )
-    .unwrap();
-    let child = Command::new(BIN)
-        .args(["run", "--log", "info", "--config"])
-        .arg(&cfg)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
+/// `mosaicd run` of a live synthetic camera `name` recorded (results, `record_extra` keys) into
+/// `dir/name.mcap`, no publishing, no detection; its stderr (`--log info`) collected as it comes,
+/// and the process killed if the test ends without stopping it.
+struct Service {
+    child: Option<std::process::Child>,
+    log: std::sync::Arc<std::sync::Mutex<String>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+    base: PathBuf,
+}
+
+impl Service {
+    fn start(dir: &Path, name: &str, record_extra: &str, camera_extra: &str) -> Self {
+        use std::io::{BufRead, BufReader};
+        let base = dir.join(format!("{name}.mcap"));
+        let cfg = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                "[daemon]\nthreads = 2\nstats_interval_ms = 200\n[publish]\nenabled = false\n\
+                 [record]\nenabled = true\npath = {:?}\n{record_extra}\n[compute]\ndetect = false\n\
+                 [[camera]]\nname = \"{name}\"\nsource = \"synthetic\"\nframes = 0\nlive = true\n{camera_extra}\n",
+                base.to_str().unwrap()
+            ),
+        )
         .unwrap();
-    (child, base)
+        let mut child = Command::new(BIN)
+            .args(["run", "--log", "info", "--config"])
+            .arg(&cfg)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let log = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+        let reader = {
+            let (log, stderr) = (log.clone(), child.stderr.take().unwrap());
+            std::thread::spawn(move || {
+                for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                    let mut l = log.lock().unwrap();
+                    l.push_str(&line);
+                    l.push('\n');
+                }
+            })
+        };
+        Self {
+            child: Some(child),
+            log,
+            reader: Some(reader),
+            base,
+        }
+    }
+
+    fn pid(&self) -> libc::pid_t {
+        self.child.as_ref().unwrap().id() as libc::pid_t
+    }
+
+    fn log(&self) -> String {
+        self.log.lock().unwrap().clone()
+    }
+
+    fn has(&self, s: &str) -> bool {
+        self.log.lock().unwrap().contains(s)
+    }
+
+    /// Poll `what` every 20 ms for up to 30 s; on time-out fail naming `name`, with the log.
+    fn wait_for(&self, what: impl Fn() -> bool, name: &str) {
+        let start = Instant::now();
+        while !what() {
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "timed out waiting for {name}; log:\n{}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// SIGTERM, then the exit status, stdout and the whole log.
+    fn stop(mut self) -> (std::process::ExitStatus, String, String) {
+        // SAFETY: plain kill(2) on our own child's pid.
+        unsafe { libc::kill(self.pid(), libc::SIGTERM) };
+        let out = self.child.take().unwrap().wait_with_output().unwrap();
+        self.reader.take().unwrap().join().unwrap();
+        (
+            out.status,
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            self.log(),
+        )
+    }
+}
+
+impl Drop for Service {
+    fn drop(&mut self) {
+        if let Some(c) = &mut self.child {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
 }
 
 /// The `.mcap` files in `dir`, sorted (`name-NNNN.mcap` sorts before `name.mcap`).
@@ -395,19 +463,6 @@ fn mcap_files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Poll `what` every 20 ms for up to 30 s; on time-out fail naming `name` with `context()`.
-fn wait_until(what: impl Fn() -> bool, name: &str, context: impl Fn() -> String) {
-    let start = Instant::now();
-    while !what() {
-        assert!(
-            start.elapsed() < Duration::from_secs(30),
-            "timed out waiting for {name}\n{}",
-            context()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
 /// A full disk in the middle of a service's recording, made with a file-size limit on the
 /// running daemon (`prlimit`, as systemd's `LimitFSIZE=` would set it): the recording pauses
 /// (counted once, logged), attempts while the limit holds fail and leave no empty files, and
@@ -415,33 +470,16 @@ fn wait_until(what: impl Fn() -> bool, name: &str, context: impl Fn() -> String)
 /// keeps what it had. Detection never stopped, and a SIGTERM stop exits 0.
 #[test]
 fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
-    use std::io::{BufRead, BufReader};
-    use std::sync::{Arc, Mutex};
-
     let dir = tempfile::tempdir().unwrap();
-    let (mut child, base) = spawn_recording_service(
+    let svc = Service::start(
         dir.path(),
         "full",
         "frames = true\nretry_ms = 200",
         "width = 320\nheight = 240\nfps = 30.0",
     );
-    let pid = child.id() as libc::pid_t;
-    let log = Arc::new(Mutex::new(String::new()));
-    let reader = {
-        let (log, stderr) = (log.clone(), child.stderr.take().unwrap());
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                let mut l = log.lock().unwrap();
-                l.push_str(&line);
-                l.push('\n');
-            }
-        })
-    };
-    let wait_for =
-        |what: &dyn Fn() -> bool, name: &str| wait_until(what, name, || log.lock().unwrap().clone());
-    let has = |s: &str| log.lock().unwrap().contains(s);
-    wait_for(
-        &|| base.exists() && detection_sequences(&base, "full").0.len() >= 3,
+    let (pid, base) = (svc.pid(), svc.base.clone());
+    svc.wait_for(
+        || base.exists() && detection_sequences(&base, "full").0.len() >= 3,
         "the first frames on disk",
     );
 
@@ -463,32 +501,26 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
         unsafe { libc::prlimit(pid, libc::RLIMIT_FSIZE, &full, std::ptr::null_mut()) },
         0
     );
-    wait_for(&|| has("recording paused"), "the pause");
-    wait_for(&|| has("still failing"), "a failed attempt");
-    wait_for(
-        &|| log.lock().unwrap().matches("still failing").count() >= 2,
-        "a second failed attempt",
+    svc.wait_for(|| svc.has("recording paused"), "the pause");
+    svc.wait_for(
+        || svc.log().matches("still failing").count() >= 2,
+        "two failed attempts",
     );
     // Space again.
     assert_eq!(
         unsafe { libc::prlimit(pid, libc::RLIMIT_FSIZE, &old, std::ptr::null_mut()) },
         0
     );
-    wait_for(&|| has("recording resumed in a new file"), "the resume");
-    wait_for(
-        &|| {
+    svc.wait_for(|| svc.has("recording resumed in a new file"), "the resume");
+    svc.wait_for(
+        || {
             let files = mcap_files(dir.path());
             files.len() >= 2 && detection_sequences(&files[files.len() - 2], "full").0.len() >= 5
         },
         "five frames in the new file",
     );
-    // SAFETY: plain kill(2) on our own child's pid.
-    unsafe { libc::kill(pid, libc::SIGTERM) };
-    let out = child.wait_with_output().unwrap();
-    reader.join().unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let log = log.lock().unwrap().clone();
-    assert!(out.status.success(), "{:?}\n{stdout}\n{log}", out.status);
+    let (status, stdout, log) = svc.stop();
+    assert!(status.success(), "{status:?}\n{stdout}\n{log}");
     assert!(stdout.contains("sink 1"), "the outage counted once:\n{stdout}");
     assert!(stdout.contains("sink interrupted"), "{stdout}");
     assert!(!stdout.contains("sink error"), "{stdout}");
@@ -527,35 +559,32 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
 #[test]
 fn sighup_finishes_the_recording_file_and_starts_the_next_without_losing_a_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let (child, base) = spawn_recording_service(
+    let svc = Service::start(
         dir.path(),
         "hup",
         "flush_frames = 1",
         "width = 96\nheight = 64\nfps = 60.0",
     );
-    let pid = child.id() as libc::pid_t;
+    let base = svc.base.clone();
     let files = || mcap_files(dir.path());
-    let wait_for = |what: &dyn Fn() -> bool, name: &str| wait_until(what, name, String::new);
     let frames_in_newest = |n: usize| {
         let f = files();
         // `hup-NNNN.mcap` sorts before `hup.mcap`: the newest is the last numbered one.
         let newest = f.iter().rev().find(|p| **p != base).unwrap_or(&base).clone();
         detection_sequences(&newest, "hup").0.len() >= n
     };
-    wait_for(
-        &|| base.exists() && frames_in_newest(5),
+    svc.wait_for(
+        || base.exists() && frames_in_newest(5),
         "frames in the first file",
     );
     for k in 1..=2 {
         // SAFETY: plain kill(2) on our own child's pid.
-        unsafe { libc::kill(pid, libc::SIGHUP) };
-        wait_for(&|| files().len() == k + 1, "a new file");
-        wait_for(&|| frames_in_newest(5), "frames in the new file");
+        unsafe { libc::kill(svc.pid(), libc::SIGHUP) };
+        svc.wait_for(|| files().len() == k + 1, "a new file");
+        svc.wait_for(|| frames_in_newest(5), "frames in the new file");
     }
-    unsafe { libc::kill(pid, libc::SIGTERM) };
-    let out = child.wait_with_output().unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{:?}\n{stdout}", out.status);
+    let (status, stdout, log) = svc.stop();
+    assert!(status.success(), "{status:?}\n{stdout}\n{log}");
     assert!(stdout.contains("sink 0"), "{stdout}");
     // Three complete files (each finished with its index), frames contiguous across them.
     let f = files();

@@ -677,6 +677,8 @@ fn start_new_file_finishes_this_file_and_numbers_the_next() {
     // Finished: complete with its summary, before anything else is written.
     let info = RecordingInfo::read(&path).unwrap();
     assert_eq!(info.count("/camera/raw"), 1);
+    // Copied off the box and removed: the plain name is not used again.
+    std::fs::remove_file(&path).unwrap();
     rec.write_frame(&frame(1, 64, 48)).unwrap();
     rec.finish().unwrap();
     assert_eq!(rec.files(), [path.clone(), dir.path().join("cam-0002.mcap")]);

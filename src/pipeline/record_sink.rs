@@ -159,6 +159,8 @@ impl McapSink {
     }
 
     fn write_frame(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
+        // Unflushed from here on: an error before the next flush loses it.
+        self.since_flush += 1;
         if self.frames {
             if let Some(f) = &r.frame {
                 self.recorder.write_frame(f)?;
@@ -176,10 +178,9 @@ impl McapSink {
         }
         // Flushed after the frame's results (the recorder has no cadence of its own here), so a
         // crash loses at most `record.flush_frames` frames, each with its results.
-        self.since_flush += 1;
         if self.since_flush >= self.flush_every {
-            self.since_flush = 0;
             self.recorder.flush()?;
+            self.since_flush = 0;
         }
         Ok(())
     }
@@ -204,6 +205,9 @@ impl Sink for McapSink {
             // Buffers take writes on a full disk too: only a flush that reached the new file
             // ends the outage.
             written = self.recorder.flush();
+            if written.is_ok() {
+                self.since_flush = 0;
+            }
         }
         match written {
             Ok(()) => {
@@ -211,9 +215,11 @@ impl Sink for McapSink {
                 Ok(())
             }
             Err(e) => {
+                // This frame and those not flushed before it are not (readably) in any file.
+                let unflushed = std::mem::take(&mut self.since_flush) as u64;
                 let r = self.failed(e);
                 if let Some(o) = &mut self.outage {
-                    o.frames_lost += 1;
+                    o.frames_lost += unflushed;
                 }
                 r
             }
@@ -247,9 +253,10 @@ impl Sink for McapSink {
                 Ok(())
             }
             Ok(false) => {
-                tracing::warn!(
+                tracing::info!(
                     camera = %self.camera,
-                    "no new recording file: record.overwrite would truncate the open one"
+                    "no new recording file: none is open (the next frame starts one), or \
+                     record.overwrite without rotation would truncate it"
                 );
                 Ok(())
             }

@@ -460,15 +460,27 @@ impl McapRecorder {
     /// exists and must be kept. Advances the file number.
     fn next_segment_path(&mut self, base: &Path) -> Result<PathBuf, RecordError> {
         let keep = self.opts.keep_existing;
-        if !(self.opts.rotate.enabled() || keep && base.exists()) {
+        // With keep_existing, every file after the first is numbered, even when the plain name
+        // is free again (its file copied off and removed): a name is never used twice.
+        if !(self.opts.rotate.enabled() || keep && (base.exists() || self.segment_index > 0)) {
             self.segment_index += 1;
             return Ok(base.to_path_buf());
         }
         if keep {
             // After the highest number there: at the first file (a restart), and again at every
             // later one (a resume, a rotation), which other writers may have gone past meanwhile.
-            let highest = numbered_files(base)?.last().map_or(0, |(n, _)| *n);
-            self.segment_index = self.segment_index.max(highest);
+            // A directory that cannot be listed is an error at the first file; later, the
+            // numbering goes on from ours (`create_new` still refuses a name that is taken).
+            match numbered_files(base) {
+                Ok(files) => {
+                    let highest = files.last().map_or(0, |(n, _)| *n);
+                    self.segment_index = self.segment_index.max(highest);
+                }
+                Err(e) if self.segment_index > 0 => {
+                    tracing::warn!("cannot list earlier recordings ({e}); numbering on from our own");
+                }
+                Err(e) => return Err(e),
+            }
         }
         self.segment_index = self
             .segment_index
