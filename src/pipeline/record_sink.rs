@@ -179,9 +179,15 @@ impl McapSink {
         // Flushed after the frame's results (the recorder has no cadence of its own here), so a
         // crash loses at most `record.flush_frames` frames, each with its results.
         if self.since_flush >= self.flush_every {
-            self.recorder.flush()?;
-            self.since_flush = 0;
+            self.flush()?;
         }
+        Ok(())
+    }
+
+    /// Close the chunk and write it out; nothing is unflushed after it.
+    fn flush(&mut self) -> Result<(), crate::record::RecordError> {
+        self.recorder.flush()?;
+        self.since_flush = 0;
         Ok(())
     }
 }
@@ -204,10 +210,7 @@ impl Sink for McapSink {
         if attempt && written.is_ok() {
             // Buffers take writes on a full disk too: only a flush that reached the new file
             // ends the outage.
-            written = self.recorder.flush();
-            if written.is_ok() {
-                self.since_flush = 0;
-            }
+            written = self.flush();
         }
         match written {
             Ok(()) => {
@@ -227,12 +230,12 @@ impl Sink for McapSink {
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
-        let Some(v) = stats_record(&self.camera, s, self.deterministic) else {
-            return Ok(());
-        };
         if self.outage.is_some() {
             return Ok(()); // frames make the attempts (a flush tells whether one worked)
         }
+        let Some(v) = stats_record(&self.camera, s, self.deterministic) else {
+            return Ok(());
+        };
         match self.recorder.write_stats(s.timestamp_ns, &v) {
             Ok(()) => {
                 self.written();

@@ -274,17 +274,29 @@ impl SiftSpec {
         SiftOptions::mosaic().build().expect("defaults are valid")
     }
 
-    /// The same spec for data whose full scale is `max_value`.
-    pub fn with_max_value(mut self, max_value: f64) -> Result<Self, SiftError> {
-        if !(max_value.is_finite() && max_value > 0.0) {
-            return Err(SiftError::InvalidOption {
-                name: "max_value",
-                value: max_value,
-                allowed: "> 0",
-            });
+    /// The options this spec was built from (to change one and validate again).
+    fn options(&self) -> SiftOptions {
+        SiftOptions {
+            domain: self.domain,
+            n_octave_layers: self.n_octave_layers,
+            sigma: self.sigma,
+            contrast_threshold: self.contrast_threshold,
+            edge_threshold: self.edge_threshold,
+            double_image: self.double_image,
+            max_value: self.max_value,
+            sigma_in_super_pixels: self.sigma_in_super_pixels,
+            centred_octaves: self.centred_octaves,
         }
-        self.max_value = max_value;
-        Ok(self)
+    }
+
+    /// The same spec for data whose full scale is `max_value` (validated as
+    /// [`SiftOptions::build`] validates it).
+    pub fn with_max_value(self, max_value: f64) -> Result<Self, SiftError> {
+        SiftOptions {
+            max_value,
+            ..self.options()
+        }
+        .build()
     }
 
     /// The same spec with image doubling switched on or off.
@@ -294,17 +306,13 @@ impl SiftSpec {
     }
 
     /// The same spec with base blur `sigma` (in the spec's unit; see
-    /// [`SiftOptions::sigma_in_super_pixels`]); must lie in (0.5, 10].
-    pub fn with_sigma(mut self, sigma: f64) -> Result<Self, SiftError> {
-        if !(sigma.is_finite() && sigma > 0.5 && sigma <= 10.0) {
-            return Err(SiftError::InvalidOption {
-                name: "sigma",
-                value: sigma,
-                allowed: "(0.5, 10]",
-            });
+    /// [`SiftOptions::sigma_in_super_pixels`]), validated as [`SiftOptions::build`] validates it.
+    pub fn with_sigma(self, sigma: f64) -> Result<Self, SiftError> {
+        SiftOptions {
+            sigma,
+            ..self.options()
         }
-        self.sigma = sigma;
-        Ok(self)
+        .build()
     }
 
     /// The same spec with centred octaves ([`SiftOptions::centred_octaves`]) on or off.
