@@ -385,15 +385,7 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     let ours = Path::new(&args.model).extension().is_some_and(|e| e == "json");
     // An unasked-for transfer case (the user did not choose the domain with --as).
     if ours && args.as_domain.is_none() && det.model().domain != frame.domain() {
-        let name = |d: Domain| {
-            serde_json::to_value(d)
-                .ok()
-                .and_then(|v| v.as_str().map(String::from))
-        };
-        let (md, fd) = (
-            name(det.model().domain).unwrap_or_default(),
-            name(frame.domain()).unwrap_or_default(),
-        );
+        let (md, fd) = (det.model().domain.name(), frame.domain().name());
         // Raw input is read as a mosaic only; an image can be read the model's way.
         let hint = match frame.cfa() {
             Some(_) => String::new(),

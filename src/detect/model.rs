@@ -110,6 +110,17 @@ pub enum Domain {
     Colour,
 }
 
+impl Domain {
+    /// The name model files and `--as` use: `mosaic`, `grey` or `colour`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Domain::Mosaic => "mosaic",
+            Domain::Grey => "grey",
+            Domain::Colour => "colour",
+        }
+    }
+}
+
 impl std::str::FromStr for Domain {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -406,6 +417,14 @@ fn parse_numbers(text: &str, origin: &str) -> Result<Vec<f32>, ModelError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn domain_names_are_the_model_file_names() {
+        for d in [Domain::Mosaic, Domain::Grey, Domain::Colour] {
+            assert_eq!(serde_json::to_value(d).unwrap(), d.name());
+            assert_eq!(d.name().parse::<Domain>().unwrap(), d);
+        }
+    }
 
     fn model() -> LinearModel {
         let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin()).collect();
