@@ -10,7 +10,8 @@
 #
 # Environment: MOSAICD (binary, default target/release/mosaicd), OUT (default out/cv),
 # FOLDS (default "0 1 2 3 4"), THREADS (default 2), MOSAICD_DATA (the shared data),
-# MOSAIC_ARGS (extra `mosaicd train` flags for the mosaic model, e.g. "--mosaic-taps paper"),
+# MOSAIC_ARGS (extra `mosaicd train` flags for the mosaic model, e.g. "--mosaic-tone srgb"),
+# C_MOSAIC / C_COLOUR (the SVM cost of each domain, default the shipped recipe's for the input),
 # JITTER (`--jitter-positives` of both domains, default 2 as shipped),
 # ALSO (more `--inputs` for the same fold models, e.g. "low,medium": scored into foldK/also/ and
 # summarised in OUT/INPUT/cv_also.md).
@@ -28,6 +29,7 @@ case $input in
   clean) c_mosaic=0.03; c_colour=0.3 ;;
   *) echo "detection_cv: input must be sampled or clean, got '$input'" >&2; exit 2 ;;
 esac
+c_mosaic=${C_MOSAIC:-$c_mosaic}; c_colour=${C_COLOUR:-$c_colour}
 [ -x "$bin" ] || { echo "detection_cv: no binary at $bin (cargo build --release)" >&2; exit 2; }
 common=(--seed 1 --neg-per-image 20 --rounds 2 --max-hard 5000 --raw-negatives --jitter-positives "${JITTER:-2}"
         --threads "$threads" --input "$input")

@@ -30,7 +30,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::detect::ScorePrecision;
-use crate::features::hog::MosaicTaps;
+use crate::features::hog::{MosaicTaps, MosaicTone};
+use crate::raw::levels::{Compression, Gains, NormaliseOptions};
 use crate::raw::Cfa;
 
 /// Largest worker pool we accept (a sanity bound, not a tuning hint).
@@ -260,6 +261,16 @@ pub struct ComputeConfig {
     /// `"paper"` (`I(x+1) − I(x−1)`, the paper's `[-1, 0, 1]` on the mosaic: better on clean
     /// frames, worse under noise; docs/detection.md, "The mosaic derivative").
     pub mosaic_taps: String,
+    /// How raw values become the detector's mosaic: `"model"` (what the model file says; OpenCV's
+    /// weights and files without the field: `linear`), `"linear"` (black-subtracted and
+    /// scaled, the paper's raw mosaic) or `"srgb"` (each site white balanced, clipped and
+    /// sRGB-encoded; no demosaicing: docs/detection.md, "The mosaic's tone").
+    pub mosaic_tone: String,
+    /// White-balance gains of the `srgb` tone: `"auto"` (the frame's own when its source has them,
+    /// otherwise a grey-world estimate from each frame), `"file"` (the frame's own; a frame
+    /// without them is an error), `"grey-world"`, `"none"` or `"R,G,B"` (fixed, e.g. the
+    /// camera's daylight gains).
+    pub wb_gains: String,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -281,6 +292,8 @@ impl Default for ComputeConfig {
             approx_levels: 1,
             svm: "f32".into(),
             mosaic_taps: "model".into(),
+            mosaic_tone: "model".into(),
+            wb_gains: "auto".into(),
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
@@ -453,6 +466,36 @@ impl ComputeConfig {
         }
     }
 
+    /// `mosaic_tone` parsed: `None` = the model's own.
+    pub fn mosaic_tone_override(&self) -> Result<Option<MosaicTone>, ConfigError> {
+        match self.mosaic_tone.as_str() {
+            "model" => Ok(None),
+            s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
+                key: "compute.mosaic_tone".into(),
+                value: format!("{:?}", self.mosaic_tone),
+                allowed: "one of \"model\", \"linear\", \"srgb\"".into(),
+            }),
+        }
+    }
+
+    /// `wb_gains` parsed (fixed gains checked: finite, > 0 and < 16).
+    pub fn wb_gains(&self) -> Result<Gains, ConfigError> {
+        let bad = || ConfigError::OutOfRange {
+            key: "compute.wb_gains".into(),
+            value: format!("{:?}", self.wb_gains),
+            allowed: "\"auto\", \"file\", \"grey-world\", \"none\" or \"R,G,B\" (each finite, > 0 and < 16)"
+                .into(),
+        };
+        let g: Gains = self.wb_gains.parse().map_err(|_| bad())?;
+        NormaliseOptions {
+            gains: g,
+            compression: Compression::None,
+        }
+        .build()
+        .map_err(|_| bad())?;
+        Ok(g)
+    }
+
     /// `svm` parsed.
     pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
         self.svm.parse().map_err(|_| ConfigError::OutOfRange {
@@ -579,6 +622,8 @@ impl Config {
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
         c.svm_precision()?;
         c.mosaic_taps_override()?;
+        c.mosaic_tone_override()?;
+        c.wb_gains()?;
         if c.model.is_empty() {
             return Err(ConfigError::Missing {
                 key: "compute.model".into(),
@@ -801,6 +846,11 @@ mod tests {
             ("[compute]\napprox_levels = 65\n", "compute.approx_levels"),
             ("[compute]\nsvm = \"f16\"\n", "compute.svm"),
             ("[compute]\nmosaic_taps = \"diagonal\"\n", "compute.mosaic_taps"),
+            ("[compute]\nmosaic_tone = \"gamma\"\n", "compute.mosaic_tone"),
+            ("[compute]\nwb_gains = \"warm\"\n", "compute.wb_gains"),
+            ("[compute]\nwb_gains = \"2,1\"\n", "compute.wb_gains"),
+            ("[compute]\nwb_gains = \"2,0,1\"\n", "compute.wb_gains"),
+            ("[compute]\nwb_gains = \"20,1,1\"\n", "compute.wb_gains"),
             ("[record]\nflush_frames = 0\n", "record.flush_frames"),
             ("[record]\nrotate_secs = 31536001\n", "record.rotate_secs"),
             ("[record]\nmax_files = 3\n", "record.max_files"),
@@ -828,6 +878,30 @@ mod tests {
                 .unwrap_err()
                 .to_string();
             assert!(msg.contains(key), "{msg} should name {key}");
+        }
+    }
+
+    #[test]
+    fn mosaic_tone_and_gains_default_to_the_model_and_auto_and_parse() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.compute.mosaic_tone_override().unwrap(), None);
+        assert_eq!(c.compute.wb_gains().unwrap(), Gains::Auto);
+        let c = Config::from_toml_str(&format!(
+            "[compute]\nmosaic_tone = \"linear\"\nwb_gains = \"1.9, 1, 1.6\"\n{MIN}"
+        ))
+        .unwrap();
+        assert_eq!(
+            c.compute.mosaic_tone_override().unwrap(),
+            Some(MosaicTone::Linear)
+        );
+        assert_eq!(c.compute.wb_gains().unwrap(), Gains::Fixed([1.9, 1.0, 1.6]));
+        for (text, g) in [
+            ("file", Gains::FromFile),
+            ("grey-world", Gains::GreyWorld),
+            ("none", Gains::None),
+        ] {
+            let c = Config::from_toml_str(&format!("[compute]\nwb_gains = \"{text}\"\n{MIN}")).unwrap();
+            assert_eq!(c.compute.wb_gains().unwrap(), g);
         }
     }
 

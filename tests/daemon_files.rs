@@ -21,6 +21,21 @@ fn frames(dir: &Path) {
     std::fs::write(dir.join("broken.raw"), [0u8; 100]).unwrap();
 }
 
+/// The frame results of a `--results` file without their wall-clock fields (latency), which are
+/// the deterministic part.
+fn frame_results(results: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(results)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v["type"] == "frame")
+        .map(|mut v| {
+            v.as_object_mut().unwrap().remove("wall");
+            v
+        })
+        .collect()
+}
+
 fn run(cfg: &Path, threads: &str, results: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_mosaicd"))
         .args([
@@ -71,16 +86,7 @@ fn a_directory_of_raw_files_plays_as_a_stream_and_a_broken_file_is_counted() {
             "{err}"
         );
         // Frame results without their wall-clock fields (latency) are deterministic.
-        let frames: Vec<serde_json::Value> = std::fs::read_to_string(&results)
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-            .filter(|v| v["type"] == "frame")
-            .map(|mut v| {
-                v.as_object_mut().unwrap().remove("wall");
-                v
-            })
-            .collect();
+        let frames = frame_results(&results);
         assert_eq!(frames.len(), 3, "{frames:?}");
         assert_eq!(
             frames[2]["capture_timestamp_ns"], 200_000_000,
@@ -89,4 +95,57 @@ fn a_directory_of_raw_files_plays_as_a_stream_and_a_broken_file_is_counted() {
         outputs.push(frames);
     }
     assert_eq!(outputs[0], outputs[1], "results differ between 1 and 2 threads");
+}
+
+/// The srgb mosaic tone (`models/mosaic_raw_srgb.json`) on headerless frames, which carry no
+/// white-balance gains: `wb_gains = "file"` fails every frame with a clear error and the daemon
+/// goes on to the end of its input; the default `auto` white balances each frame by grey world,
+/// with results identical for any thread count.
+#[test]
+fn the_srgb_tone_needs_gains_file_gains_fail_clearly_and_auto_uses_grey_world() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("raw");
+    std::fs::create_dir(&raw).unwrap();
+    frames(&raw);
+    let config = |gains: &str| {
+        let cfg = dir.path().join(format!("srgb-{gains}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                "[compute]\nmodel = \"models/mosaic_raw_srgb.json\"\nhit_threshold = -10.0\nwb_gains = {gains:?}\n\
+                 [[camera]]\nname = \"files\"\nsource = \"files\"\npath = {:?}\nfps = 10.0\n",
+                raw.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        cfg
+    };
+    let results = dir.path().join("file.jsonl");
+    let o = run(&config("file"), "2", &results);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let text = format!("{}{err}", String::from_utf8_lossy(&o.stdout));
+    assert!(text.contains("failed: source 1 compute 3"), "{text}");
+    assert!(err.contains("white balance") && err.contains("has none"), "{err}");
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let results = dir.path().join(format!("auto-{threads}.jsonl"));
+        let o = run(&config("auto"), threads, &results);
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(text.contains("3 frames processed of 3 captured"), "{text}");
+        assert!(text.contains("failed: source 1 compute 0"), "{text}");
+        let frames = frame_results(&results);
+        assert_eq!(frames.len(), 3, "{frames:?}");
+        outputs.push(frames);
+    }
+    assert_eq!(outputs[0], outputs[1], "results differ between 1 and 2 threads");
+    // with a hit threshold this low the model fires somewhere: the tone path ran the detector
+    let hits: usize = outputs[0]
+        .iter()
+        .map(|f| f["detections"].as_array().map_or(0, |d| d.len()))
+        .sum();
+    assert!(hits > 0, "{:?}", outputs[0]);
 }

@@ -284,13 +284,7 @@ fn mosaic_taps_override_the_models() {
             extra,
         ]
         .concat());
-        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-        v["detections"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|d| d["score"].as_f64().unwrap())
-            .collect()
+        detection_scores(out.as_bytes())
     };
     let default = scores(&[]);
     assert!(!default.is_empty());
@@ -508,4 +502,95 @@ fn phases_bootstrap_and_detection_csvs() {
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--upsample-phases x"));
+}
+
+#[test]
+fn mosaic_tone_and_wb_gains_on_a_raw_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("frame.raw");
+    // a 12-bit RGGB frame, dark like raw, textured
+    let bytes: Vec<u8> = (0..160u32 * 192)
+        .flat_map(|i| (64 + ((i.wrapping_mul(2654435761) >> 22) & 1023) as u16).to_le_bytes())
+        .collect();
+    std::fs::write(&raw, bytes).unwrap();
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "detect",
+            raw.to_str().unwrap(),
+            "--width",
+            "192",
+            "--height",
+            "160",
+            "--cfa",
+            "RGGB",
+            "--bit-depth",
+            "12",
+            "--threshold",
+            "-1e9",
+            "--nms",
+            "none",
+            "--max-levels",
+            "1",
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        mosaicd(&a)
+    };
+    let scores = |extra: &[&str]| -> Vec<f64> {
+        let o = run(extra);
+        assert!(
+            o.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        detection_scores(&o.stdout)
+    };
+    let linear = scores(&[]);
+    assert!(!linear.is_empty());
+    assert_eq!(
+        scores(&["--mosaic-tone", "linear", "--wb-gains", "file"]),
+        linear,
+        "linear ignores the gains"
+    );
+    let srgb = scores(&["--mosaic-tone", "srgb"]);
+    assert_eq!(srgb.len(), linear.len());
+    assert_ne!(srgb, linear);
+    assert_eq!(
+        scores(&["--mosaic-tone", "srgb", "--wb-gains", "grey-world"]),
+        srgb,
+        "auto = grey world here"
+    );
+    assert_ne!(scores(&["--mosaic-tone", "srgb", "--wb-gains", "1,1,1"]), srgb);
+    // the model file's own tone
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/mosaic_raw_srgb.json");
+    let m = model.to_str().unwrap();
+    assert_eq!(
+        scores(&["--model", m]),
+        scores(&["--model", m, "--mosaic-tone", "srgb"])
+    );
+    // a headerless raw has no gains of its own; bad names and gains are refused
+    for (extra, want) in [
+        (&["--mosaic-tone", "srgb", "--wb-gains", "file"][..], "has none"),
+        (
+            &["--mosaic-tone", "srgb", "--wb-gains", "0,1,1"][..],
+            "gains must be finite",
+        ),
+        (&["--mosaic-tone", "log"][..], "linear, srgb"),
+        (&["--wb-gains", "warm"][..], "grey-world"),
+    ] {
+        let o = run(extra);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(want), "{extra:?}: {e}");
+    }
+}
+
+/// The scores of `mosaicd detect --json` output, in its order.
+fn detection_scores(json: &[u8]) -> Vec<f64> {
+    let v: serde_json::Value = serde_json::from_slice(json).unwrap();
+    v["detections"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["score"].as_f64().unwrap())
+        .collect()
 }

@@ -1,10 +1,11 @@
 //! Every model in `models/` loads and validates, is in the domain and input pipeline its name
-//! says, and records the training command (docs/detection.md, "The shipped models").
+//! says, reads the mosaic in the tone its name says, and records the training command (docs/detection.md, "The shipped models").
 
 use std::path::Path;
 
 use mosaicd::detect::model::LinearModel;
 use mosaicd::detect::Domain;
+use mosaicd::features::hog::MosaicTone;
 
 #[test]
 fn shipped_models_load_and_say_how_they_were_made() {
@@ -40,9 +41,22 @@ fn shipped_models_load_and_say_how_they_were_made() {
         let want_input = match name.trim_end_matches(".json").split('_').nth(1) {
             None => "sampled",
             Some("raw") if name.ends_with("_low.json") => "raw-low",
+            Some("raw") if name.ends_with("_srgb.json") => "raw-clean",
             Some("raw") => "raw-clean",
             Some(other) => panic!("{name}: unexpected model name part {other}"),
         };
         assert_eq!(input, want_input, "{name}");
+        // the tone the model reads: srgb only where the name says so (docs: "The mosaic's tone")
+        let tone = if name.ends_with("_srgb.json") {
+            MosaicTone::Srgb
+        } else {
+            MosaicTone::Linear
+        };
+        assert_eq!(m.mosaic_tone, tone, "{name}");
+        assert_eq!(
+            cmd.contains("--mosaic-tone srgb"),
+            tone == MosaicTone::Srgb,
+            "{name}: {cmd:?}"
+        );
     }
 }

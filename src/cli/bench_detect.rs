@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfile};
-use mosaicd::features::hog::{mosaic_from_raw, HogInput};
+use mosaicd::features::hog::{mosaic_from_raw_with, HogInput, MosaicTone};
+use mosaicd::raw::levels::Gains;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 use super::detect::SvmArg;
@@ -80,6 +81,11 @@ pub struct BenchDetectArgs {
     /// Skip the OpenCV peer.
     #[arg(long)]
     pub no_peer: bool,
+    /// How the frame becomes the detector's mosaic (OpenCV's weights read `linear`; `srgb` adds
+    /// per-site white balance, with grey-world gains since the frame has none, and the sRGB
+    /// curve: the daemon's `compute.mosaic_tone = "srgb"`).
+    #[arg(long, default_value = "linear")]
+    pub mosaic_tone: MosaicTone,
     /// Frames of the per-stage profile run after the timed frames: one thread, stages unfused and
     /// timed one by one (gradients, cells, blocks, micro-cells, approximated levels, SVM, NMS).
     /// 0 skips it.
@@ -128,7 +134,8 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         Levels::uniform(0, max),
     )?;
 
-    let model = super::detect::load_model("opencv-default", Domain::Mosaic)?;
+    let mut model = super::detect::load_model("opencv-default", Domain::Mosaic)?;
+    model.mosaic_tone = a.mosaic_tone;
     let opts = DetectorOptions {
         scale_step: a.scale_step,
         max_levels: a.max_levels,
@@ -136,6 +143,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         svm: a.svm.into(),
         ..Default::default()
     };
+    let tone = model.mosaic_tone;
     let det = Detector::new(model, &opts)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
 
@@ -148,7 +156,8 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     for i in 0..=a.frames {
         let (t_norm, t_all, stats, nb) = pool.install(|| -> anyhow::Result<_> {
             let t0 = Instant::now();
-            let m = mosaic_from_raw(&frame);
+            // the daemon's way: the model's tone, `auto` gains (this frame has none: grey world)
+            let m = mosaic_from_raw_with(&frame, tone, Gains::Auto)?;
             let t_norm = t0.elapsed();
             let (b, s) = det.detect(&HogInput::Mosaic(m.view()))?;
             Ok((t_norm, t0.elapsed(), s, b.len()))
@@ -174,7 +183,10 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         let mut p = StageProfile::default();
         for _ in 0..a.profile_frames {
             p += pool1
-                .install(|| det.stage_profile(&HogInput::Mosaic(mosaic_from_raw(&frame).view())))?
+                .install(|| -> anyhow::Result<_> {
+                    let m = mosaic_from_raw_with(&frame, tone, Gains::Auto)?;
+                    Ok(det.stage_profile(&HogInput::Mosaic(m.view()))?)
+                })?
                 .1;
         }
         let n = a.profile_frames as f64;

@@ -112,7 +112,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let svm = ScorePrecision::from(a.svm);
     cfg.compute.svm = svm.name().into();
     cfg.compute.keypoints = a.keypoints;
-    let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
+    let stage = Stage::new(stage_spec(&cfg)?, load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(

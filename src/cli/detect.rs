@@ -4,9 +4,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
-use mosaicd::features::hog::{mosaic_from_raw, HogInput, MosaicTaps};
+use mosaicd::features::hog::{mosaic_from_raw_with, HogInput, MosaicTaps, MosaicTone};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
+use mosaicd::raw::levels::Gains;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 /// Arguments of `mosaicd detect`.
@@ -94,6 +95,17 @@ pub struct DetectorArgs {
     /// paper's `[-1, 0, 1]` on the mosaic).
     #[arg(long)]
     pub mosaic_taps: Option<MosaicTaps>,
+    /// How raw values become the mosaic, overriding the model's `mosaic_tone`: `linear`
+    /// (black-subtracted and scaled, the paper's raw mosaic) or `srgb` (each site white balanced,
+    /// clipped and sRGB-encoded: the ISP's per-pixel stages without demosaicing; what models
+    /// trained with `--mosaic-tone srgb` read). Raw input only: a mosaic sampled from an image is
+    /// already sRGB.
+    #[arg(long)]
+    pub mosaic_tone: Option<MosaicTone>,
+    /// White-balance gains of the `srgb` tone: `auto` (the frame's own, else grey world), `file`,
+    /// `grey-world`, `none` or `R,G,B`.
+    #[arg(long, default_value = "auto")]
+    pub wb_gains: Gains,
 }
 
 /// `--svm` values.
@@ -147,12 +159,20 @@ impl From<DomainArg> for Domain {
 }
 
 impl DetectorArgs {
-    /// `model` with `--mosaic-taps` applied.
+    /// `model` with `--mosaic-taps` and `--mosaic-tone` applied.
     pub fn model(&self, mut model: LinearModel) -> LinearModel {
         if let Some(t) = self.mosaic_taps {
             model.mosaic_taps = t;
         }
+        if let Some(t) = self.mosaic_tone {
+            model.mosaic_tone = t;
+        }
         model
+    }
+
+    /// The mosaic of a raw frame for `model` (its tone, `--wb-gains`).
+    pub fn mosaic(&self, model: &LinearModel, frame: &RawFrame) -> anyhow::Result<Image<f32>> {
+        mosaic_from_raw_with(frame, model.mosaic_tone, self.wb_gains).context("--wb-gains")
     }
 
     /// To library options.
@@ -274,8 +294,14 @@ pub fn read_raw(path: &Path, a: &RawInputArgs) -> anyhow::Result<RawFrame> {
     Ok(RawFrame::from_u16(w, h, data, cfa, a.bit_depth, levels)?)
 }
 
-/// Load any supported input as a frame.
-pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>) -> anyhow::Result<Frame> {
+/// Load any supported input as a frame; `mosaic` turns a raw frame into the detector's mosaic
+/// (e.g. [`DetectorArgs::mosaic`] for the model).
+pub fn load_frame(
+    path: &Path,
+    raw: &RawInputArgs,
+    as_domain: Option<DomainArg>,
+    mosaic: &dyn Fn(&RawFrame) -> anyhow::Result<Image<f32>>,
+) -> anyhow::Result<Frame> {
     let want: Option<Domain> = as_domain.map(Domain::from);
     let ext = path
         .extension()
@@ -292,7 +318,7 @@ pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>)
                 f.height()
             );
         }
-        let m = mosaic_from_raw(&f);
+        let m = mosaic(&f)?;
         return match want.unwrap_or(Domain::Mosaic) {
             Domain::Mosaic => Ok(Frame::Mosaic(m, f.cfa())),
             d => bail!("raw input can only be detected as mosaic, not {d:?}"),
@@ -312,7 +338,7 @@ pub fn load_frame(path: &Path, raw: &RawInputArgs, as_domain: Option<DomainArg>)
                 raw.white.unwrap_or(((1u32 << raw.bit_depth) - 1) as u16),
             ),
         )?;
-        return Ok(Frame::Mosaic(mosaic_from_raw(&f), cfa));
+        return Ok(Frame::Mosaic(mosaic(&f)?, cfa));
     }
     let is_grey = matches!(
         img.color(),
@@ -379,8 +405,10 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
-    let frame = load_frame(&args.input, &args.raw, args.as_domain)?;
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
+    let frame = load_frame(&args.input, &args.raw, args.as_domain, &|f| {
+        args.det.mosaic(&model, f)
+    })?;
     let det = Detector::new(model, &args.det.options()?)?;
     let ours = Path::new(&args.model).extension().is_some_and(|e| e == "json");
     // An unasked-for transfer case (the user did not choose the domain with --as).

@@ -234,6 +234,7 @@ fn run_windows(
             a.cfa,
             pipe,
             a.det.svm.into(),
+            a.det.wb_gains,
             &mut progress,
         )?;
         let mut row = vec![
@@ -445,9 +446,15 @@ fn run_ap(
                     images.len(),
                     !a.quiet,
                 );
-                let dets = detect_images(&det, &images, *domain, a.cfa, pipe, &mut |i, key| {
-                    progress.step(i, key)
-                })?;
+                let dets = detect_images(
+                    &det,
+                    &images,
+                    *domain,
+                    a.cfa,
+                    pipe,
+                    a.det.wb_gains,
+                    &mut |i, key| progress.step(i, key),
+                )?;
                 progress.done();
                 per_phase.push(dets);
             }

@@ -7,7 +7,8 @@ use mosaicd::detect::train::{
     evaluate_windows_via, list_negative_dirs, select_c, split_data, train_on, InputPipeline, TrainOptions,
 };
 use mosaicd::detect::ScorePrecision;
-use mosaicd::features::hog::MosaicTaps;
+use mosaicd::features::hog::{MosaicTaps, MosaicTone};
+use mosaicd::raw::levels::Gains;
 use mosaicd::raw::Cfa;
 
 use super::detect::DomainArg;
@@ -73,6 +74,13 @@ pub struct TrainArgs {
     /// difference on the mosaic). Written into the model file.
     #[arg(long, default_value = "same-site")]
     pub mosaic_taps: MosaicTaps,
+    /// How the reverse ISP's raw frames become mosaics (`--input clean|low|medium|high`):
+    /// `linear` (the raw frame as it is; the paper's way) or `srgb` (each site white balanced with
+    /// the profile's gains and sRGB-encoded: 3.8 points fewer misses cross-validated,
+    /// docs/detection.md "The mosaic's tone"). Written into the model file; a sampled mosaic is
+    /// already sRGB, so with `--input sampled` it only labels the file.
+    #[arg(long, default_value = "linear")]
+    pub mosaic_tone: MosaicTone,
     /// Also train on the PNG/JPEG images of this directory (repeatable), e.g. scikit-image's
     /// person-free photographs written by `scripts/skimage_negatives.py`. Training only: never
     /// held out, so the validation split is the same with or without them.
@@ -110,6 +118,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         jitter_positives: a.jitter_positives,
         raw_negatives: a.raw_negatives,
         mosaic_taps: a.mosaic_taps,
+        mosaic_tone: a.mosaic_tone,
     };
     let root = mosaicd::data::data_root();
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
@@ -153,6 +162,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
                 o.cfa,
                 &o.pipeline,
                 ScorePrecision::F32,
+                Gains::FromFile,
                 &mut progress,
             )
         })?;

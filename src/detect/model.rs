@@ -11,6 +11,9 @@
 //!   "domain": "mosaic",            // mosaic | grey | colour: the input the weights were trained on
 //!   "mosaic_taps": "same-site",    // mosaic input's derivative: same-site ((I(x+2) − I(x−2))/2)
 //!                                  // or paper (I(x+1) − I(x−1)); absent = same-site
+//!   "mosaic_tone": "srgb",         // how raw values become the mosaic: linear (black-subtracted,
+//!                                  // scaled) or srgb (white balance + sRGB curve per site);
+//!                                  // absent = linear (features::hog::tone)
 //!   "provenance": { ... },         // free-form: command, seed, data, date, metrics
 //!   "bias": -0.5, "weights": [ ... 3780 values in OpenCV descriptor order ... ] }
 //! ```
@@ -30,7 +33,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::features::hog::{HogOptions, HogSpec, MosaicTaps, BLOCK_SIZE, BLOCK_STRIDE, CELL_SIZE};
+use crate::features::hog::{
+    HogOptions, HogSpec, MosaicTaps, MosaicTone, BLOCK_SIZE, BLOCK_STRIDE, CELL_SIZE,
+};
 use crate::npy::NpyArray;
 
 /// Format tag written in every model file.
@@ -167,6 +172,13 @@ pub struct LinearModel {
     /// field predate it and were made with [`MosaicTaps::SameSite`].
     #[serde(default = "same_site")]
     pub mosaic_taps: MosaicTaps,
+    /// How a raw frame's values become the mosaic this model reads
+    /// ([`crate::features::hog::tone`]; `compute.mosaic_tone` and `--mosaic-tone` may override
+    /// it). Files without the field predate it and were made with [`MosaicTone::Linear`];
+    /// OpenCV's imported weights get [`MosaicTone::Linear`] too (on clean frames they do better
+    /// with `srgb`, under noise worse: docs/detection.md, "The mosaic's tone").
+    #[serde(default)]
+    pub mosaic_tone: MosaicTone,
     /// Where the weights came from (command, seed, data, metrics).
     #[serde(default)]
     pub provenance: serde_json::Value,
@@ -209,6 +221,7 @@ impl LinearModel {
             l2hys_threshold: o.l2hys_threshold,
             domain,
             mosaic_taps: o.mosaic_taps,
+            mosaic_tone: MosaicTone::Linear,
             provenance: serde_json::json!({ "imported_from": origin }),
             bias,
             weights,
@@ -455,6 +468,32 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bad") && e.contains("sideways"), "{e}");
+    }
+
+    #[test]
+    fn mosaic_tone_is_written_and_older_files_and_opencv_weights_read_as_linear() {
+        let mut m = model();
+        assert_eq!(m.mosaic_tone, MosaicTone::Linear);
+        m.mosaic_tone = MosaicTone::Srgb;
+        assert!(
+            m.to_json().contains("\"mosaic_tone\":\"srgb\""),
+            "{}",
+            m.to_json()
+        );
+        assert_eq!(LinearModel::from_json(&m.to_json(), "mem").unwrap(), m);
+        m.mosaic_tone = MosaicTone::Linear;
+        assert_eq!(LinearModel::from_json(&m.to_json(), "mem").unwrap(), m);
+        let mut v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+        v.as_object_mut().unwrap().remove("mosaic_tone");
+        assert_eq!(
+            LinearModel::from_json(&v.to_string(), "old").unwrap().mosaic_tone,
+            MosaicTone::Linear
+        );
+        v["mosaic_tone"] = serde_json::json!("log");
+        let e = LinearModel::from_json(&v.to_string(), "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bad") && e.contains("log"), "{e}");
     }
 
     #[test]

@@ -29,8 +29,11 @@
 //! paper's: every sRGB image goes through the reverse ISP ([`crate::isp::reverse`], default camera
 //! profile, the chosen CFA) to a raw frame, optionally with the paper's eq. 24 noise at one of the
 //! three levels (seeded per image, so runs are deterministic), then the mosaic domain reads the raw
-//! frame directly ([`mosaic_from_raw`]: linear, not white balanced) while the colour and grey domains
-//! see it through the forward ISP ([`crate::isp::forward`], Malvar demosaicing).
+//! frame directly in the model's tone ([`MosaicPrep`]: [`MosaicTone::Linear`], the raw frame as
+//! it is, or [`MosaicTone::Srgb`], each site white balanced and sRGB-encoded with the frame's own
+//! gains, which are the profile's) while the colour and grey domains see it through the forward ISP
+//! ([`crate::isp::forward`], Malvar demosaicing). A sampled mosaic is already white balanced and
+//! sRGB-encoded, so the tone does not change it.
 //!
 //! Descriptors are read from the block grid of the whole image (positives: window (2, 2) of the
 //! 96x160 crop), exactly as the detector sees windows, so training and detection agree at borders.
@@ -48,7 +51,8 @@ use super::svm::{train_linear_svm, SvmOptions};
 use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
 use crate::eval::detection::Interval;
 use crate::features::hog::{
-    block_grid, mosaic_from_raw, BlockGrid, Exec, HogInput, HogOptions, HogSpec, MosaicTaps, CELL_SIZE,
+    block_grid, mosaic_from_raw_with, BlockGrid, Exec, HogInput, HogOptions, HogSpec, MosaicTaps, MosaicTone,
+    CELL_SIZE,
 };
 use crate::image::Image;
 use crate::isp::grey::grey_from_rgb_u8;
@@ -56,7 +60,8 @@ use crate::isp::{
     raw_from_srgb, srgb_from_raw, CameraProfile, ForwardIspOptions, NoiseLevel, ReverseIspOptions,
 };
 use crate::metrics::detection::{det_curve, DetPoint};
-use crate::raw::{Cfa, Colour};
+use crate::raw::levels::Gains;
+use crate::raw::{Cfa, Colour, RawFrame};
 
 /// Kodak images that show people (never negatives).
 pub const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
@@ -91,6 +96,9 @@ pub enum TrainError {
     /// Detector failure.
     #[error(transparent)]
     Detect(#[from] super::DetectError),
+    /// The mosaic's white balance could not be applied (bad or missing gains).
+    #[error("mosaic white balance: {0}")]
+    Gains(#[from] crate::raw::RawError),
     /// HOG failure.
     #[error(transparent)]
     Hog(#[from] crate::features::hog::HogError),
@@ -213,6 +221,45 @@ pub struct TrainOptions {
     pub raw_negatives: bool,
     /// The derivative of mosaic features (written into the model; see [`MosaicTaps`]).
     pub mosaic_taps: MosaicTaps,
+    /// The tone of mosaic inputs made through the reverse ISP (written into the model; see
+    /// [`MosaicTone`]); the white balance is the raw frame's own (the profile's gains).
+    pub mosaic_tone: MosaicTone,
+}
+
+/// How a raw frame becomes a mosaic input ([`DomainImage::from_rgb_via`] with the reverse ISP):
+/// the tone and, for [`MosaicTone::Srgb`], where the white-balance gains come from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MosaicPrep {
+    /// The tone.
+    pub tone: MosaicTone,
+    /// The gains (the reverse ISP's frames carry the profile's gains: [`Gains::FromFile`] is the
+    /// true white balance, [`Gains::GreyWorld`] an estimate from the image).
+    pub gains: Gains,
+}
+
+impl Default for MosaicPrep {
+    /// Linear (the raw frame as it is).
+    fn default() -> Self {
+        Self {
+            tone: MosaicTone::Linear,
+            gains: Gains::FromFile,
+        }
+    }
+}
+
+impl MosaicPrep {
+    /// `tone` with the frame's own gains (how training prepares mosaics).
+    pub fn with_tone(tone: MosaicTone) -> Self {
+        Self {
+            tone,
+            ..Self::default()
+        }
+    }
+
+    /// The mosaic of `raw` in this tone.
+    pub fn mosaic(&self, raw: &RawFrame) -> Result<Image<f32>, TrainError> {
+        Ok(mosaic_from_raw_with(raw, self.tone, self.gains)?)
+    }
 }
 
 impl Default for TrainOptions {
@@ -233,6 +280,7 @@ impl Default for TrainOptions {
             jitter_positives: 0,
             raw_negatives: false,
             mosaic_taps: MosaicTaps::SameSite,
+            mosaic_tone: MosaicTone::Linear,
         }
     }
 }
@@ -433,13 +481,15 @@ impl DomainImage {
             }
         }
     }
-    /// From an RGB image through `pipeline`; `index` picks the image's noise stream (deterministic).
+    /// From an RGB image through `pipeline`; `index` picks the image's noise stream (deterministic);
+    /// `prep` makes the mosaic of a reverse-ISP raw frame.
     pub fn from_rgb_via(
         img: &Image<[u8; 3]>,
         domain: Domain,
         cfa: Cfa,
         pipeline: &InputPipeline,
         index: u64,
+        prep: &MosaicPrep,
     ) -> Result<Self, TrainError> {
         let (noise, seed) = match *pipeline {
             InputPipeline::Sampled => return Ok(Self::from_rgb(img, domain, cfa)),
@@ -460,7 +510,7 @@ impl DomainImage {
         };
         let raw = raw_from_srgb(even.view(), &profile, &opts)?;
         Ok(match domain {
-            Domain::Mosaic => DomainImage::Mosaic(mosaic_from_raw(&raw)),
+            Domain::Mosaic => DomainImage::Mosaic(prep.mosaic(&raw)?),
             Domain::Colour => {
                 DomainImage::Colour(srgb_from_raw(&raw, &profile, &ForwardIspOptions::default())?)
             }
@@ -668,7 +718,10 @@ pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64
 
 /// Evaluate a model on validation images in `domain` (Dalal–Triggs window protocol), the images
 /// brought into `domain` through `pipeline` (as in training, or e.g. the reverse ISP with one of
-/// the paper's noise levels). Positives and negatives are scored with `svm`'s arithmetic.
+/// the paper's noise levels). Positives and negatives are scored with `svm`'s arithmetic. Mosaics
+/// made through the reverse ISP are in the model's tone with white-balance gains from `wb`
+/// ([`Gains::FromFile`]: the profile's, the true white balance).
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_windows_via(
     model: &LinearModel,
     split: &Split,
@@ -676,8 +729,13 @@ pub fn evaluate_windows_via(
     cfa: Cfa,
     pipeline: &InputPipeline,
     svm: ScorePrecision,
+    wb: Gains,
     progress: &mut dyn FnMut(&str),
 ) -> Result<WindowEval, TrainError> {
+    let prep = MosaicPrep {
+        tone: model.mosaic_tone,
+        gains: wb,
+    };
     let opts = DetectorOptions {
         svm,
         ..DetectorOptions::default()
@@ -688,7 +746,7 @@ pub fn evaluate_windows_via(
     let mut positive_photo = Vec::new();
     let mut photos: Vec<&str> = Vec::new();
     for (i, p) in split.val_pos.iter().enumerate() {
-        let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64)?;
+        let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64, &prep)?;
         pos.push(det.score_descriptor(&positive_descriptor(&spec, &img)?));
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
         let photo = photo_prefix(name);
@@ -701,8 +759,14 @@ pub fn evaluate_windows_via(
     let mut neg = Vec::new();
     let mut windows_per_image = Vec::with_capacity(split.val_neg.len());
     for (i, p) in split.val_neg.iter().enumerate() {
-        let img =
-            DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, NEG_SEED_OFFSET + i as u64)?;
+        let img = DomainImage::from_rgb_via(
+            &load_rgb(p)?,
+            domain,
+            cfa,
+            pipeline,
+            NEG_SEED_OFFSET + i as u64,
+            &prep,
+        )?;
         let before = neg.len();
         det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
         windows_per_image.push(neg.len() - before);
@@ -952,6 +1016,7 @@ pub fn select_c(
             o.cfa,
             &o.pipeline,
             ScorePrecision::F32,
+            Gains::FromFile,
             progress,
         )?;
         progress(&format!(
@@ -991,12 +1056,13 @@ pub fn train_on(
         mosaic_taps: o.mosaic_taps,
         ..HogOptions::default()
     })?;
+    let prep = MosaicPrep::with_tone(o.mosaic_tone);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x5eed);
     let mut x: Vec<Vec<f32>> = Vec::new();
     let mut y: Vec<i8> = Vec::new();
     for (i, p) in split.train_pos.iter().enumerate() {
         let rgb = load_rgb(p)?;
-        let img = DomainImage::from_rgb_via(&rgb, o.domain, o.cfa, &o.pipeline, i as u64)?;
+        let img = DomainImage::from_rgb_via(&rgb, o.domain, o.cfa, &o.pipeline, i as u64, &prep)?;
         x.push(positive_descriptor(&spec, &img)?);
         y.push(1);
         if o.jitter_positives > 0 {
@@ -1009,7 +1075,7 @@ pub fn train_on(
                         (yy as isize + dy).clamp(0, h - 1) as usize,
                     )
                 });
-                let img = DomainImage::from_rgb_via(&shifted, o.domain, o.cfa, &o.pipeline, i as u64)?;
+                let img = DomainImage::from_rgb_via(&shifted, o.domain, o.cfa, &o.pipeline, i as u64, &prep)?;
                 x.push(positive_descriptor(&spec, &img)?);
                 y.push(1);
             }
@@ -1043,7 +1109,7 @@ pub fn train_on(
         for (img, index) in
             std::iter::once((rgb, index)).chain(mirrored.as_ref().map(|m| (m, index + MIRROR_SEED_OFFSET)))
         {
-            let img = DomainImage::from_rgb_via(img, o.domain, o.cfa, &o.pipeline, index)?;
+            let img = DomainImage::from_rgb_via(img, o.domain, o.cfa, &o.pipeline, index, &prep)?;
             for d in random_negatives(&spec, &img, o.neg_per_image, &mut rng)? {
                 x.push(d);
                 y.push(-1);
@@ -1179,6 +1245,7 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) ->
     let mut m = LinearModel::from_opencv_vector(&w, o.domain, "mosaicd train").expect("3780 weights");
     m.bias = b;
     m.mosaic_taps = o.mosaic_taps;
+    m.mosaic_tone = o.mosaic_tone;
     m.provenance = serde_json::json!({
         "trainer": "mosaicd train (dual coordinate descent, hinge loss, L2)",
         "seed": o.seed, "c": o.c, "domain": o.domain, "cfa": o.cfa.name(),
@@ -1343,7 +1410,8 @@ mod tests {
                 noise: Some(NoiseLevel::High),
                 seed,
             };
-            DomainImage::from_rgb_via(&rgb, Domain::Mosaic, Cfa::Rggb, &p, index).unwrap()
+            DomainImage::from_rgb_via(&rgb, Domain::Mosaic, Cfa::Rggb, &p, index, &MosaicPrep::default())
+                .unwrap()
         };
         let clean = DomainImage::from_rgb_via(
             &rgb,
@@ -1351,6 +1419,7 @@ mod tests {
             Cfa::Rggb,
             &InputPipeline::ReverseIsp { noise: None, seed: 1 },
             0,
+            &MosaicPrep::default(),
         )
         .unwrap();
         let px = |d: &DomainImage| match d {
@@ -1375,9 +1444,59 @@ mod tests {
             Cfa::Rggb,
             &InputPipeline::ReverseIsp { noise: None, seed: 1 },
             0,
+            &MosaicPrep::default(),
         )
         .unwrap();
         assert_eq!(c.dimensions(), (32, 24));
+    }
+
+    #[test]
+    fn srgb_tone_undoes_the_raw_frames_white_balance_and_curve_per_site() {
+        // mid grey through the reverse ISP: the raw R and B sites are darker than G (no white
+        // balance) and linear; the srgb tone brings every site back to the grey's code
+        let rgb = Image::from_fn(32, 24, |_, _| [128u8; 3]);
+        let pipe = InputPipeline::ReverseIsp { noise: None, seed: 1 };
+        let mosaic = |prep: MosaicPrep| match DomainImage::from_rgb_via(
+            &rgb,
+            Domain::Mosaic,
+            Cfa::Rggb,
+            &pipe,
+            0,
+            &prep,
+        )
+        .unwrap()
+        {
+            DomainImage::Mosaic(m) => m,
+            _ => unreachable!(),
+        };
+        let lin = mosaic(MosaicPrep::default());
+        let (r, g, b) = (lin.get(0, 0), lin.get(1, 0), lin.get(1, 1));
+        assert!(
+            r < 0.8 * g && b < 0.5 * g && g < 0.3 * 255.0,
+            "linear R {r} G {g} B {b}"
+        );
+        for gains in [Gains::FromFile, Gains::Auto, Gains::GreyWorld] {
+            let s = mosaic(MosaicPrep {
+                tone: MosaicTone::Srgb,
+                gains,
+            });
+            for &v in s.as_slice() {
+                assert!((v - 128.0).abs() < 1.5, "{gains:?}: {v}");
+            }
+        }
+        // a sampled mosaic is already sRGB: the tone does not apply
+        let sampled = |prep| {
+            DomainImage::from_rgb_via(&rgb, Domain::Mosaic, Cfa::Rggb, &InputPipeline::Sampled, 0, &prep)
+                .unwrap()
+        };
+        let px = |d: DomainImage| match d {
+            DomainImage::Mosaic(m) => m.into_vec(),
+            _ => unreachable!(),
+        };
+        assert_eq!(
+            px(sampled(MosaicPrep::with_tone(MosaicTone::Srgb))),
+            px(sampled(MosaicPrep::default()))
+        );
     }
 
     #[test]

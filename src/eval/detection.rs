@@ -51,7 +51,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::detect::train::{DomainImage, InputPipeline};
+use crate::detect::train::{DomainImage, InputPipeline, MosaicPrep};
 use crate::detect::{Detection, Detector, Domain};
 use crate::eval::plot::{line_plot, Legend, LinePlot, Scale, Series};
 use crate::image::Image;
@@ -59,6 +59,7 @@ use crate::metrics::detection::{
     average_precision, log_average_miss_rate, match_detections, mr_fppi_curve, ApMethod, DetPoint,
     ImageDetections, MatchedDetections, Rect,
 };
+use crate::raw::levels::Gains;
 use crate::raw::Cfa;
 
 /// USC data directory relative to the data root.
@@ -578,21 +579,28 @@ pub fn load_image_rgb(path: &Path) -> Result<Image<[u8; 3]>> {
     })
 }
 
-/// Run `det` on every image (brought into `domain` through `pipeline`); `progress(i, key)` is called
-/// before image `i`. Returns the detections with each image's ground truth.
+/// Run `det` on every image (brought into `domain` through `pipeline`; a reverse-ISP mosaic in the
+/// model's tone with gains from `wb`); `progress(i, key)` is called before image `i`. Returns the
+/// detections with each image's ground truth.
+#[allow(clippy::too_many_arguments)]
 pub fn detect_images(
     det: &Detector,
     images: &[GtImage],
     domain: Domain,
     cfa: Cfa,
     pipeline: &InputPipeline,
+    wb: Gains,
     progress: &mut dyn FnMut(usize, &str),
 ) -> Result<Vec<ImageDetections>> {
+    let prep = MosaicPrep {
+        tone: det.model().mosaic_tone,
+        gains: wb,
+    };
     let mut out = Vec::with_capacity(images.len());
     for (i, g) in images.iter().enumerate() {
         progress(i, &g.key);
         let rgb = load_image_rgb(&g.path)?;
-        let img = DomainImage::from_rgb_via(&rgb, domain, cfa, pipeline, i as u64)?;
+        let img = DomainImage::from_rgb_via(&rgb, domain, cfa, pipeline, i as u64, &prep)?;
         let (dets, _) = det.detect(&img.input())?;
         out.push(ImageDetections {
             detections: dets,

@@ -1022,6 +1022,8 @@ pub use approx::{
     block_and_micro_grids_from_gamma_planes, blocks_from_micro_grid, micro_grid_from_gamma_planes, MicroGrid,
     MICRO_CELL,
 };
+pub mod tone;
+pub use tone::{mosaic_from_raw_toned, mosaic_from_raw_with, MosaicTone, ToneTables};
 
 /// Values per cell: PROFILES (y) x PROFILES (x) x nbins.
 fn cell_len(nbins: usize) -> usize {

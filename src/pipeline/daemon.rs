@@ -64,6 +64,9 @@ pub enum DaemonError {
     /// The stage refused its parameters.
     #[error("compute: {0}")]
     Stage(#[from] super::stage::StageError),
+    /// A config value the daemon needs is invalid.
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
     /// The drain took longer than the stop timeout.
     #[error("shutdown did not finish within daemon.shutdown_timeout_ms = {timeout_ms} ms")]
     ShutdownTimeout {
@@ -156,14 +159,15 @@ impl RunSummary {
     }
 }
 
-/// The pipeline stage spec of a config.
-pub fn stage_spec(cfg: &Config) -> StageSpec {
-    StageSpec {
+/// The pipeline stage spec of a config (an unparseable `compute.wb_gains` is an error).
+pub fn stage_spec(cfg: &Config) -> Result<StageSpec, crate::config::ConfigError> {
+    Ok(StageSpec {
         orientation_bins: cfg.compute.orientation_bins,
         strip_rows: cfg.compute.strip_rows,
         detect: cfg.compute.detect,
         keypoints: cfg.compute.keypoints,
-    }
+        wb_gains: cfg.compute.wb_gains()?,
+    })
 }
 
 /// Path of the `opencv-default` model inside the shared data directory.
@@ -189,6 +193,11 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
         message: e.to_string(),
     })? {
         model.mosaic_taps = t;
+    }
+    if let Some(t) = c.mosaic_tone_override().map_err(|e| DaemonError::Model {
+        message: e.to_string(),
+    })? {
+        model.mosaic_tone = t;
     }
     let opts = DetectorOptions {
         scale_step: c.scale_step,
@@ -237,7 +246,7 @@ pub fn run(
                 message: e.to_string(),
             })?,
     );
-    let stage = Stage::new(stage_spec(cfg), load_detector(cfg)?)?;
+    let stage = Stage::new(stage_spec(cfg)?, load_detector(cfg)?)?;
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -460,5 +469,33 @@ mod tests {
         assert_eq!(taps(""), MosaicTaps::SameSite, "OpenCV's weights: same-site");
         assert_eq!(taps("mosaic_taps = \"model\""), MosaicTaps::SameSite);
         assert_eq!(taps("mosaic_taps = \"paper\""), MosaicTaps::Paper);
+    }
+
+    #[test]
+    fn compute_mosaic_tone_and_wb_gains_reach_the_detector_and_the_stage() {
+        use crate::features::hog::MosaicTone;
+        use crate::raw::levels::Gains;
+        crate::data::require(OPENCV_DEFAULT_MODEL);
+        let cfg = |line: &str| {
+            Config::from_toml_str(&format!(
+                "[compute]\n{line}\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n"
+            ))
+            .unwrap()
+        };
+        let tone = |line: &str| load_detector(&cfg(line)).unwrap().unwrap().model().mosaic_tone;
+        assert_eq!(tone(""), MosaicTone::Linear, "OpenCV's weights: linear");
+        assert_eq!(tone("mosaic_tone = \"srgb\""), MosaicTone::Srgb);
+        // the shipped srgb model says so itself
+        let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/models/mosaic_raw_srgb.json");
+        assert_eq!(tone(&format!("model = {shipped:?}")), MosaicTone::Srgb);
+        assert_eq!(
+            tone(&format!("model = {shipped:?}\nmosaic_tone = \"linear\"")),
+            MosaicTone::Linear
+        );
+        assert_eq!(stage_spec(&cfg("")).unwrap().wb_gains, Gains::Auto);
+        assert_eq!(
+            stage_spec(&cfg("wb_gains = \"2,1,1.5\"")).unwrap().wb_gains,
+            Gains::Fixed([2.0, 1.0, 1.5])
+        );
     }
 }

@@ -4,10 +4,12 @@
 //!   difference with same-colour taps on the mosaic, `u16` magnitude `round(√(gx²+gy²) / 2^s)` and
 //!   `u8` orientation bin over 0..180°, reflect-101 borders), into pooled buffers, on the calling
 //!   rayon pool.
-//! * **Detection** (optional): the mosaic is normalised into a pooled `f32` buffer in 8-bit units
-//!   (`(v − black) · 255 / (white − black)`, clamped at 0 — the same formula as
-//!   [`crate::features::hog::mosaic_from_raw`], tested equal) and handed to the multi-scale HOG +
-//!   linear SVM [`Detector`]. A frame smaller than the detection window gives no detections (not an
+//! * **Detection** (optional): the mosaic is brought into the model's tone in a pooled `f32`
+//!   buffer in 8-bit units and handed to the multi-scale HOG + linear SVM [`Detector`]. Linear:
+//!   `(v − black) · 255 / (white − black)`, clamped at 0 — the same formula as
+//!   [`crate::features::hog::mosaic_from_raw`], tested equal. sRGB: each site white balanced
+//!   with [`StageSpec::wb_gains`] (for [`Gains::Auto`] the frame's own gains, else a grey-world
+//!   estimate of this frame), clipped and sRGB-encoded ([`crate::features::hog::tone`]). A frame smaller than the detection window gives no detections (not an
 //!   error).
 //! * **Keypoints** (optional, `compute.keypoints`): the paper's mosaic SIFT
 //!   ([`crate::features::sift::keypoints_from_frame`]: black level subtracted per tile, super-pixel
@@ -35,8 +37,10 @@ use rayon::prelude::*;
 use crate::detect::types::Detection;
 use crate::detect::Detector;
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
+use crate::features::hog::{MosaicTone, ToneTables};
 use crate::features::sift::{keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec};
 use crate::image::{Image, ImageViewMut};
+use crate::raw::levels::{Compression, Gains, NormaliseOptions};
 use crate::raw::{RawFrame, RawView};
 
 /// Full scale of the normalised mosaic the detector reads (8-bit units, as OpenCV's HOG).
@@ -75,6 +79,10 @@ pub enum StageError {
     /// The detector refused the frame.
     #[error("detection: {0}")]
     Detect(#[from] crate::detect::DetectError),
+    /// The white balance of the detector's mosaic failed (bad gains, or `file` gains on a frame
+    /// without any).
+    #[error("white balance: {0}")]
+    Gains(#[from] crate::raw::RawError),
     /// Mosaic SIFT refused the frame (other than for being too small).
     #[error("keypoints: {0}")]
     Keypoints(#[from] SiftError),
@@ -84,7 +92,7 @@ pub enum StageError {
 }
 
 /// Stage parameters.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StageSpec {
     /// Orientation bins over 0..180° (Dalal–Triggs: 9).
     pub orientation_bins: usize,
@@ -94,6 +102,10 @@ pub struct StageSpec {
     pub detect: bool,
     /// Compute mosaic SIFT keypoints.
     pub keypoints: bool,
+    /// White-balance gains of the detector's mosaic when the model's tone is
+    /// [`MosaicTone::Srgb`] (`compute.wb_gains`; [`Gains::Auto`]: the frame's own, else grey
+    /// world).
+    pub wb_gains: Gains,
 }
 
 impl Default for StageSpec {
@@ -103,6 +115,7 @@ impl Default for StageSpec {
             strip_rows: 64,
             detect: true,
             keypoints: false,
+            wb_gains: Gains::Auto,
         }
     }
 }
@@ -124,6 +137,11 @@ impl StageSpec {
                 allowed: "even, >= 2",
             });
         }
+        NormaliseOptions {
+            gains: self.wb_gains,
+            compression: Compression::None,
+        }
+        .build()?;
         Ok(())
     }
 }
@@ -197,7 +215,17 @@ impl Stage {
                 if w < ww || h < wh {
                     Vec::new()
                 } else {
-                    normalise_into(frame, self.spec.strip_rows, &mut maps.mosaic);
+                    match det.model().mosaic_tone {
+                        MosaicTone::Linear => normalise_into(frame, self.spec.strip_rows, &mut maps.mosaic),
+                        tone => {
+                            let gains = tone.gains_for(frame, self.spec.wb_gains)?;
+                            ToneTables::new(frame, tone, gains).apply_into(
+                                frame,
+                                self.spec.strip_rows,
+                                &mut maps.mosaic,
+                            );
+                        }
+                    }
                     let img = std::mem::take(&mut maps.mosaic);
                     let image = Image::from_vec(w, h, img)?;
                     let r = det.detect(&crate::features::hog::HogInput::Mosaic(image.view()));
@@ -482,5 +510,72 @@ mod tests {
             ..StageSpec::default()
         };
         assert!(Stage::new(spec, None).is_err());
+        let spec = StageSpec {
+            wb_gains: Gains::Fixed([1.0, f32::NAN, 1.0]),
+            ..StageSpec::default()
+        };
+        assert!(Stage::new(spec, None).is_err());
+    }
+
+    #[test]
+    fn the_detector_reads_the_mosaic_in_the_models_tone_with_the_configured_gains() {
+        use crate::detect::{DetectorOptions, Domain, LinearModel, NmsMethod};
+        use crate::features::hog::{mosaic_from_raw, mosaic_from_raw_toned, HogInput};
+        // a textured 12-bit GBRG frame, dark like raw (values in the lower quarter)
+        let (w, h) = (80, 144);
+        let px: Vec<u16> = (0..(w * h) as u32)
+            .map(|i| 64 + ((i.wrapping_mul(2654435761) >> 22) as u16 & 1023))
+            .collect();
+        let plain = RawFrame::from_u16(w, h, px, Cfa::Gbrg, 12, Levels::uniform(64, 4095)).unwrap();
+        let with_gains = plain.clone().with_wb_gains([1.8, 1.0, 1.4]);
+        let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin() * 0.05).collect();
+        let detector = |tone| {
+            let mut m = LinearModel::from_opencv_vector(&v, Domain::Mosaic, "test").unwrap();
+            m.mosaic_tone = tone;
+            let o = DetectorOptions {
+                hit_threshold: -1e6,
+                nms: NmsMethod::None,
+                ..DetectorOptions::default()
+            };
+            Arc::new(crate::detect::Detector::new(m, &o).unwrap())
+        };
+        let direct = |det: &crate::detect::Detector, m: Image<f32>| {
+            let mut d = det.detect(&HogInput::Mosaic(m.view())).unwrap().0;
+            d.sort_by(|a, b| b.score.total_cmp(&a.score));
+            d
+        };
+        let srgb = detector(MosaicTone::Srgb);
+        let run = |frame: &RawFrame, gains: Gains, det: &Arc<crate::detect::Detector>| {
+            let spec = StageSpec {
+                wb_gains: gains,
+                strip_rows: 4,
+                ..StageSpec::default()
+            };
+            Stage::new(spec, Some(det.clone()))
+                .unwrap()
+                .compute(frame, &mut GradientMaps::default())
+        };
+        let gw = crate::raw::levels::grey_world_gains(&plain);
+        for (frame, gains, want) in [
+            (&with_gains, Gains::Auto, [1.8, 1.0, 1.4]),
+            (&plain, Gains::Auto, gw),
+            (&with_gains, Gains::GreyWorld, gw),
+            (&plain, Gains::Fixed([2.0, 1.0, 3.0]), [2.0, 1.0, 3.0]),
+        ] {
+            let got = run(frame, gains, &srgb).unwrap().detections;
+            assert!(!got.is_empty());
+            let want = direct(&srgb, mosaic_from_raw_toned(frame, MosaicTone::Srgb, want));
+            assert_eq!(got, want, "{gains:?}");
+        }
+        // linear ignores the gains and reads the affine mosaic; the two tones score differently
+        let linear = detector(MosaicTone::Linear);
+        let lin = run(&with_gains, Gains::FromFile, &linear).unwrap().detections;
+        assert_eq!(lin, direct(&linear, mosaic_from_raw(&with_gains)));
+        let s = run(&with_gains, Gains::FromFile, &srgb).unwrap().detections;
+        assert_ne!(lin[0].score, s[0].score);
+        // `file` gains on a frame that has none: a clear error for this frame
+        let e = run(&plain, Gains::FromFile, &srgb).unwrap_err();
+        assert!(matches!(e, StageError::Gains(_)), "{e}");
+        assert!(e.to_string().contains("white balance"), "{e}");
     }
 }

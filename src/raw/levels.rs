@@ -59,7 +59,7 @@ use std::str::FromStr;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Colour, RawError, RawFrame, RawPixels};
+use super::{Colour, RawError, RawFrame, RawPixels, RawView};
 use crate::image::Image;
 
 /// Rows per parallel work item (a strip of 16 rows of a 4K frame is ~250 KB of f32 output).
@@ -247,9 +247,10 @@ impl NormaliseSpec {
                 origin: frame.meta.source.to_string(),
             })?,
             Gains::GreyWorld => grey_world_gains(frame),
+            // gains the file has but that are out of range fall back to grey world too
             Gains::Auto => match frame.wb_gains {
-                Some(g) => g,
-                None => grey_world_gains(frame),
+                Some(g) if check_gains(&g).is_ok() => g,
+                _ => grey_world_gains(frame),
             },
         };
         check_gains(&g)?;
@@ -267,30 +268,54 @@ fn colour_index(c: Colour) -> usize {
 
 /// Grey-world gains `[mean(G)/mean(R), 1, mean(G)/mean(B)]` over black-subtracted linear values
 /// of pixels below white. A colour with no usable pixel (or a zero mean) gets gain 1.
+///
+/// Parallel over row strips with exact integer sums per tile position, so the gains are the same
+/// for any thread count (the daemon computes them for every frame with `compute.wb_gains = "auto"`).
 pub fn grey_world_gains(frame: &RawFrame) -> [f32; 3] {
-    let lv = frame.levels();
+    let lv = *frame.levels();
+    let (w, h) = (frame.width(), frame.height());
+    let view = frame.view();
+    // per tile position p = (y & 1) * 2 + (x & 1): Σ (v − black) and the count, for v < white
+    let row_sums = |y: usize| -> [(u64, u64); 4] {
+        let mut acc = [(0u64, 0u64); 4];
+        let blacks = [lv.black[(y & 1) * 2], lv.black[(y & 1) * 2 + 1]];
+        let mut add = |x: usize, v: u16| {
+            if v < lv.white {
+                let a = &mut acc[(y & 1) * 2 + (x & 1)];
+                a.0 += v.saturating_sub(blacks[x & 1]) as u64;
+                a.1 += 1;
+            }
+        };
+        match view {
+            RawView::U8(img) => img.row(y)[..w]
+                .iter()
+                .enumerate()
+                .for_each(|(x, &v)| add(x, v as u16)),
+            RawView::U16(img) => img.row(y)[..w].iter().enumerate().for_each(|(x, &v)| add(x, v)),
+        }
+        acc
+    };
+    let tiles = (0..h)
+        .into_par_iter()
+        .with_min_len(STRIP_ROWS)
+        .map(row_sums)
+        .reduce(
+            || [(0u64, 0u64); 4],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    x.0 += y.0;
+                    x.1 += y.1;
+                }
+                a
+            },
+        );
     let mut sum = [0f64; 3];
     let mut count = [0u64; 3];
-    for y in 0..frame.height() {
-        let cols = [
-            colour_index(frame.cfa().colour_at(0, y)),
-            colour_index(frame.cfa().colour_at(1, y)),
-        ];
-        let blacks = [frame.black_at(0, y), frame.black_at(1, y)];
-        let scale = [
-            1.0 / (lv.white - blacks[0]) as f64,
-            1.0 / (lv.white - blacks[1]) as f64,
-        ];
-        for x in 0..frame.width() {
-            let v = frame.value(x, y);
-            if v >= lv.white {
-                continue;
-            }
-            let p = x & 1;
-            let l = v.saturating_sub(blacks[p]) as f64 * scale[p];
-            sum[cols[p]] += l;
-            count[cols[p]] += 1;
-        }
+    for (p, &(s, n)) in tiles.iter().enumerate() {
+        let c = colour_index(frame.cfa().colour_at(p & 1, p >> 1));
+        let range = lv.white.saturating_sub(lv.black[p]).max(1) as f64;
+        sum[c] += s as f64 / range;
+        count[c] += n;
     }
     let mean = |c: usize| {
         if count[c] == 0 {
