@@ -453,29 +453,39 @@ impl CameraConfig {
     }
 }
 
+/// A `"model"`-or-value key: `None` for `"model"` (the model file's own), else `value` parsed.
+fn model_override<T: std::str::FromStr>(
+    key: &str,
+    value: &str,
+    allowed: &str,
+) -> Result<Option<T>, ConfigError> {
+    match value {
+        "model" => Ok(None),
+        s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
+            key: key.into(),
+            value: format!("{value:?}"),
+            allowed: allowed.into(),
+        }),
+    }
+}
+
 impl ComputeConfig {
     /// `mosaic_taps` parsed: `None` = the model's own.
     pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
-        match self.mosaic_taps.as_str() {
-            "model" => Ok(None),
-            s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
-                key: "compute.mosaic_taps".into(),
-                value: format!("{:?}", self.mosaic_taps),
-                allowed: "one of \"model\", \"same-site\", \"paper\"".into(),
-            }),
-        }
+        model_override(
+            "compute.mosaic_taps",
+            &self.mosaic_taps,
+            "one of \"model\", \"same-site\", \"paper\"",
+        )
     }
 
     /// `mosaic_tone` parsed: `None` = the model's own.
     pub fn mosaic_tone_override(&self) -> Result<Option<MosaicTone>, ConfigError> {
-        match self.mosaic_tone.as_str() {
-            "model" => Ok(None),
-            s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
-                key: "compute.mosaic_tone".into(),
-                value: format!("{:?}", self.mosaic_tone),
-                allowed: "one of \"model\", \"linear\", \"srgb\"".into(),
-            }),
-        }
+        model_override(
+            "compute.mosaic_tone",
+            &self.mosaic_tone,
+            "one of \"model\", \"linear\", \"srgb\"",
+        )
     }
 
     /// `wb_gains` parsed (fixed gains checked: finite, > 0 and < 16).

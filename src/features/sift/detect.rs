@@ -64,7 +64,7 @@ pub(crate) struct Candidate {
 /// Per-layer blur increments in input pixels: `sig[0] = sigma`, `sig[i]` takes layer `i - 1`
 /// to total sigma `sigma * k^i`, `k = 2^(1/n_octave_layers)`.
 fn layer_sigmas(spec: &SiftSpec) -> Vec<f64> {
-    let n = spec.n_octave_layers;
+    let n = spec.o.n_octave_layers;
     let k = 2f64.powf(1.0 / n as f64);
     let mut sig = vec![spec.sigma_px(); n + 3];
     for (i, s) in sig.iter_mut().enumerate().skip(1) {
@@ -80,7 +80,7 @@ fn layer_sigmas(spec: &SiftSpec) -> Vec<f64> {
 /// one same-colour sample per axis.
 fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
     let m = base_w.min(base_h).max(1) as f64;
-    let first = if spec.double_image { 1.0 } else { 0.0 };
+    let first = if spec.o.double_image { 1.0 } else { 0.0 };
     let want = ((m.log2() - 2.0).round() + first).max(1.0) as usize;
     let step = spec.step();
     let mut n = 1;
@@ -103,14 +103,14 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
     let st = step as f64;
     let tp0 = std::time::Instant::now();
     let doubled;
-    let init = if spec.double_image {
+    let init = if spec.o.double_image {
         doubled = upsample2_step(src, step)?;
         &doubled
     } else {
         src
     };
     // The doubled image carries twice the input blur (SIFT_INIT_SIGMA * 2 in its pixels).
-    let init_sigma = if spec.double_image {
+    let init_sigma = if spec.o.double_image {
         2.0 * SIFT_INIT_SIGMA
     } else {
         SIFT_INIT_SIGMA
@@ -129,7 +129,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
     let tp1 = std::time::Instant::now();
     let n_oct = octave_count(base.width(), base.height(), spec);
     let sig = layer_sigmas(spec);
-    let nl = spec.n_octave_layers;
+    let nl = spec.o.n_octave_layers;
     let mut gauss: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
     let mut dog: Vec<Vec<Image<f32>>> = Vec::with_capacity(n_oct);
     for o in 0..n_oct {
@@ -260,7 +260,7 @@ fn adjust_local_extrema(
     let deriv_scale = img_scale * 0.5;
     let second_deriv_scale = img_scale;
     let cross_deriv_scale = img_scale * 0.25;
-    let nl = spec.n_octave_layers;
+    let nl = spec.o.n_octave_layers;
     let (cols, rows) = dog[0].dimensions();
     let (mut xi, mut xr, mut xc) = (0.0f32, 0.0f32, 0.0f32);
     let mut converged = false;
@@ -329,7 +329,7 @@ fn adjust_local_extrema(
     ];
     let t = d_d[0] * xc + d_d[1] * xr + d_d[2] * xi;
     let contr = at(img, r, c) * img_scale + t * 0.5;
-    if contr.abs() * (nl as f32) < spec.contrast_threshold as f32 {
+    if contr.abs() * (nl as f32) < spec.o.contrast_threshold as f32 {
         return None;
     }
     let v2 = at(img, r, c) * 2.0;
@@ -339,7 +339,7 @@ fn adjust_local_extrema(
         * cross_deriv_scale;
     let tr = dxx + dyy;
     let det = dxx * dyy - dxy * dxy;
-    let e = spec.edge_threshold as f32;
+    let e = spec.o.edge_threshold as f32;
     if det <= 0.0 || tr * tr * e >= (e + 1.0) * (e + 1.0) * det {
         return None;
     }
@@ -565,7 +565,7 @@ fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
     };
     if spec.step() == 1 {
         let v = (c as f32 + xc) * scale + centre;
-        if spec.double_image {
+        if spec.o.double_image {
             v * 0.5
         } else {
             v
@@ -574,7 +574,7 @@ fn to_input(c: usize, xc: f32, o: usize, spec: &SiftSpec) -> f32 {
         let p = c % 2;
         let mut u = ((c - p) / 2) as f32 + xc;
         u = u * scale + centre;
-        if spec.double_image {
+        if spec.o.double_image {
             u = (u + 0.5) * 0.5 - 0.5;
         }
         2.0 * u + p as f32
@@ -608,10 +608,10 @@ const EXTREMA_ROW_STRIP: usize = 8;
 /// Find, refine and orient the scale-space extrema of every octave and layer. Output order is the
 /// pyramid's scan order (octave, layer, row, column, orientation peak) for any thread count.
 pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Candidate> {
-    let nl = spec.n_octave_layers;
+    let nl = spec.o.n_octave_layers;
     let s = spec.step();
     let reach = s;
-    let threshold = (0.5 * spec.contrast_threshold / nl as f64 * INTENSITY_RANGE as f64) as f32;
+    let threshold = (0.5 * spec.o.contrast_threshold / nl as f64 * INTENSITY_RANGE as f64) as f32;
     let path = KernelPath::best();
     let mut out = Vec::new();
     for (o, dog) in pyr.dog.iter().enumerate() {
@@ -678,7 +678,7 @@ fn orient(
     hist: &mut [f32; SIFT_ORI_HIST_BINS],
     out: &mut Vec<Candidate>,
 ) {
-    let nl = spec.n_octave_layers as f32;
+    let nl = spec.o.n_octave_layers as f32;
     let s = spec.step();
     let n = SIFT_ORI_HIST_BINS;
     // Keypoint sigma in octave pixels.
@@ -696,11 +696,11 @@ fn orient(
     );
     let mag_thr = omax * SIFT_ORI_PEAK_RATIO;
     let octave_scale = (1u64 << o) as f32;
-    let doubled = if spec.double_image { 0.5 } else { 1.0 };
+    let doubled = if spec.o.double_image { 0.5 } else { 1.0 };
     let x = to_input(rf.c, rf.xc, o, spec);
     let y = to_input(rf.r, rf.xr, o, spec);
     let size = scl_octv * 2.0 * octave_scale * doubled;
-    let octave = o as i32 - i32::from(spec.double_image);
+    let octave = o as i32 - i32::from(spec.o.double_image);
     for j in 0..n {
         let l = if j > 0 { j - 1 } else { n - 1 };
         let r2 = if j < n - 1 { j + 1 } else { 0 };

@@ -215,38 +215,20 @@ impl SiftOptions {
         if !(self.max_value.is_finite() && self.max_value > 0.0) {
             return bad("max_value", self.max_value, "> 0");
         }
-        Ok(SiftSpec {
-            domain: self.domain,
-            n_octave_layers: self.n_octave_layers,
-            sigma: self.sigma,
-            contrast_threshold: self.contrast_threshold,
-            edge_threshold: self.edge_threshold,
-            double_image: self.double_image,
-            max_value: self.max_value,
-            sigma_in_super_pixels: self.sigma_in_super_pixels,
-            centred_octaves: self.centred_octaves,
-        })
+        Ok(SiftSpec { o: *self })
     }
 }
 
 /// Validated SIFT parameters (build with [`SiftOptions::build`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SiftSpec {
-    domain: Domain,
-    n_octave_layers: usize,
-    sigma: f64,
-    contrast_threshold: f64,
-    edge_threshold: f64,
-    double_image: bool,
-    max_value: f64,
-    sigma_in_super_pixels: bool,
-    centred_octaves: bool,
+    o: SiftOptions,
 }
 
 impl SiftSpec {
     /// Length unit of `sigma` in pyramid-base pixels: 2 for a mosaic with super-pixel sigmas.
     pub(crate) fn unit(&self) -> f64 {
-        if self.domain == Domain::Mosaic && self.sigma_in_super_pixels {
+        if self.o.domain == Domain::Mosaic && self.o.sigma_in_super_pixels {
             2.0
         } else {
             1.0
@@ -255,12 +237,12 @@ impl SiftSpec {
 
     /// `sigma` in pyramid-base pixels.
     pub(crate) fn sigma_px(&self) -> f64 {
-        self.sigma * self.unit()
+        self.o.sigma * self.unit()
     }
 
     /// The same spec with sigma measured in super-pixels (`true`) or mosaic pixels.
     pub fn with_sigma_in_super_pixels(mut self, on: bool) -> Self {
-        self.sigma_in_super_pixels = on;
+        self.o.sigma_in_super_pixels = on;
         self
     }
 
@@ -274,76 +256,53 @@ impl SiftSpec {
         SiftOptions::mosaic().build().expect("defaults are valid")
     }
 
-    /// The options this spec was built from (to change one and validate again).
-    fn options(&self) -> SiftOptions {
-        SiftOptions {
-            domain: self.domain,
-            n_octave_layers: self.n_octave_layers,
-            sigma: self.sigma,
-            contrast_threshold: self.contrast_threshold,
-            edge_threshold: self.edge_threshold,
-            double_image: self.double_image,
-            max_value: self.max_value,
-            sigma_in_super_pixels: self.sigma_in_super_pixels,
-            centred_octaves: self.centred_octaves,
-        }
-    }
-
     /// The same spec for data whose full scale is `max_value` (validated as
     /// [`SiftOptions::build`] validates it).
     pub fn with_max_value(self, max_value: f64) -> Result<Self, SiftError> {
-        SiftOptions {
-            max_value,
-            ..self.options()
-        }
-        .build()
+        SiftOptions { max_value, ..self.o }.build()
     }
 
     /// The same spec with image doubling switched on or off.
     pub fn with_double_image(mut self, double_image: bool) -> Self {
-        self.double_image = double_image;
+        self.o.double_image = double_image;
         self
     }
 
     /// The same spec with base blur `sigma` (in the spec's unit; see
     /// [`SiftOptions::sigma_in_super_pixels`]), validated as [`SiftOptions::build`] validates it.
     pub fn with_sigma(self, sigma: f64) -> Result<Self, SiftError> {
-        SiftOptions {
-            sigma,
-            ..self.options()
-        }
-        .build()
+        SiftOptions { sigma, ..self.o }.build()
     }
 
     /// The same spec with centred octaves ([`SiftOptions::centred_octaves`]) on or off.
     pub fn with_centred_octaves(mut self, centred: bool) -> Self {
-        self.centred_octaves = centred;
+        self.o.centred_octaves = centred;
         self
     }
 
     /// Grey or mosaic.
     pub fn domain(&self) -> Domain {
-        self.domain
+        self.o.domain
     }
 
     /// Whether the image is doubled first.
     pub fn double_image(&self) -> bool {
-        self.double_image
+        self.o.double_image
     }
 
     /// Full-scale value of the input.
     pub fn max_value(&self) -> f64 {
-        self.max_value
+        self.o.max_value
     }
 
     /// Whether octaves are centred 2x2 means (see [`SiftOptions::centred_octaves`]).
     pub fn centred_octaves(&self) -> bool {
-        self.centred_octaves
+        self.o.centred_octaves
     }
 
     /// Same-colour sample distance: 1 for grey, 2 for a mosaic.
     pub(crate) fn step(&self) -> usize {
-        match self.domain {
+        match self.o.domain {
             Domain::Grey => 1,
             Domain::Mosaic => 2,
         }
@@ -387,7 +346,7 @@ fn check_size(w: usize, h: usize, spec: &SiftSpec) -> Result<(), SiftError> {
             min: MIN_SIZE,
         });
     }
-    if spec.domain == Domain::Mosaic && !(w.is_multiple_of(2) && h.is_multiple_of(2)) {
+    if spec.o.domain == Domain::Mosaic && !(w.is_multiple_of(2) && h.is_multiple_of(2)) {
         return Err(SiftError::OddSize { width: w, height: h });
     }
     Ok(())
@@ -395,7 +354,7 @@ fn check_size(w: usize, h: usize, spec: &SiftSpec) -> Result<(), SiftError> {
 
 /// Scale from the input range to OpenCV's 0..255 (`255 / max_value`).
 fn input_scale(spec: &SiftSpec) -> f32 {
-    (detect::INTENSITY_RANGE as f64 / spec.max_value) as f32
+    (detect::INTENSITY_RANGE as f64 / spec.o.max_value) as f32
 }
 
 /// Check the size and copy the input into a pooled f32 image on OpenCV's 0..255 scale (rows in
@@ -554,8 +513,8 @@ pub fn blur_plane(src: &Image<f32>, sigma: f64) -> Result<Image<f32>, SiftError>
 /// The spec `spec` for a frame's normalised mosaic: domain mosaic, full scale 1.
 fn frame_spec(spec: &SiftSpec) -> SiftSpec {
     let mut spec = *spec;
-    spec.domain = Domain::Mosaic;
-    spec.max_value = 1.0;
+    spec.o.domain = Domain::Mosaic;
+    spec.o.max_value = 1.0;
     spec
 }
 
