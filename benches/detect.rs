@@ -15,6 +15,34 @@ fn scene(w: usize, h: usize) -> Image<f32> {
     })
 }
 
+/// Raw frame → the detector's mosaic (the daemon's first detection step), 1080p 12- and 16-bit:
+/// linear into a reused buffer, srgb tables built, srgb applied with tables kept.
+fn bench_mosaic(c: &mut Criterion) {
+    use mosaicd::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
+    use mosaicd::raw::{Cfa, Levels, RawFrame};
+    let (w, h) = (1920usize, 1080usize);
+    for bits in [12u8, 16] {
+        let max = ((1u32 << bits) - 1) as u16;
+        let px: Vec<u16> = (0..w * h)
+            .map(|i| (i.wrapping_mul(2654435761) >> 7) as u16 & max)
+            .collect();
+        let f = RawFrame::from_u16(w, h, px, Cfa::Rggb, bits, Levels::uniform(256, max)).unwrap();
+        let mut buf = Vec::new();
+        c.bench_function(&format!("raw -> linear mosaic 1080p {bits}-bit"), |b| {
+            b.iter(|| mosaic_from_raw_into(&f, 64, &mut buf))
+        });
+        let gains = [1.8, 1.0, 1.4];
+        c.bench_function(&format!("srgb tone tables {bits}-bit (build)"), |b| {
+            b.iter(|| ToneTables::new(&f, MosaicTone::Srgb, gains))
+        });
+        let t = ToneTables::new(&f, MosaicTone::Srgb, gains);
+        c.bench_function(
+            &format!("raw -> srgb mosaic 1080p {bits}-bit (tables kept)"),
+            |b| b.iter(|| t.apply_into(&f, 64, &mut buf)),
+        );
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let img = scene(1920, 1080);
     let spec = HogSpec::new(&HogOptions::default()).unwrap();
@@ -42,6 +70,6 @@ fn bench(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10);
-    targets = bench
+    targets = bench_mosaic, bench
 }
 criterion_main!(benches);

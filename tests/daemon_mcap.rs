@@ -552,6 +552,22 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
         before.last().unwrap(),
         after[0]
     );
+    // ... and counted: every processed frame between the two files (all of them unless the live
+    // queue dropped some, which the summary also counts)
+    let count = |key: &str| -> u64 {
+        let at = stdout
+            .find(key)
+            .unwrap_or_else(|| panic!("no {key:?} in\n{stdout}"))
+            + key.len();
+        let digits: String = stdout[at..].chars().take_while(char::is_ascii_digit).collect();
+        digits.parse().unwrap()
+    };
+    let (lost, dropped) = (count("frames sinks lost "), count("queue_full "));
+    let gap = after[0] - before.last().unwrap() - 1;
+    assert!(lost >= 1 && lost <= gap, "lost {lost}, gap {gap}\n{stdout}");
+    if dropped == 0 {
+        assert_eq!(lost, gap, "{stdout}");
+    }
 }
 
 /// SIGHUP (`systemctl reload`): the recording file is finished (complete, indexed) and the next

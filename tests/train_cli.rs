@@ -271,6 +271,56 @@ fn c_is_selected_on_an_inner_split() {
 }
 
 #[test]
+fn val_fraction_zero_trains_on_every_file_and_still_selects_c() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("all.json");
+    let o = mosaicd(&[
+        "train",
+        "--domain",
+        "mosaic",
+        "--max-neg-images",
+        "4",
+        "--rounds",
+        "1",
+        "--val-fraction",
+        "0",
+        "--select-c",
+        "0.01,0.1",
+        "--mosaic-tone",
+        "srgb",
+        "--input",
+        "clean",
+        "--threads",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "train failed:\n{log}");
+    assert!(log.contains("select C: chose C ="), "{log}");
+    assert!(log.contains("validation: skipped, nothing is held out"), "{log}");
+    let m = LinearModel::load(&out, Domain::Mosaic).unwrap();
+    let split = mosaicd::detect::train::split_data(&mosaicd::data::data_root(), 1, 0.2, 0).unwrap();
+    let every = split.train_pos.len() + split.val_pos.len();
+    assert_eq!(m.provenance["train_positives"].as_u64().unwrap() as usize, every);
+    assert!(m.provenance.get("validation").is_none());
+    assert_eq!(
+        m.provenance["c_selection"]["candidates"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    assert_eq!(
+        m.provenance["c_selection"]["inner_val_fraction"].as_f64(),
+        Some(0.2)
+    );
+    // the provenance says what the srgb mosaic is
+    let note = m.provenance["input_note"].as_str().unwrap();
+    assert!(note.contains("white balanced") && note.contains("srgb"), "{note}");
+}
+
+#[test]
 fn bad_training_options_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.json");
@@ -302,5 +352,22 @@ fn bad_training_options_are_clear_errors() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--select-c") && err.contains("-1"), "{err}");
+    assert!(!out.exists(), "no model may be written on error");
+    // a held-out fraction too small for C selection's inner split: refused before any training
+    let o = mosaicd(&[
+        "train",
+        "--domain",
+        "grey",
+        "--val-fraction",
+        "0.001",
+        "--select-c",
+        "0.1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("val_fraction") && err.contains("0.001"), "{err}");
+    assert!(!err.contains("mining round"), "trained before refusing:\n{err}");
     assert!(!out.exists(), "no model may be written on error");
 }

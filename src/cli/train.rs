@@ -43,7 +43,8 @@ pub struct TrainArgs {
     /// Use at most this many training negative images (0 = all).
     #[arg(long, default_value_t = 0)]
     pub max_neg_images: usize,
-    /// Held-out fraction (photos and negative images).
+    /// Held-out fraction (photos and negative images). 0 trains on every file (no validation
+    /// after training; `--select-c` still holds out 0.2 of them for its inner split).
     #[arg(long, default_value_t = 0.2)]
     pub val_fraction: f64,
     /// Which block of the seeded shuffle is held out: 0 is the split the shipped models
@@ -146,6 +147,12 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
             "how": "each candidate trained on an inner split of the training files, scored on its inner validation part (lowest MR at 1e-4 FPPW)",
             "candidates": results,
         });
+        if o.val_fraction == 0.0 {
+            // the inner split's fraction differs from the outer one only then; other models'
+            // provenance stays as it was
+            model.provenance["c_selection"]["inner_val_fraction"] =
+                serde_json::json!(mosaicd::detect::train::inner_val_fraction(o.val_fraction));
+        }
     }
     let cmd: Vec<String> = std::env::args().collect();
     model.provenance["command"] = serde_json::json!(cmd.join(" "));
@@ -153,7 +160,14 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         model.provenance["negatives_dirs"] = serde_json::json!(a.negatives_dir);
     }
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
-    if !a.no_eval {
+    let nothing_held_out = split.val_pos.is_empty() || split.val_neg.is_empty();
+    if nothing_held_out && !a.no_eval {
+        eprintln!(
+            "validation: skipped, nothing is held out (--val-fraction {})",
+            o.val_fraction
+        );
+    }
+    if !a.no_eval && !nothing_held_out {
         let ev = pool.install(|| {
             evaluate_windows_via(
                 &model,

@@ -413,6 +413,17 @@ pub fn inner_split(split: &Split, seed: u64, val_fraction: f64) -> Split {
     }
 }
 
+/// The fraction [`select_c`] holds out of the training files: the outer `val_fraction`, or 0.2
+/// (the default split) when nothing is held out outside (`val_fraction` 0: a model trained on
+/// every file still chooses its C on an inner split).
+pub fn inner_val_fraction(val_fraction: f64) -> f64 {
+    if val_fraction > 0.0 {
+        val_fraction
+    } else {
+        0.2
+    }
+}
+
 /// The held-out block `[round(k·f·n), round((k+1)·f·n))` of `n` shuffled items.
 fn fold_range(n: usize, val_fraction: f64, fold: usize) -> std::ops::Range<usize> {
     let at = |k: usize| ((n as f64 * val_fraction * k as f64).round() as usize).min(n);
@@ -1004,7 +1015,15 @@ pub fn select_c(
     if let Some(c) = candidates.iter().find(|c| !(c.is_finite() && **c > 0.0)) {
         return Err(bad(c.to_string(), "finite and > 0"));
     }
-    let inner = inner_split(split, o.seed, o.val_fraction);
+    let inner = inner_split(split, o.seed, inner_val_fraction(o.val_fraction));
+    if inner.val_pos.is_empty() || inner.val_neg.is_empty() {
+        // before any training, not after the first candidate
+        return Err(TrainError::BadOption {
+            what: "val_fraction",
+            value: o.val_fraction.to_string(),
+            allowed: "large enough that C selection's inner split holds out positives and negatives",
+        });
+    }
     let mut results = Vec::new();
     for &c in candidates {
         let oc = TrainOptions { c, ..*o };
@@ -1261,7 +1280,10 @@ fn model_from(w: Vec<f32>, b: f32, o: &TrainOptions, split: &Split, y: &[i8]) ->
         "input_pipeline": o.pipeline.name(),
         "input_note": match o.pipeline {
             InputPipeline::Sampled => "sRGB sampled through the CFA (mosaic), OpenCV grey or the RGB itself; no reverse ISP",
-            InputPipeline::ReverseIsp { .. } => "sRGB through the reverse ISP (default camera profile) to raw; mosaic = the raw frame, colour/grey = the forward ISP's output",
+            InputPipeline::ReverseIsp { .. } => match o.mosaic_tone {
+                MosaicTone::Linear => "sRGB through the reverse ISP (default camera profile) to raw; mosaic = the raw frame, colour/grey = the forward ISP's output",
+                MosaicTone::Srgb => "sRGB through the reverse ISP (default camera profile) to raw; mosaic = the raw frame with each site white balanced (the frame's gains), clipped and sRGB-encoded (mosaic_tone srgb), colour/grey = the forward ISP's output",
+            },
         },
     });
     if let InputPipeline::ReverseIsp { seed, .. } = o.pipeline {
@@ -1522,12 +1544,19 @@ mod tests {
         assert!(e.contains("raw-foggy") && e.contains("expected sampled"), "{e}");
     }
 
-    #[test]
-    fn inner_split_regroups_only_the_training_files() {
-        let pos: Vec<PathBuf> = (0..40)
+    /// 40 photos of two crops each (a crop and its mirror share the prefix) and 30 negative
+    /// images, by name only.
+    fn toy_files() -> (Vec<PathBuf>, Vec<PathBuf>) {
+        let pos = (0..40)
             .flat_map(|k| ["a", "b"].map(|m| PathBuf::from(format!("crop{k:03}{m}.png"))))
             .collect();
-        let neg: Vec<PathBuf> = (0..30).map(|k| PathBuf::from(format!("neg{k}.jpg"))).collect();
+        let neg = (0..30).map(|k| PathBuf::from(format!("neg{k}.jpg"))).collect();
+        (pos, neg)
+    }
+
+    #[test]
+    fn inner_split_regroups_only_the_training_files() {
+        let (pos, neg) = toy_files();
         let outer = Split {
             extra_train_neg: vec![PathBuf::from("extra.png")],
             ..split_lists(pos, neg, 1, 0.2, 0)
@@ -1558,6 +1587,18 @@ mod tests {
         }
         // Deterministic.
         assert_eq!(inner_split(&outer, 1, 0.2).val_pos, inner.val_pos);
+    }
+
+    #[test]
+    fn training_on_every_file_still_selects_c_on_an_inner_split() {
+        let (pos, neg) = toy_files();
+        let all = split_lists(pos, neg, 1, 0.0, 0);
+        assert!(all.val_pos.is_empty() && all.val_neg.is_empty());
+        assert_eq!((all.train_pos.len(), all.train_neg.len()), (80, 30));
+        assert_eq!(inner_val_fraction(0.0), 0.2);
+        assert_eq!(inner_val_fraction(0.25), 0.25);
+        let inner = inner_split(&all, 1, inner_val_fraction(0.0));
+        assert_eq!((inner.val_pos.len(), inner.val_neg.len()), (16, 6));
     }
 
     #[test]

@@ -133,8 +133,13 @@ impl RunSummary {
                 s.latency_p99_us / 1e3
             ));
             out.push(format!(
-                "  dropped: queue_full {} driver {}; failed: source {} compute {} sink {}",
-                s.dropped_queue_full, s.dropped_driver, s.failed_source, s.failed_compute, s.failed_sink
+                "  dropped: queue_full {} driver {}; failed: source {} compute {} sink {}; frames sinks lost {}",
+                s.dropped_queue_full,
+                s.dropped_driver,
+                s.failed_source,
+                s.failed_compute,
+                s.failed_sink,
+                s.sink_frames_lost
             ));
             if let Some(e) = &c.source_error {
                 out.push(format!("  source error: {e}"));

@@ -105,6 +105,13 @@ pub trait Sink {
     fn reopen(&mut self) -> Result<(), SinkError> {
         Ok(())
     }
+    /// Frames this sink received but did not write, so far (a cumulative count; the engine adds
+    /// what is new to `sink_frames_lost` after every event). Default: none; a sink that pauses
+    /// on errors (the recorder) counts its own. Frames that reach a sink after it stopped are
+    /// counted by the engine.
+    fn frames_not_written(&self) -> u64 {
+        0
+    }
 }
 
 /// Builds a sink inside its own thread (ports that are not `Send` are created there).
@@ -676,15 +683,26 @@ fn sink_thread(
     };
     let mut out = SinkOutcome::default();
     let mut failed = false;
+    // the sink's own count of frames it did not write, as far as it is in `sink_frames_lost`
+    let mut lost = 0;
     for ev in rx {
         if failed {
-            continue; // keep draining so the pipeline never blocks on a dead sink
+            // keep draining so the pipeline never blocks on a dead sink
+            if matches!(ev, SinkEvent::Frame(_)) {
+                stats.sink_frames_lost.fetch_add(1, Ordering::Relaxed);
+            }
+            continue;
         }
         let r = match &ev {
             SinkEvent::Frame(f) => sink.frame(f),
             SinkEvent::Stats(s) => sink.stats(s),
             SinkEvent::Reopen => sink.reopen(),
         };
+        let now = sink.frames_not_written();
+        if now > lost {
+            stats.sink_frames_lost.fetch_add(now - lost, Ordering::Relaxed);
+            lost = now;
+        }
         match r {
             Ok(()) => {}
             Err(e @ SinkError::Interrupted { .. }) => {
@@ -704,6 +722,10 @@ fn sink_thread(
         if let Err(e) = sink.finish() {
             stats.failed_sink.fetch_add(1, Ordering::Relaxed);
             out.errors.push(e.to_string());
+        }
+        let now = sink.frames_not_written();
+        if now > lost {
+            stats.sink_frames_lost.fetch_add(now - lost, Ordering::Relaxed);
         }
     }
     out

@@ -10,7 +10,8 @@
 //! A write error (disk full, I/O error) never stops detection or publishing. With
 //! `record.retry_ms > 0` (default 30 s) and without `record.overwrite`, it pauses the recording:
 //! the error is counted (`failed_sink`, once per outage) and logged, the frames that arrive
-//! meanwhile are not recorded (counted in the log), and every `retry_ms` the sink tries again in a
+//! meanwhile are not recorded (counted in `sink_frames_lost`, with those of the chunk the error
+//! cut, and in the log), and every `retry_ms` the sink tries again in a
 //! new numbered file ([`McapRecorder::resume`]), until a write succeeds. The file that failed
 //! stays as it was, cut at the failure. Otherwise the first error stops this sink for the run.
 
@@ -36,6 +37,8 @@ pub struct McapSink {
     retry: Option<Duration>,
     /// While paused by a write error.
     outage: Option<Outage>,
+    /// Frames not written in this run (every outage, and a stop): [`Sink::frames_not_written`].
+    not_written: u64,
 }
 
 /// A recording paused by a write error.
@@ -100,6 +103,7 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             deterministic,
             retry,
             outage: None,
+            not_written: 0,
         }) as Box<dyn Sink>)
     }))
 }
@@ -158,6 +162,18 @@ impl McapSink {
         }
     }
 
+    /// [`McapSink::failed`], counting the frames not flushed before the error (the one being
+    /// written included) as not written: they are lost with their chunk.
+    fn failed_unflushed(&mut self, e: impl std::fmt::Display) -> Result<(), SinkError> {
+        let unflushed = std::mem::take(&mut self.since_flush) as u64;
+        self.not_written += unflushed;
+        let r = self.failed(e);
+        if let Some(o) = &mut self.outage {
+            o.frames_lost += unflushed;
+        }
+        r
+    }
+
     fn write_frame(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
         // Unflushed from here on: an error before the next flush loses it.
         self.since_flush += 1;
@@ -202,6 +218,7 @@ impl Sink for McapSink {
             None => false,
             Some(o) if Instant::now() < o.retry_at => {
                 o.frames_lost += 1;
+                self.not_written += 1;
                 return Ok(());
             }
             Some(_) => self.recorder.resume(),
@@ -217,16 +234,13 @@ impl Sink for McapSink {
                 self.written();
                 Ok(())
             }
-            Err(e) => {
-                // This frame and those not flushed before it are not (readably) in any file.
-                let unflushed = std::mem::take(&mut self.since_flush) as u64;
-                let r = self.failed(e);
-                if let Some(o) = &mut self.outage {
-                    o.frames_lost += unflushed;
-                }
-                r
-            }
+            // this frame and those not flushed before it are not (readably) in any file
+            Err(e) => self.failed_unflushed(e),
         }
+    }
+
+    fn frames_not_written(&self) -> u64 {
+        self.not_written
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
@@ -241,7 +255,7 @@ impl Sink for McapSink {
                 self.written();
                 Ok(())
             }
-            Err(e) => self.failed(e),
+            Err(e) => self.failed_unflushed(e),
         }
     }
 
@@ -263,7 +277,7 @@ impl Sink for McapSink {
                 );
                 Ok(())
             }
-            Err(e) => self.failed(e),
+            Err(e) => self.failed_unflushed(e),
         }
     }
 
@@ -279,9 +293,13 @@ impl Sink for McapSink {
             );
             return Ok(());
         }
-        self.recorder.finish().map(|_| ()).map_err(|e| SinkError::Write {
-            sink: self.name(),
-            message: e.to_string(),
+        self.recorder.finish().map(|_| ()).map_err(|e| {
+            // the frames of the last, unflushed chunk are not (readably) in the file
+            self.not_written += std::mem::take(&mut self.since_flush) as u64;
+            SinkError::Write {
+                sink: self.name(),
+                message: e.to_string(),
+            }
         })
     }
 }

@@ -55,6 +55,7 @@ pub fn stats_json(camera: &str, s: &StatsMsg) -> serde_json::Value {
         "failed_source": s.failed_source,
         "failed_compute": s.failed_compute,
         "failed_sink": s.failed_sink,
+        "sink_frames_lost": s.sink_frames_lost,
         "detections": s.detections,
         "box_overflow": s.box_overflow,
         WALL_KEY: { "fps": s.fps, "latency_p50_us": s.latency_p50_us, "latency_p99_us": s.latency_p99_us },

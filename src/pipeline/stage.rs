@@ -6,11 +6,14 @@
 //!   rayon pool.
 //! * **Detection** (optional): the mosaic is brought into the model's tone in a pooled `f32`
 //!   buffer in 8-bit units and handed to the multi-scale HOG + linear SVM [`Detector`]. Linear:
-//!   `(v − black) · 255 / (white − black)`, clamped at 0 — the same formula as
-//!   [`crate::features::hog::mosaic_from_raw`], tested equal. sRGB: each site white balanced
-//!   with [`StageSpec::wb_gains`] (for [`Gains::Auto`] the frame's own gains, else a grey-world
-//!   estimate of this frame), clipped and sRGB-encoded ([`crate::features::hog::tone`]). A frame smaller than the detection window gives no detections (not an
-//!   error).
+//!   `(v − black) · 255 / (white − black)`, clamped at 0
+//!   ([`crate::features::hog::mosaic_from_raw_into`]; the tone module's linear tables are tested
+//!   equal to it). sRGB: each
+//!   site white balanced with [`StageSpec::wb_gains`] (for [`Gains::Auto`] the frame's own gains,
+//!   else a grey-world estimate of this frame), clipped and sRGB-encoded
+//!   ([`crate::features::hog::tone`]), through lookup tables the stage keeps while frames' levels
+//!   and gains stay the same. A frame smaller than the detection window gives no detections (not
+//!   an error).
 //! * **Keypoints** (optional, `compute.keypoints`): the paper's mosaic SIFT
 //!   ([`crate::features::sift::keypoints_from_frame`]: black level subtracted per tile, super-pixel
 //!   DoG pyramid, 5x5 extrema, no descriptors), sorted by decreasing |response| with ties broken by
@@ -30,21 +33,18 @@
 //! assert!(out.detections.is_empty());
 //! ```
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
 use crate::detect::types::Detection;
 use crate::detect::Detector;
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
-use crate::features::hog::{MosaicTone, ToneTables};
+use crate::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
 use crate::features::sift::{keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec};
 use crate::image::{Image, ImageViewMut};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
-use crate::raw::{RawFrame, RawView};
-
-/// Full scale of the normalised mosaic the detector reads (8-bit units, as OpenCV's HOG).
-const UNIT_RANGE: f32 = 255.0;
+use crate::raw::RawFrame;
 
 /// Errors of the compute stage.
 #[derive(Debug, thiserror::Error)]
@@ -153,6 +153,8 @@ pub struct Stage {
     gradient: MagBinSpec,
     detector: Option<Arc<Detector>>,
     sift: Option<SiftSpec>,
+    /// The detector's last tone tables, kept while frames' levels and gains stay the same.
+    tone_tables: Arc<Mutex<Option<Arc<ToneTables>>>>,
 }
 
 impl Stage {
@@ -177,6 +179,7 @@ impl Stage {
             gradient,
             detector: if spec.detect { detector } else { None },
             sift,
+            tone_tables: Arc::default(),
         })
     }
 
@@ -216,10 +219,12 @@ impl Stage {
                     Vec::new()
                 } else {
                     match det.model().mosaic_tone {
-                        MosaicTone::Linear => normalise_into(frame, self.spec.strip_rows, &mut maps.mosaic),
+                        MosaicTone::Linear => {
+                            mosaic_from_raw_into(frame, self.spec.strip_rows, &mut maps.mosaic)
+                        }
                         tone => {
                             let gains = tone.gains_for(frame, self.spec.wb_gains)?;
-                            ToneTables::new(frame, tone, gains).apply_into(
+                            self.tone_tables_for(frame, tone, gains).apply_into(
                                 frame,
                                 self.spec.strip_rows,
                                 &mut maps.mosaic,
@@ -249,6 +254,23 @@ impl Stage {
     }
 }
 
+impl Stage {
+    /// The tone tables for `frame`, `tone` and `gains`: the kept ones when they were built for
+    /// the same levels, bit depth and gains, else new ones (which are kept instead).
+    fn tone_tables_for(&self, frame: &RawFrame, tone: MosaicTone, gains: [f32; 3]) -> Arc<ToneTables> {
+        // The lock is held only to look and to store, never while building, so frames in flight
+        // with other gains (grey world) build theirs side by side. A poisoned lock only means
+        // another frame panicked while holding it; the slot is always a complete value.
+        let slot = || self.tone_tables.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(t) = slot().as_ref().filter(|t| t.built_for(frame, tone, gains)) {
+            return Arc::clone(t);
+        }
+        let t = Arc::new(ToneTables::new(frame, tone, gains));
+        *slot() = Some(Arc::clone(&t));
+        t
+    }
+}
+
 /// Mosaic SIFT keypoints of `frame`, strongest first (total order: |response| descending, then x,
 /// y, size, angle); an empty list for a frame below SIFT's minimum size.
 fn keypoints_sorted(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
@@ -267,33 +289,6 @@ fn keypoints_sorted(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, 
             .then(a.angle.total_cmp(&b.angle))
     });
     Ok(k)
-}
-
-/// `(v − black(x, y)) · 255 / (white − black(x, y))`, clamped at 0, into a reused buffer.
-pub fn normalise_into(frame: &RawFrame, strip_rows: usize, dst: &mut Vec<f32>) {
-    let (w, h) = (frame.width(), frame.height());
-    dst.resize(w * h, 0.0);
-    let levels = *frame.levels();
-    let mut scale = [0.0f32; 4];
-    for (i, s) in scale.iter_mut().enumerate() {
-        *s = UNIT_RANGE / levels.white.saturating_sub(levels.black[i]).max(1) as f32;
-    }
-    let view = frame.view();
-    dst.par_chunks_mut(strip_rows * w)
-        .enumerate()
-        .for_each(|(s, chunk)| {
-            for (r, row) in chunk.chunks_mut(w).enumerate() {
-                let y = s * strip_rows + r;
-                for (x, o) in row.iter_mut().enumerate() {
-                    let v = match view {
-                        RawView::U8(v) => v.row(y)[x] as f32,
-                        RawView::U16(v) => v.row(y)[x] as f32,
-                    };
-                    let i = (y & 1) * 2 + (x & 1);
-                    *o = ((v - levels.black[i] as f32) * scale[i]).max(0.0);
-                }
-            }
-        });
 }
 
 /// Gradient maps of one frame (reused between frames through the buffer pool).
@@ -371,29 +366,6 @@ mod tests {
             "{}",
             out.mean_magnitude
         );
-    }
-
-    #[test]
-    fn normalisation_equals_the_hog_modules_formula() {
-        let px: Vec<u16> = (0..32 * 20u32)
-            .map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095)
-            .collect();
-        let f = RawFrame::from_u16(
-            32,
-            20,
-            px,
-            Cfa::Gbrg,
-            12,
-            Levels {
-                black: [60, 64, 62, 66],
-                white: 4000,
-            },
-        )
-        .unwrap();
-        let want = crate::features::hog::mosaic_from_raw(&f);
-        let mut got = Vec::new();
-        normalise_into(&f, 4, &mut got);
-        assert_eq!(got, want.as_slice());
     }
 
     #[test]
@@ -577,5 +549,64 @@ mod tests {
         let e = run(&plain, Gains::FromFile, &srgb).unwrap_err();
         assert!(matches!(e, StageError::Gains(_)), "{e}");
         assert!(e.to_string().contains("white balance"), "{e}");
+    }
+
+    #[test]
+    fn tone_tables_are_kept_while_levels_and_gains_stay_and_rebuilt_when_they_change() {
+        use crate::detect::{DetectorOptions, Domain, LinearModel};
+        use crate::features::hog::{mosaic_from_raw_toned, HogInput};
+        let (w, h) = (64, 128);
+        let px: Vec<u16> = (0..(w * h) as u32)
+            .map(|i| 64 + ((i.wrapping_mul(2654435761) >> 22) as u16 & 1023))
+            .collect();
+        let a = RawFrame::from_u16(w, h, px.clone(), Cfa::Rggb, 12, Levels::uniform(64, 4095))
+            .unwrap()
+            .with_wb_gains([1.8, 1.0, 1.4]);
+        let b = a.clone().with_wb_gains([2.2, 1.0, 1.3]);
+        let c = RawFrame::from_u16(w, h, px, Cfa::Rggb, 12, Levels::uniform(80, 4095))
+            .unwrap()
+            .with_wb_gains([2.2, 1.0, 1.3]);
+        let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin() * 0.05).collect();
+        let mut m = LinearModel::from_opencv_vector(&v, Domain::Mosaic, "test").unwrap();
+        m.mosaic_tone = MosaicTone::Srgb;
+        let o = DetectorOptions {
+            hit_threshold: -1e6,
+            ..DetectorOptions::default()
+        };
+        let det = Arc::new(crate::detect::Detector::new(m, &o).unwrap());
+        let stage = Stage::new(StageSpec::default(), Some(det.clone())).unwrap();
+        let mut maps = GradientMaps::default();
+        let kept = || {
+            stage
+                .tone_tables
+                .lock()
+                .unwrap()
+                .clone()
+                .expect("tables after a frame")
+        };
+        let mut last: Option<Arc<ToneTables>> = None;
+        for (frame, gains, rebuilt) in [
+            (&a, [1.8, 1.0, 1.4], true),
+            (&a, [1.8, 1.0, 1.4], false),
+            (&b, [2.2, 1.0, 1.3], true), // new gains
+            (&c, [2.2, 1.0, 1.3], true), // new black level
+            (&c, [2.2, 1.0, 1.3], false),
+        ] {
+            let got = stage.compute(frame, &mut maps).unwrap().detections;
+            let mut want = det
+                .detect(&HogInput::Mosaic(
+                    mosaic_from_raw_toned(frame, MosaicTone::Srgb, gains).view(),
+                ))
+                .unwrap()
+                .0;
+            want.sort_by(|a, b| b.score.total_cmp(&a.score));
+            assert_eq!(got, want);
+            let now = kept();
+            assert!(now.built_for(frame, MosaicTone::Srgb, gains));
+            if let Some(prev) = &last {
+                assert_eq!(!Arc::ptr_eq(prev, &now), rebuilt);
+            }
+            last = Some(now);
+        }
     }
 }

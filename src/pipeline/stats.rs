@@ -102,6 +102,9 @@ pub struct Stats {
     pub failed_compute: AtomicU64,
     /// Sink (publish or record) errors.
     pub failed_sink: AtomicU64,
+    /// Frames a sink received but did not write (a recording paused or stopped by a write
+    /// error), summed over sinks.
+    pub sink_frames_lost: AtomicU64,
     /// Boxes found.
     pub detections: AtomicU64,
     /// Boxes beyond the message capacity.
@@ -126,6 +129,8 @@ pub struct StatsSnapshot {
     pub failed_compute: u64,
     /// Failed: sinks.
     pub failed_sink: u64,
+    /// Frames a sink received but did not write, summed over sinks.
+    pub sink_frames_lost: u64,
     /// Boxes found.
     pub detections: u64,
     /// Boxes beyond the message capacity.
@@ -162,6 +167,7 @@ impl Stats {
             failed_source: l(&self.failed_source),
             failed_compute: l(&self.failed_compute),
             failed_sink: l(&self.failed_sink),
+            sink_frames_lost: l(&self.sink_frames_lost),
             detections: l(&self.detections),
             box_overflow: l(&self.box_overflow),
             latency_p50_us: h.percentile_us(0.5),
@@ -182,6 +188,7 @@ impl StatsSnapshot {
             failed_source: self.failed_source,
             failed_compute: self.failed_compute,
             failed_sink: self.failed_sink,
+            sink_frames_lost: self.sink_frames_lost,
             detections: self.detections,
             box_overflow: self.box_overflow,
             fps,

@@ -208,11 +208,13 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
 
 /// A sink that fails on frame `at` (like the recorder on a full disk): with `interrupt`, as
 /// [`super::engine::SinkError::Interrupted`] and going on (counting the later frames it gets in
-/// `seen`), else as a write error that stops it.
+/// `seen`, and not writing those of odd index), else as a write error that stops it. The frame it
+/// fails on is not written either.
 struct FailAt {
     at: u64,
     interrupt: bool,
     seen: Arc<std::sync::atomic::AtomicU64>,
+    not_written: u64,
 }
 
 impl FailAt {
@@ -224,6 +226,7 @@ impl FailAt {
                 at,
                 interrupt,
                 seen: s,
+                not_written: 0,
             }) as Box<dyn super::engine::Sink>)
         });
         (f, seen)
@@ -237,6 +240,7 @@ impl super::engine::Sink for FailAt {
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
         let (sink, message) = (self.name(), "no space left on device".to_string());
         if r.index == self.at {
+            self.not_written += 1;
             return Err(if self.interrupt {
                 super::engine::SinkError::Interrupted { sink, message }
             } else {
@@ -245,8 +249,12 @@ impl super::engine::Sink for FailAt {
         }
         if r.index > self.at {
             self.seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.not_written += r.index % 2;
         }
         Ok(())
+    }
+    fn frames_not_written(&self) -> u64 {
+        self.not_written
     }
     fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
@@ -269,6 +277,8 @@ fn a_sink_that_fails_is_counted_and_the_others_go_on() {
     // The pipeline went on: every frame reached the healthy sink.
     assert_eq!(report.stats.processed, 12);
     assert_eq!(report.stats.failed_sink, 1);
+    // frame 3 (the sink's own count) and frames 4..12, which reached it after it stopped
+    assert_eq!(report.stats.sink_frames_lost, 9);
     assert_eq!(report.sink_errors.len(), 1);
     assert!(
         report.sink_errors[0].contains("no space left"),
@@ -298,6 +308,8 @@ fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
     assert!(report.sink_errors.is_empty(), "{:?}", report.sink_errors);
     assert_eq!(report.sink_interruptions.len(), 1);
     assert!(report.sink_interruptions[0].contains("no space left"));
+    // the sink's own count, taken after every event: frame 3 and the odd ones of 4..12
+    assert_eq!(report.stats.sink_frames_lost, 5);
     assert_eq!(
         seen.load(std::sync::atomic::Ordering::Relaxed),
         8,

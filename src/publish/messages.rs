@@ -258,7 +258,7 @@ pub struct GradientsHeader {
 /// Counters of one camera's pipeline (`<prefix>/<camera>/stats`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize)]
-#[type_name("mosaicd.StatsMsg.v2")]
+#[type_name("mosaicd.StatsMsg.v3")]
 pub struct StatsMsg {
     /// Injected-clock time of this snapshot, ns.
     pub timestamp_ns: u64,
@@ -277,6 +277,10 @@ pub struct StatsMsg {
     /// Sinks that failed and stopped (e.g. the recorder on a full disk), counted when they fail:
     /// later messages carry it (a failure among the last frames may reach only the final summary).
     pub failed_sink: u64,
+    /// Frames a sink received but did not write, summed over sinks: frames that arrived while a
+    /// recording was paused by a write error, or after a sink stopped, and those whose chunk was
+    /// not flushed when the error came (v3).
+    pub sink_frames_lost: u64,
     /// Boxes published.
     pub detections: u64,
     /// Boxes beyond the message capacity.
