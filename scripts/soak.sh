@@ -10,8 +10,10 @@
 #
 # Environment: MOSAICD (binary, default target/release/mosaicd), OUT (default out/soak),
 # DURATION (seconds, default 600), FPS (default 15), WIDTH x HEIGHT (default 1920 x 1080),
-# THREADS (default 2), SVM (f32 or i8, default f32), APPROX (compute.approx_levels, default 14).
-# Needs no shared data (the shipped models/mosaic.json). Exit status: the daemon's.
+# THREADS (default 2), SVM (f32 or i8, default f32), APPROX (compute.approx_levels, default 14),
+# MODEL (compute.model, default models/mosaic.json; models/mosaic_raw_srgb.json runs the srgb
+# tone, with grey-world gains on every frame of the synthetic camera, which has none).
+# Needs no shared data (the shipped models). Exit status: the daemon's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${MOSAICD:-target/release/mosaicd}
@@ -33,7 +35,7 @@ path = "$out/soak.mcap"
 rotate_secs = 60
 max_files = 3
 [compute]
-model = "models/mosaic.json"
+model = "${MODEL:-models/mosaic.json}"
 approx_levels = ${APPROX:-14}
 svm = "${SVM:-f32}"
 [[camera]]

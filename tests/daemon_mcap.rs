@@ -564,10 +564,29 @@ fn a_full_disk_pauses_the_recording_and_it_resumes_in_a_new_file() {
     };
     let (lost, dropped) = (count("frames sinks lost "), count("queue_full "));
     let gap = after[0] - before.last().unwrap() - 1;
-    assert!(lost >= 1 && lost <= gap, "lost {lost}, gap {gap}\n{stdout}");
+    assert!(
+        lost >= 1 && lost <= gap && lost + dropped >= gap,
+        "lost {lost}, gap {gap}\n{stdout}"
+    );
     if dropped == 0 {
         assert_eq!(lost, gap, "{stdout}");
     }
+    // subscribers see it too: the resumed file's last stats record (the final one) carries it
+    let mut last_stats = None;
+    for_each_message(&files[0], |m| {
+        if m.channel.topic == "/full/stats" {
+            last_stats = Some(serde_json::from_slice::<serde_json::Value>(&m.data).unwrap());
+        }
+        Ok(())
+    })
+    .unwrap();
+    let last_stats = last_stats.expect("stats records in the resumed file");
+    assert_eq!(last_stats["type"], "final_stats", "{last_stats}");
+    assert_eq!(
+        last_stats["sink_frames_lost"].as_u64(),
+        Some(lost),
+        "{last_stats}"
+    );
 }
 
 /// SIGHUP (`systemctl reload`): the recording file is finished (complete, indexed) and the next
@@ -601,6 +620,7 @@ fn sighup_finishes_the_recording_file_and_starts_the_next_without_losing_a_frame
     }
     let (status, stdout, log) = svc.stop();
     assert!(status.success(), "{status:?}\n{stdout}\n{log}");
+    assert!(stdout.contains("frames sinks lost 0"), "nothing lost:\n{stdout}");
     assert!(stdout.contains("sink 0"), "{stdout}");
     // Three complete files (each finished with its index), frames contiguous across them.
     let f = files();

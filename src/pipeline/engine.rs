@@ -698,7 +698,11 @@ fn sink_thread(
             SinkEvent::Stats(s) => sink.stats(s),
             SinkEvent::Reopen => sink.reopen(),
         };
-        let now = sink.frames_not_written();
+        let mut now = sink.frames_not_written();
+        if now == lost && matches!((&ev, &r), (SinkEvent::Frame(_), Err(SinkError::Write { .. }))) {
+            // the frame that stopped a sink which does not count its own
+            now += 1;
+        }
         if now > lost {
             stats.sink_frames_lost.fetch_add(now - lost, Ordering::Relaxed);
             lost = now;

@@ -163,7 +163,9 @@ impl McapSink {
     }
 
     /// [`McapSink::failed`], counting the frames not flushed before the error (the one being
-    /// written included) as not written: they are lost with their chunk.
+    /// written included) as not written: they are lost with their chunk. An upper bound: MCAP
+    /// also closes a chunk on its own once it reaches 8 MiB (with raw frames recorded, every few
+    /// frames), and such a chunk may have reached the disk whole.
     fn failed_unflushed(&mut self, e: impl std::fmt::Display) -> Result<(), SinkError> {
         let unflushed = std::mem::take(&mut self.since_flush) as u64;
         self.not_written += unflushed;
@@ -177,6 +179,24 @@ impl McapSink {
     fn write_frame(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
         // Unflushed from here on: an error before the next flush loses it.
         self.since_flush += 1;
+        let file = self.recorder.files().last().cloned();
+        let written = self.write_frame_results(r);
+        if self.recorder.files().last() != file.as_ref() {
+            // the recorder rotated to a new file: the frames before this one went with the old
+            // file, finished and complete
+            self.since_flush = 1;
+        }
+        written?;
+        // Flushed after the frame's results (the recorder has no cadence of its own here), so a
+        // crash loses at most `record.flush_frames` frames, each with its results.
+        if self.since_flush >= self.flush_every {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// The records of one frame (raw frame and preview if recorded, detections, keypoints).
+    fn write_frame_results(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
         if self.frames {
             if let Some(f) = &r.frame {
                 self.recorder.write_frame(f)?;
@@ -191,11 +211,6 @@ impl McapSink {
         )?;
         if let Some(k) = &r.output.keypoints {
             self.recorder.write_keypoints(r.meta.timestamp_ns, k)?;
-        }
-        // Flushed after the frame's results (the recorder has no cadence of its own here), so a
-        // crash loses at most `record.flush_frames` frames, each with its results.
-        if self.since_flush >= self.flush_every {
-            self.flush()?;
         }
         Ok(())
     }
@@ -266,6 +281,8 @@ impl Sink for McapSink {
         let closed = self.recorder.files().last().cloned();
         match self.recorder.start_new_file() {
             Ok(true) => {
+                // the file was finished with everything written to it
+                self.since_flush = 0;
                 tracing::info!(camera = %self.camera, file = ?closed, "recording file finished; the next frame starts a new one");
                 Ok(())
             }

@@ -209,22 +209,29 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
 /// A sink that fails on frame `at` (like the recorder on a full disk): with `interrupt`, as
 /// [`super::engine::SinkError::Interrupted`] and going on (counting the later frames it gets in
 /// `seen`, and not writing those of odd index), else as a write error that stops it. The frame it
-/// fails on is not written either.
+/// fails on is not written either; with `counts_failing` its own count says so (as the recorder's
+/// does), else the engine has to.
 struct FailAt {
     at: u64,
     interrupt: bool,
+    counts_failing: bool,
     seen: Arc<std::sync::atomic::AtomicU64>,
     not_written: u64,
 }
 
 impl FailAt {
-    fn factory(at: u64, interrupt: bool) -> (super::engine::SinkFactory, Arc<std::sync::atomic::AtomicU64>) {
+    fn factory(
+        at: u64,
+        interrupt: bool,
+        counts_failing: bool,
+    ) -> (super::engine::SinkFactory, Arc<std::sync::atomic::AtomicU64>) {
         let seen = Arc::new(std::sync::atomic::AtomicU64::new(0));
         let s = seen.clone();
         let f: super::engine::SinkFactory = Box::new(move || {
             Ok(Box::new(FailAt {
                 at,
                 interrupt,
+                counts_failing,
                 seen: s,
                 not_written: 0,
             }) as Box<dyn super::engine::Sink>)
@@ -240,7 +247,7 @@ impl super::engine::Sink for FailAt {
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
         let (sink, message) = (self.name(), "no space left on device".to_string());
         if r.index == self.at {
-            self.not_written += 1;
+            self.not_written += u64::from(self.counts_failing);
             return Err(if self.interrupt {
                 super::engine::SinkError::Interrupted { sink, message }
             } else {
@@ -266,19 +273,27 @@ impl super::engine::Sink for FailAt {
 
 #[test]
 fn a_sink_that_fails_is_counted_and_the_others_go_on() {
-    let (failing, _) = FailAt::factory(3, false);
-    let spec = SyntheticSpec {
+    let spec = || SyntheticSpec {
         width: 96,
         height: 64,
         frames: 12,
         ..Default::default()
     };
-    let (report, records) = run_with(2, 2, spec, vec![failing]);
+    // the frame a sink failed on is counted once, whether the sink counts it itself or not
+    for counts_failing in [false, true] {
+        let (failing, _) = FailAt::factory(3, false, counts_failing);
+        let report = run_with(2, 2, spec(), vec![failing]).0;
+        // frame 3 and frames 4..12, which reached the sink after it stopped
+        assert_eq!(
+            report.stats.sink_frames_lost, 9,
+            "counts_failing {counts_failing}"
+        );
+    }
+    let (failing, _) = FailAt::factory(3, false, false);
+    let (report, records) = run_with(2, 2, spec(), vec![failing]);
     // The pipeline went on: every frame reached the healthy sink.
     assert_eq!(report.stats.processed, 12);
     assert_eq!(report.stats.failed_sink, 1);
-    // frame 3 (the sink's own count) and frames 4..12, which reached it after it stopped
-    assert_eq!(report.stats.sink_frames_lost, 9);
     assert_eq!(report.sink_errors.len(), 1);
     assert!(
         report.sink_errors[0].contains("no space left"),
@@ -295,7 +310,7 @@ fn a_sink_that_fails_is_counted_and_the_others_go_on() {
 
 #[test]
 fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
-    let (sink, seen) = FailAt::factory(3, true);
+    let (sink, seen) = FailAt::factory(3, true, true);
     let spec = SyntheticSpec {
         width: 96,
         height: 64,

@@ -278,8 +278,10 @@ pub struct StatsMsg {
     /// later messages carry it (a failure among the last frames may reach only the final summary).
     pub failed_sink: u64,
     /// Frames a sink received but did not write, summed over sinks: frames that arrived while a
-    /// recording was paused by a write error, or after a sink stopped, and those whose chunk was
-    /// not flushed when the error came (v3).
+    /// recording was paused by a write error, the frame a sink stopped on and those after it, and
+    /// a recording's frames not flushed when the error came (an upper bound: MCAP may have
+    /// written part of that chunk) (v3). Counted as each sink works through its queue, so, like
+    /// `failed_sink`, losses among the last frames may reach only the run's final summary.
     pub sink_frames_lost: u64,
     /// Boxes published.
     pub detections: u64,
