@@ -328,21 +328,31 @@ fn notify(states: &[sd_notify::NotifyState]) {
 }
 
 fn status_line(pipelines: &[Pipeline], fps: f64) -> String {
-    let mut parts = Vec::new();
-    for p in pipelines {
-        let s = p.stats();
-        parts.push(format!(
-            "{}: {:.1} fps, {} frames, dropped {}, failed {}, p50 {:.1} ms, p99 {:.1} ms",
-            p.camera(),
-            fps,
-            s.processed,
-            s.dropped_queue_full + s.dropped_driver,
-            s.failed_source + s.failed_compute,
-            s.latency_p50_us / 1e3,
-            s.latency_p99_us / 1e3
-        ));
-    }
+    let parts: Vec<String> = pipelines
+        .iter()
+        .map(|p| camera_status(p.camera(), fps, &p.stats()))
+        .collect();
     parts.join("; ")
+}
+
+/// One camera's part of the `STATUS=` line (also logged every stats interval); sink failures
+/// and the frames they lost are shown once there are any.
+fn camera_status(camera: &str, fps: f64, s: &super::stats::StatsSnapshot) -> String {
+    let mut line = format!(
+        "{camera}: {fps:.1} fps, {} frames, dropped {}, failed {}, p50 {:.1} ms, p99 {:.1} ms",
+        s.processed,
+        s.dropped_queue_full + s.dropped_driver,
+        s.failed_source + s.failed_compute,
+        s.latency_p50_us / 1e3,
+        s.latency_p99_us / 1e3
+    );
+    if s.failed_sink > 0 || s.sink_frames_lost > 0 {
+        line += &format!(
+            ", sink failures {} ({} frames not written)",
+            s.failed_sink, s.sink_frames_lost
+        );
+    }
+    line
 }
 
 /// The signals the daemon handles.
@@ -460,6 +470,30 @@ async fn supervise(
 mod tests {
     use super::*;
     use crate::features::hog::MosaicTaps;
+
+    #[test]
+    fn the_status_line_shows_sink_losses_once_there_are_any() {
+        let mut s = super::super::stats::StatsSnapshot {
+            processed: 120,
+            dropped_queue_full: 2,
+            dropped_driver: 1,
+            failed_compute: 1,
+            latency_p50_us: 12_345.0,
+            latency_p99_us: 45_678.0,
+            ..Default::default()
+        };
+        assert_eq!(
+            camera_status("cam", 14.96, &s),
+            "cam: 15.0 fps, 120 frames, dropped 3, failed 1, p50 12.3 ms, p99 45.7 ms"
+        );
+        s.failed_sink = 1;
+        s.sink_frames_lost = 37;
+        assert!(
+            camera_status("cam", 14.96, &s).ends_with(", sink failures 1 (37 frames not written)"),
+            "{}",
+            camera_status("cam", 14.96, &s)
+        );
+    }
 
     #[test]
     fn compute_mosaic_taps_reaches_the_detector() {
