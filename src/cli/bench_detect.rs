@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfile};
-use mosaicd::features::hog::{mosaic_from_raw_into, mosaic_from_raw_with, HogInput, MosaicTone, ToneTables};
+use mosaicd::features::hog::{mosaic_from_raw_toned_into, mosaic_from_raw_with, HogInput, MosaicTone};
 use mosaicd::image::ImageView;
 use mosaicd::raw::levels::Gains;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
@@ -156,27 +156,15 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let mut boxes = 0;
     // the mosaic buffer is reused between frames, as the daemon's pooled buffers are
     let mut buf = Vec::new();
+    let strip_rows = mosaicd::pipeline::stage::StageSpec::default().strip_rows;
     for i in 0..=a.frames {
         let (t_norm, t_all, stats, nb) = pool.install(|| -> anyhow::Result<_> {
             let t0 = Instant::now();
             // the daemon's way: the model's tone, `auto` gains (this frame has none: grey world);
             // srgb tables are built every frame here, where the daemon keeps them while the
             // gains stay the same (they do for this repeated frame), so srgb is timed pessimistically
-            match tone {
-                MosaicTone::Linear => mosaic_from_raw_into(
-                    &frame,
-                    mosaicd::pipeline::stage::StageSpec::default().strip_rows,
-                    &mut buf,
-                ),
-                t => {
-                    let gains = t.gains_for(&frame, Gains::Auto)?;
-                    ToneTables::new(&frame, t, gains).apply_into(
-                        &frame,
-                        mosaicd::pipeline::stage::StageSpec::default().strip_rows,
-                        &mut buf,
-                    );
-                }
-            }
+            let gains = tone.gains_for(&frame, Gains::Auto)?;
+            mosaic_from_raw_toned_into(&frame, tone, gains, strip_rows, &mut buf);
             let m = ImageView::new(&buf, frame.width(), frame.height(), frame.width())?;
             let t_norm = t0.elapsed();
             let (b, s) = det.detect(&HogInput::Mosaic(m))?;

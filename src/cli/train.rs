@@ -160,14 +160,13 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         model.provenance["negatives_dirs"] = serde_json::json!(a.negatives_dir);
     }
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
-    let nothing_held_out = split.val_pos.is_empty() || split.val_neg.is_empty();
-    if nothing_held_out && !a.no_eval {
+    let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
+    if !a.no_eval && !held_out {
         eprintln!(
             "validation: skipped, nothing is held out (--val-fraction {})",
             o.val_fraction
         );
-    }
-    if !a.no_eval && !nothing_held_out {
+    } else if !a.no_eval {
         let ev = pool.install(|| {
             evaluate_windows_via(
                 &model,

@@ -1040,7 +1040,9 @@ pub use approx::{
     MICRO_CELL,
 };
 pub mod tone;
-pub use tone::{mosaic_from_raw_toned, mosaic_from_raw_with, MosaicTone, ToneTables};
+pub use tone::{
+    mosaic_from_raw_toned, mosaic_from_raw_toned_into, mosaic_from_raw_with, MosaicTone, ToneTables,
+};
 
 /// Values per cell: PROFILES (y) x PROFILES (x) x nbins.
 fn cell_len(nbins: usize) -> usize {

@@ -685,6 +685,12 @@ fn sink_thread(
     let mut failed = false;
     // the sink's own count of frames it did not write, as far as it is in `sink_frames_lost`
     let mut lost = 0;
+    let report_lost = |lost: &mut u64, now: u64| {
+        if now > *lost {
+            stats.sink_frames_lost.fetch_add(now - *lost, Ordering::Relaxed);
+            *lost = now;
+        }
+    };
     for ev in rx {
         if failed {
             // keep draining so the pipeline never blocks on a dead sink
@@ -703,10 +709,7 @@ fn sink_thread(
             // the frame that stopped a sink which does not count its own
             now += 1;
         }
-        if now > lost {
-            stats.sink_frames_lost.fetch_add(now - lost, Ordering::Relaxed);
-            lost = now;
-        }
+        report_lost(&mut lost, now);
         match r {
             Ok(()) => {}
             Err(e @ SinkError::Interrupted { .. }) => {
@@ -727,10 +730,7 @@ fn sink_thread(
             stats.failed_sink.fetch_add(1, Ordering::Relaxed);
             out.errors.push(e.to_string());
         }
-        let now = sink.frames_not_written();
-        if now > lost {
-            stats.sink_frames_lost.fetch_add(now - lost, Ordering::Relaxed);
-        }
+        report_lost(&mut lost, sink.frames_not_written());
     }
     out
 }

@@ -219,12 +219,26 @@ impl ToneTables {
 /// `frame` as the detector's mosaic in `tone` with white-balance `gains` (`[r, g, b]`, used by
 /// [`MosaicTone::Srgb`] only). [`MosaicTone::Linear`] equals [`super::mosaic_from_raw`].
 pub fn mosaic_from_raw_toned(frame: &RawFrame, tone: MosaicTone, gains: [f32; 3]) -> Image<f32> {
-    if tone == MosaicTone::Linear {
-        return super::mosaic_from_raw(frame);
-    }
     let mut v = Vec::new();
-    ToneTables::new(frame, tone, gains).apply_into(frame, 16, &mut v);
-    Image::from_vec(frame.width(), frame.height(), v).expect("sized by apply_into")
+    mosaic_from_raw_toned_into(frame, tone, gains, 16, &mut v);
+    Image::from_vec(frame.width(), frame.height(), v).expect("sized by mosaic_from_raw_toned_into")
+}
+
+/// [`mosaic_from_raw_toned`] into a reused buffer, parallel over strips of `strip_rows` rows:
+/// [`super::mosaic_from_raw_into`] for [`MosaicTone::Linear`], tables built for this frame
+/// otherwise (a caller that sees many frames with the same levels and gains can keep a
+/// [`ToneTables`] instead, as the daemon's stage does).
+pub fn mosaic_from_raw_toned_into(
+    frame: &RawFrame,
+    tone: MosaicTone,
+    gains: [f32; 3],
+    strip_rows: usize,
+    dst: &mut Vec<f32>,
+) {
+    match tone {
+        MosaicTone::Linear => super::mosaic_from_raw_into(frame, strip_rows, dst),
+        _ => ToneTables::new(frame, tone, gains).apply_into(frame, strip_rows, dst),
+    }
 }
 
 /// [`mosaic_from_raw_toned`] with the gains resolved from `gains` ([`MosaicTone::gains_for`]).
