@@ -682,7 +682,9 @@ fn sink_thread(
         }
     };
     let mut out = SinkOutcome::default();
+    let name = sink.name();
     let mut failed = false;
+    let mut panicked = false;
     // the sink's own count of frames it did not write, as far as it is in `sink_frames_lost`
     let mut lost = 0;
     let report_lost = |lost: &mut u64, now: u64| {
@@ -699,10 +701,29 @@ fn sink_thread(
             }
             continue;
         }
-        let r = match &ev {
+        // A panic in a sink stops that sink like a write error, at once: it is logged and
+        // counted now, and the frames after it are counted as lost, instead of the thread dying
+        // and every later frame vanishing unseen. The sink is not asked anything after a panic
+        // (not its count, not `finish`: a recorder cut mid-chunk is left without a summary
+        // rather than closed over a half-written chunk).
+        let r = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &ev {
             SinkEvent::Frame(f) => sink.frame(f),
             SinkEvent::Stats(s) => sink.stats(s),
             SinkEvent::Reopen => sink.reopen(),
+        })) {
+            Ok(r) => r,
+            Err(payload) => {
+                let message = panic_message(payload.as_ref());
+                tracing::error!("sink {name} panicked: {message}; this sink stops, the pipeline continues");
+                stats.failed_sink.fetch_add(1, Ordering::Relaxed);
+                out.errors.push(format!("sink {name} panicked: {message}"));
+                if matches!(ev, SinkEvent::Frame(_)) {
+                    stats.sink_frames_lost.fetch_add(1, Ordering::Relaxed);
+                }
+                failed = true;
+                panicked = true;
+                continue;
+            }
         };
         let mut now = sink.frames_not_written();
         if now == lost && matches!((&ev, &r), (SinkEvent::Frame(_), Err(SinkError::Write { .. }))) {
@@ -725,6 +746,11 @@ fn sink_thread(
             }
         }
     }
+    if panicked {
+        // dropping a sink that panicked may panic again; it is leaked instead
+        std::mem::forget(sink);
+        return out;
+    }
     if !failed {
         if let Err(e) = sink.finish() {
             stats.failed_sink.fetch_add(1, Ordering::Relaxed);
@@ -733,4 +759,13 @@ fn sink_thread(
         report_lost(&mut lost, sink.frames_not_written());
     }
     out
+}
+
+/// The text of a panic's payload (`panic!("...")` gives a `&str` or a `String`).
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
 }

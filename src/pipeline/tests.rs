@@ -331,3 +331,46 @@ fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
         "frames 4..12 still reached the sink"
     );
 }
+
+/// A sink that panics on frame `at`.
+struct PanicAt(u64);
+
+impl super::engine::Sink for PanicAt {
+    fn name(&self) -> String {
+        "panic-at".into()
+    }
+    fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
+        assert!(r.index != self.0, "a bug in a sink (frame {})", r.index);
+        Ok(())
+    }
+    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+    fn finish(&mut self) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_sink_that_panics_stops_like_a_failed_one_and_its_frames_are_counted() {
+    let spec = SyntheticSpec {
+        width: 96,
+        height: 64,
+        frames: 12,
+        ..Default::default()
+    };
+    let panicking: super::engine::SinkFactory =
+        Box::new(|| Ok(Box::new(PanicAt(3)) as Box<dyn super::engine::Sink>));
+    let (report, records) = run_with(2, 2, spec, vec![panicking]);
+    assert_eq!(report.stats.processed, 12);
+    assert_eq!(report.stats.failed_sink, 1);
+    assert_eq!(report.sink_errors.len(), 1, "{:?}", report.sink_errors);
+    assert!(
+        report.sink_errors[0].contains("sink panic-at panicked: a bug in a sink (frame 3)"),
+        "{:?}",
+        report.sink_errors
+    );
+    // frame 3 and frames 4..12, which reached the sink's thread after the panic
+    assert_eq!(report.stats.sink_frames_lost, 9);
+    assert_eq!(records.iter().filter(|r| r["type"] == "frame").count(), 12);
+}
