@@ -8,9 +8,16 @@
 #   scripts/detection_cv.sh sampled     # models/mosaic.json vs models/colour.json recipes
 #   scripts/detection_cv.sh clean       # the paper's pair: models/mosaic_raw.json vs colour_raw.json
 #
+# The recipes as shipped now (the SVM's bias nearly free, `mosaicd train`'s default since
+# 2026-11-25; fold 0 = models/mosaic_raw_srgb.json and models/colour_raw.json bit for bit):
+#   C_MOSAIC=0.03 C_COLOUR=0.03 MOSAIC_ARGS="--mosaic-tone srgb" scripts/detection_cv.sh clean
+# The models trained before (mosaic.json, colour.json, mosaic_raw.json) used --bias-scale 1:
+#   TRAIN_ARGS="--bias-scale 1" scripts/detection_cv.sh sampled
+#
 # Environment: MOSAICD (binary, default target/release/mosaicd), OUT (default out/cv),
 # FOLDS (default "0 1 2 3 4"), THREADS (default 2), MOSAICD_DATA (the shared data),
 # MOSAIC_ARGS (extra `mosaicd train` flags for the mosaic model, e.g. "--mosaic-tone srgb"),
+# TRAIN_ARGS (extra `mosaicd train` flags for both models, e.g. "--bias-scale 1"),
 # C_MOSAIC / C_COLOUR (the SVM cost of each domain, default the shipped recipe's for the input),
 # JITTER (`--jitter-positives` of both domains, default 2 as shipped),
 # ALSO (more `--inputs` for the same fold models, e.g. "low,medium": scored into foldK/also/ and
@@ -41,8 +48,9 @@ for k in $folds; do
     if [ ! -s "$d/$dom.json" ]; then
       echo "detection_cv: fold $k: training $dom (C $c)" >&2
       extra=(); [ "$dom" = mosaic ] && read -r -a extra <<<"${MOSAIC_ARGS:-}"
+      both=(); read -r -a both <<<"${TRAIN_ARGS:-}"
       "$bin" train --domain "$dom" --c "$c" --fold "$k" --out "$d/$dom.json" "${common[@]}" \
-        "${extra[@]}" >"$d/train_$dom.log" 2>&1
+        "${both[@]}" "${extra[@]}" >"$d/train_$dom.log" 2>&1
     fi
   done
   echo "detection_cv: fold $k: evaluating" >&2

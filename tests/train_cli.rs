@@ -123,6 +123,42 @@ fn jittered_positives_join_the_training_set() {
 }
 
 #[test]
+fn the_bias_scale_is_recorded_and_a_freer_bias_is_more_negative() {
+    let dir = tempfile::tempdir().unwrap();
+    let (freer, _) = train_with(&dir.path().join("b10.json"), "sampled", "2", &[]);
+    let (old, _) = train_with(
+        &dir.path().join("b1.json"),
+        "sampled",
+        "2",
+        &["--bias-scale", "1"],
+    );
+    assert_eq!(freer.provenance["bias_scale"], 10.0, "the default");
+    assert_eq!(old.provenance["bias_scale"], 1.0);
+    // Windows with people are rare: the bias is negative, and a regularised one is pulled
+    // towards zero.
+    assert!(
+        freer.bias < old.bias && old.bias < 0.0,
+        "{} vs {}",
+        freer.bias,
+        old.bias
+    );
+    let dir = dir.path().join("bad.json");
+    let o = mosaicd(&[
+        "train",
+        "--domain",
+        "grey",
+        "--bias-scale",
+        "0",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--bias-scale") && err.contains('0'), "{err}");
+    assert!(!dir.exists(), "no model may be written on error");
+}
+
+#[test]
 fn mosaic_taps_are_chosen_and_written_into_the_model() {
     use mosaicd::features::hog::MosaicTaps;
     let dir = tempfile::tempdir().unwrap();
