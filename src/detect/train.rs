@@ -1082,6 +1082,13 @@ pub fn train_on(
     o: &TrainOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<LinearModel, TrainError> {
+    if !(o.bias_scale.is_finite() && o.bias_scale > 0.0) {
+        return Err(TrainError::BadOption {
+            what: "bias_scale",
+            value: o.bias_scale.to_string(),
+            allowed: "finite and > 0",
+        });
+    }
     let spec = HogSpec::new(&HogOptions {
         mosaic_taps: o.mosaic_taps,
         ..HogOptions::default()
@@ -1758,6 +1765,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("missing"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_bias_scale_is_refused_before_training() {
+        for b in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let o = TrainOptions {
+                bias_scale: b,
+                ..TrainOptions::default()
+            };
+            let e = train_on(&Split::default(), &o, &mut |_| {}).unwrap_err();
+            assert!(e.to_string().contains("bias_scale"), "{b}: {e}");
+        }
     }
 
     #[test]

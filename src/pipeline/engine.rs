@@ -747,7 +747,12 @@ fn sink_thread(
         }
     }
     if panicked {
-        // dropping a sink that panicked may panic again; it is leaked instead
+        // Leaked, not dropped: a recorder's `mcap::Writer` finishes its file on drop, which
+        // would write a summary over the chunk the panic cut (and could panic again). What the
+        // sink had buffered since its last flush is lost with it (for the recorder at most
+        // `record.flush_frames` frames), and only the frame it panicked on is counted in
+        // `sink_frames_lost`. A panic in `frames_not_written` or `finish` still ends the thread
+        // (counted when the orderer joins it).
         std::mem::forget(sink);
         return out;
     }
