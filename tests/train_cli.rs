@@ -142,20 +142,6 @@ fn the_bias_scale_is_recorded_and_a_freer_bias_is_more_negative() {
         freer.bias,
         old.bias
     );
-    let dir = dir.path().join("bad.json");
-    let o = mosaicd(&[
-        "train",
-        "--domain",
-        "grey",
-        "--bias-scale",
-        "0",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--bias-scale") && err.contains('0'), "{err}");
-    assert!(!dir.exists(), "no model may be written on error");
 }
 
 #[test]
@@ -388,6 +374,19 @@ fn bad_training_options_are_clear_errors() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--select-c") && err.contains("-1"), "{err}");
+    assert!(!out.exists(), "no model may be written on error");
+    let o = mosaicd(&[
+        "train",
+        "--domain",
+        "grey",
+        "--bias-scale",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--bias-scale") && err.contains('0'), "{err}");
     assert!(!out.exists(), "no model may be written on error");
     // a held-out fraction too small for C selection's inner split: refused before any training
     let o = mosaicd(&[

@@ -179,9 +179,11 @@ impl McapSink {
     fn write_frame(&mut self, r: &FrameResult) -> Result<(), crate::record::RecordError> {
         // Unflushed from here on: an error before the next flush loses it.
         self.since_flush += 1;
-        let file = self.recorder.files().last().cloned();
+        // (the recorder's file list only grows while it writes, so its length tells a rotation
+        // without cloning a path per frame)
+        let files = self.recorder.files().len();
         let written = self.write_frame_results(r);
-        if self.recorder.files().last() != file.as_ref() {
+        if self.recorder.files().len() != files {
             // the recorder rotated to a new file: the frames before this one went with the old
             // file, finished and complete
             self.since_flush = 1;
