@@ -71,6 +71,20 @@ fn reverse_isp_training_is_deterministic_and_recorded() {
     assert_eq!(a.provenance["input_pipeline"], "raw-clean");
     assert_eq!(a.provenance["training_vectors"], b.provenance["training_vectors"]);
     assert!(a.provenance["noise_seed"].is_u64());
+    // One solve before the mining round and one after it, each with how it ended.
+    let solves = a.provenance["svm_solves"]
+        .as_array()
+        .expect("svm_solves recorded");
+    assert_eq!(solves.len(), 2, "{solves:?}");
+    assert_eq!(solves, b.provenance["svm_solves"].as_array().unwrap());
+    for s in solves {
+        assert!(s["epochs"].as_u64().unwrap() >= 1, "{s}");
+        assert!(s["converged"].is_boolean() && s["pg_spread"].is_f64(), "{s}");
+    }
+    assert!(
+        solves[1]["vectors"].as_u64() > solves[0]["vectors"].as_u64(),
+        "the second solve has the hard negatives: {solves:?}"
+    );
 }
 
 #[test]

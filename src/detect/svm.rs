@@ -68,8 +68,33 @@ impl Default for SvmOptions {
     }
 }
 
+/// A trained SVM and how its solve ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SvmFit {
+    /// Weights, one per feature.
+    pub weights: Vec<f32>,
+    /// Bias (`B w_B`).
+    pub bias: f32,
+    /// Epochs run.
+    pub epochs: usize,
+    /// Whether the stopping criterion was met; `false` means the solve stopped at
+    /// [`SvmOptions::max_epochs`] and the solution is approximate.
+    pub converged: bool,
+    /// Spread `max PG − min PG` of the projected gradient over the last epoch (the criterion
+    /// compares it with [`SvmOptions::eps`]); 0 for empty input.
+    pub pg_spread: f64,
+}
+
 /// Train; returns (weights, bias). Labels are +1 / −1. Empty input gives zero weights.
+/// [`fit_linear_svm`] also says whether the solve converged.
 pub fn train_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> (Vec<f32>, f32) {
+    let f = fit_linear_svm(x, y, o);
+    (f.weights, f.bias)
+}
+
+/// Train and report how the solve ended (epochs, convergence, the last projected-gradient
+/// spread). The weights and bias are those of [`train_linear_svm`].
+pub fn fit_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> SvmFit {
     let n = x.len().min(y.len());
     let d = x.first().map_or(0, |v| v.len());
     let mut w = vec![0.0f64; d];
@@ -83,7 +108,9 @@ pub fn train_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> (Vec<f32>, 
         .collect();
     let mut order: Vec<usize> = (0..n).collect();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed);
-    for _ in 0..o.max_epochs {
+    let (mut epochs, mut converged, mut pg_spread) = (0, n == 0, 0.0);
+    for _ in 0..if n == 0 { 0 } else { o.max_epochs } {
+        epochs += 1;
         order.shuffle(&mut rng);
         let (mut pg_max, mut pg_min) = (f64::NEG_INFINITY, f64::INFINITY);
         for &i in &order {
@@ -109,11 +136,19 @@ pub fn train_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> (Vec<f32>, 
                 b += step * bs;
             }
         }
-        if pg_max - pg_min < o.eps {
+        pg_spread = pg_max - pg_min;
+        if pg_spread < o.eps {
+            converged = true;
             break;
         }
     }
-    (w.iter().map(|&v| v as f32).collect(), (b * bs) as f32)
+    SvmFit {
+        weights: w.iter().map(|&v| v as f32).collect(),
+        bias: (b * bs) as f32,
+        epochs,
+        converged,
+        pg_spread,
+    }
 }
 
 #[cfg(test)]
@@ -181,5 +216,32 @@ mod tests {
             threshold(&ten)
         );
         assert!((threshold(&ten) - 10.25).abs() < 1.0, "{ten:?}");
+    }
+
+    /// The report says when a solve stops at the epoch limit: the same 1-D split with B 30
+    /// (slow: `Q_ii` grows by B²) converges given time and does not in 3 epochs.
+    #[test]
+    fn a_solve_stopped_at_the_epoch_limit_says_so() {
+        let x: Vec<Vec<f32>> = (0..40).map(|i| vec![i as f32 * 0.5]).collect();
+        let y: Vec<i8> = x.iter().map(|v| if v[0] > 10.0 { 1 } else { -1 }).collect();
+        let o = |max_epochs| SvmOptions {
+            c: 0.05,
+            eps: 1e-3,
+            max_epochs,
+            seed: 1,
+            bias_scale: 30.0,
+        };
+        let done = fit_linear_svm(&x, &y, &o(100_000));
+        assert!(done.converged, "{done:?}");
+        assert!(done.epochs > 3 && done.epochs < 100_000, "{done:?}");
+        assert!(done.pg_spread < 1e-3, "{done:?}");
+        let cut = fit_linear_svm(&x, &y, &o(3));
+        assert!(!cut.converged, "{cut:?}");
+        assert_eq!(cut.epochs, 3);
+        assert!(cut.pg_spread >= 1e-3, "{cut:?}");
+        // The wrapper returns the same solution.
+        assert_eq!(train_linear_svm(&x, &y, &o(3)), (cut.weights, cut.bias));
+        let empty = fit_linear_svm(&[], &[], &o(3));
+        assert!(empty.converged && empty.epochs == 0 && empty.weights.is_empty());
     }
 }

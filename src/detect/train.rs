@@ -53,7 +53,7 @@ use super::detector::{Detector, DetectorOptions};
 use super::model::{Domain, LinearModel};
 use super::pyramid::{resize_bilinear, resize_mosaic};
 use super::score::ScorePrecision;
-use super::svm::{train_linear_svm, SvmOptions};
+use super::svm::{fit_linear_svm, SvmFit, SvmOptions};
 use crate::eval::common::{load_raw_frame, raw_profile, RawInput, INFINITE_ISP_SCENES};
 use crate::eval::detection::Interval;
 use crate::features::hog::{
@@ -1217,7 +1217,33 @@ pub fn train_on(
     };
     let npos = y.iter().filter(|&&v| v > 0).count();
     progress(&format!("svm: {npos} positives, {} negatives", y.len() - npos));
-    let (mut w, mut b) = train_linear_svm(&x, &y, &svm);
+    // How each solve ended, for the log and the provenance: one that stops at the epoch limit
+    // gives an approximate model, which the caller should hear about.
+    let mut solves: Vec<serde_json::Value> = Vec::new();
+    let mut solve = |x: &[Vec<f32>], y: &[i8], progress: &mut dyn FnMut(&str)| {
+        let SvmFit {
+            weights,
+            bias,
+            epochs,
+            converged,
+            pg_spread,
+        } = fit_linear_svm(x, y, &svm);
+        if converged {
+            progress(&format!("svm: converged in {epochs} epochs"));
+        } else {
+            let msg = format!(
+                "svm: stopped at the epoch limit ({epochs} epochs) with projected-gradient spread {pg_spread:.3} > eps {}; the model is approximate (a smaller --bias-scale or C converges faster)",
+                svm.eps
+            );
+            tracing::warn!("{msg}");
+            progress(&msg);
+        }
+        solves.push(serde_json::json!({
+            "vectors": y.len(), "epochs": epochs, "converged": converged, "pg_spread": pg_spread,
+        }));
+        (weights, bias)
+    };
+    let (mut w, mut b) = solve(&x, &y, progress);
     for round in 1..=o.mining_rounds {
         let model = model_from(w.clone(), b, o, split, &y);
         let det = Detector::new(model, &DetectorOptions::default())?;
@@ -1268,11 +1294,10 @@ pub fn train_on(
             x.push(d);
             y.push(-1);
         }
-        let r = train_linear_svm(&x, &y, &svm);
-        w = r.0;
-        b = r.1;
+        (w, b) = solve(&x, &y, progress);
     }
     let mut m = model_from(w, b, o, split, &y);
+    m.provenance["svm_solves"] = serde_json::Value::Array(solves);
     if !extra.is_empty() {
         m.provenance["training_only_negatives"] = serde_json::json!(extra);
     }
