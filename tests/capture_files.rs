@@ -99,6 +99,45 @@ fn bad_files_and_sidecars_are_clear_errors_and_the_stream_goes_on() {
     assert!(e.to_string().contains("at least one frame file"), "{e}");
 }
 
+/// Looped: a bad file among good ones is reported on every pass and the loop goes on; a loop
+/// whose every file fails reports each once, then stops with an error that says so, instead of
+/// repeating the same errors forever.
+#[test]
+fn a_loop_stops_only_when_a_whole_pass_delivers_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_u16le(&d.join("a.raw"), &[1, 2, 3]); // too short for 2x2
+    write_u16le(&d.join("b.raw"), &[1, 2, 3, 4]);
+    write_u16le(&d.join("c.raw"), &[1; 5]); // too long
+    std::fs::write(
+        d.join("mosaicd-raw.toml"),
+        "width = 2\nheight = 2\nbit_depth = 12\ncfa = \"RGGB\"\n",
+    )
+    .unwrap();
+    let looped = || FileSourceOptions {
+        looped: true,
+        ..Default::default()
+    };
+    let mut src = FileSource::open(&[d.join("a.raw"), d.join("b.raw")], looped()).unwrap();
+    for _ in 0..3 {
+        assert!(matches!(src.next_frame(), Err(CaptureError::Raw(_))));
+        assert!(src.next_frame().unwrap().is_some());
+    }
+    assert!(!src.is_finished());
+
+    let mut src = FileSource::open(&[d.join("a.raw"), d.join("c.raw")], looped()).unwrap();
+    assert!(matches!(src.next_frame(), Err(CaptureError::Raw(_))));
+    assert!(matches!(src.next_frame(), Err(CaptureError::Raw(_))));
+    let e = src.next_frame().unwrap_err();
+    assert!(
+        matches!(e, CaptureError::NothingPlayable { files: 2, .. }),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("none of its 2 file(s)"), "{e}");
+    assert!(src.is_finished());
+    assert!(src.next_frame().unwrap().is_none());
+}
+
 /// Real sensor files: the Nikon 14-bit RGGB frame and its re-phased GBRG copy, through one
 /// sidecar each, looped.
 #[test]

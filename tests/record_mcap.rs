@@ -530,6 +530,23 @@ fn replay_paces_loops_and_starts_late() {
     // At speed 2 the paced clock advanced half the recorded span.
     assert_eq!(clock.now_ns(), (ts[6] - ts[0]) / 2);
     assert!(!src.is_finished());
+    // A start past the last frame names the option, not a missing channel.
+    let opts = McapSourceOptions {
+        start_offset_ns: 60_000_000_000,
+        ..Default::default()
+    };
+    let e = McapSource::open(&path, opts).unwrap().next_frame().unwrap_err();
+    assert!(
+        matches!(
+            e,
+            CaptureError::Option {
+                name: "start_offset_ns",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("all 5 raw frames are before it"), "{e}");
 }
 
 /// Foxglove compatibility: the JSON messages use exactly the property names and types of the
@@ -693,4 +710,67 @@ fn start_new_file_finishes_this_file_and_numbers_the_next() {
     assert!(!rec.can_resume());
     rec.write_frame(&frame(1, 64, 48)).unwrap();
     assert_eq!(rec.finish().unwrap().frames, 2);
+}
+
+/// A frame holding a value above its bit depth (a RawFrame may; a sensor's must not): the
+/// recorder's preview shows it as the brightest value instead of indexing past its table, and
+/// replay refuses the message as corrupt, naming the value, after delivering the frames before it.
+#[test]
+fn a_value_above_the_bit_depth_is_recorded_safely_and_refused_on_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hot.mcap");
+    let mut rec = McapRecorder::create(&path, RecorderOptions::default()).unwrap();
+    for i in 0..2 {
+        rec.write_frame(&frame(i, 64, 48)).unwrap();
+    }
+    let good = frame(2, 64, 48);
+    let mut px = good.to_u16_vec();
+    px[64 * 3 + 5] = 4096;
+    let hot = RawFrame::from_u16(64, 48, px, Cfa::Gbrg, 12, *good.levels())
+        .unwrap()
+        .with_meta(good.meta.clone());
+    rec.write_frame(&hot).unwrap();
+    rec.finish().unwrap();
+    let (frames, err) = replay_all(&path);
+    assert_eq!(frames.len(), 2);
+    let e = err.expect("the hot frame is refused");
+    let msg = e.to_string();
+    assert!(matches!(e, CaptureError::Corrupt { frames: 2, .. }), "{e:?}");
+    assert!(msg.contains("4096 at (5, 3)") && msg.contains("12-bit"), "{msg}");
+}
+
+/// A file whose timestamps go backwards (not one of ours: the recorder writes capture times):
+/// every frame is delivered, none is taken for one before the start, and a looped replay does not
+/// overflow (this runs in debug builds, where it would panic); the second pass carries on from an
+/// offset, not a wrap.
+#[test]
+fn looping_a_recording_whose_time_goes_backwards_does_not_overflow() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("back.mcap");
+    let mut rec = McapRecorder::create(&path, RecorderOptions::default()).unwrap();
+    for i in 0..3u64 {
+        let mut f = frame(i, 64, 48);
+        f.meta.timestamp_ns = 9_000_000_000 - i * FRAME_NS;
+        rec.write_frame(&f).unwrap();
+    }
+    rec.finish().unwrap();
+    let opts = McapSourceOptions {
+        looped: true,
+        ..Default::default()
+    };
+    let mut src = McapSource::open(&path, opts).unwrap();
+    let ts: Vec<u64> = (0..6)
+        .map(|_| src.next_frame().unwrap().unwrap().meta.timestamp_ns)
+        .collect();
+    assert_eq!(
+        &ts[..3],
+        &[
+            9_000_000_000,
+            9_000_000_000 - FRAME_NS,
+            9_000_000_000 - 2 * FRAME_NS
+        ]
+    );
+    for (a, b) in ts[..3].iter().zip(&ts[3..]) {
+        assert!(b > a && b - a < 10 * FRAME_NS, "pass 2 {ts:?}");
+    }
 }

@@ -182,6 +182,8 @@ pub struct FileSource {
     sequence: u64,
     anchor: Option<u64>,
     finished: bool,
+    /// Frames delivered since the current pass over the files began.
+    pass_frames: u64,
 }
 
 fn is_frame_file(p: &Path) -> bool {
@@ -249,6 +251,7 @@ impl FileSource {
             sequence: 0,
             anchor: None,
             finished: false,
+            pass_frames: 0,
         })
     }
 
@@ -289,7 +292,16 @@ impl Source for FileSource {
                 self.finished = true;
                 return Ok(None);
             }
+            if self.pass_frames == 0 {
+                // Every file failed: looping again would only repeat the same errors.
+                self.finished = true;
+                return Err(CaptureError::NothingPlayable {
+                    what: self.describe(),
+                    files: self.files.len(),
+                });
+            }
             self.next = 0;
+            self.pass_frames = 0;
         }
         let path = self.files[self.next].clone();
         self.next += 1;
@@ -302,6 +314,7 @@ impl Source for FileSource {
         frame.meta.timestamp_ns = ts;
         frame.meta.source = Arc::from(path.display().to_string().as_str());
         self.sequence += 1;
+        self.pass_frames += 1;
         if self.opts.pace {
             let clock = &self.opts.clock;
             let t0 = *self.anchor.get_or_insert_with(|| clock.now_ns());

@@ -104,6 +104,8 @@ pub struct McapSource {
     finished: bool,
     /// Frames delivered in total.
     delivered: u64,
+    /// Raw frames read and skipped because they lie before `start_offset_ns`.
+    skipped: u64,
     /// First frame timestamp of the recording (for the start offset).
     first_ts: Option<u64>,
     /// First / last recorded timestamp of the current pass, and the last interval seen.
@@ -217,6 +219,7 @@ impl McapSource {
             topic,
             finished: false,
             delivered: 0,
+            skipped: 0,
             first_ts: None,
             pass_first: None,
             pass_last: 0,
@@ -311,13 +314,35 @@ impl Source for McapSource {
                         } else {
                             SINGLE_FRAME_LOOP_INTERVAL_NS
                         };
-                        self.loop_offset += self.pass_last - first + interval;
+                        // Saturating: a file whose timestamps go backwards must not wrap the
+                        // offset (nor panic in a debug build).
+                        self.loop_offset = self
+                            .loop_offset
+                            .saturating_add(self.pass_last.saturating_sub(first))
+                            .saturating_add(interval);
                         self.pass_first = None;
                         self.pass_frames = 0;
-                        self.reader = open_reader(&self.path)?;
+                        match open_reader(&self.path) {
+                            Ok(r) => self.reader = r,
+                            Err(e) => {
+                                // The file went away between passes: the replay ends here.
+                                self.finished = true;
+                                return Err(e);
+                            }
+                        }
                         continue;
                     }
                     self.finished = true;
+                    if self.delivered == 0 && self.skipped > 0 {
+                        return Err(CaptureError::Option {
+                            name: "start_offset_ns",
+                            value: format!(
+                                "{} (all {} raw frames are before it)",
+                                self.opts.start_offset_ns, self.skipped
+                            ),
+                            why: "an offset shorter than the recording",
+                        });
+                    }
                     if self.delivered == 0 {
                         return Err(CaptureError::NoRawChannel {
                             path: self.path.clone(),
@@ -347,7 +372,10 @@ impl Source for McapSource {
             };
             let ts = m.log_time;
             let first = *self.first_ts.get_or_insert(ts);
-            if ts < first.saturating_add(self.opts.start_offset_ns) {
+            // Only a start offset skips frames: a frame stamped before the first one (a file
+            // whose time goes backwards) is still a frame.
+            if self.opts.start_offset_ns > 0 && ts < first.saturating_add(self.opts.start_offset_ns) {
+                self.skipped += 1;
                 continue;
             }
             match self.pass_first {
@@ -356,7 +384,7 @@ impl Source for McapSource {
             }
             self.pass_last = ts;
             self.pass_frames += 1;
-            let out_ts = ts + self.loop_offset;
+            let out_ts = ts.saturating_add(self.loop_offset);
             frame.meta.timestamp_ns = out_ts;
             frame.meta.sequence = self.delivered;
             self.delivered += 1;

@@ -78,6 +78,26 @@ pub enum CaptureError {
     /// A V4L2 format or buffer that cannot be interpreted.
     #[error(transparent)]
     Format(#[from] v4l2_formats::V4l2FormatError),
+    /// The driver delivered a buffer that is not a usable frame (marked failed, short, values
+    /// out of range). That frame is lost and counted; the stream goes on.
+    #[error("camera {path}: the frame with driver sequence {sequence} is unusable: {reason}")]
+    BadBuffer {
+        /// Device path.
+        path: PathBuf,
+        /// The driver's sequence number of the buffer.
+        sequence: u32,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A looped file source went through all its files without delivering a frame: every file
+    /// failed (each failure was reported), so the loop stops instead of repeating them.
+    #[error("{what}: none of its {files} file(s) could be read in a whole pass; the loop stops")]
+    NothingPlayable {
+        /// The source ([`Source::describe`]).
+        what: String,
+        /// Files in the loop.
+        files: usize,
+    },
     /// The camera device node does not exist.
     #[error("camera {path} does not exist (is the camera connected and its driver loaded? `v4l2-ctl --list-devices` lists cameras)")]
     DeviceMissing {
@@ -153,6 +173,18 @@ pub enum CaptureError {
         /// Allowed values.
         why: &'static str,
     },
+}
+
+impl CaptureError {
+    /// The sensor (driver) sequence number of the frame this error cost, when the source knows
+    /// it ([`CaptureError::BadBuffer`]): the pipeline counts that frame as failed and not also
+    /// as a driver drop.
+    pub fn sensor_sequence(&self) -> Option<u64> {
+        match self {
+            CaptureError::BadBuffer { sequence, .. } => Some(*sequence as u64),
+            _ => None,
+        }
+    }
 }
 
 /// What is wrong in a corrupt recording.

@@ -374,6 +374,40 @@ impl V4l2Source {
     }
 }
 
+/// One dequeued buffer as a frame, or [`CaptureError::BadBuffer`] naming its driver sequence
+/// number: a buffer the driver marked as failed (`V4L2_BUF_FLAG_ERROR`: its contents may be an
+/// earlier frame's), or one that does not hold the negotiated format (short, out of range).
+/// `bytesused` 0 means "not reported" on some drivers: then the whole buffer is the frame.
+fn frame_from_buffer(
+    neg: &Negotiated,
+    levels: Option<Levels>,
+    buf: &[u8],
+    meta: &v4l::buffer::Metadata,
+    path: &Path,
+) -> Result<RawFrame, CaptureError> {
+    let bad = |reason: String| CaptureError::BadBuffer {
+        path: path.to_path_buf(),
+        sequence: meta.sequence,
+        reason,
+    };
+    if meta.flags.contains(v4l::buffer::Flags::ERROR) {
+        return Err(bad("the driver marked it as failed (V4L2_BUF_FLAG_ERROR)".into()));
+    }
+    let used = match meta.bytesused as usize {
+        0 => buf.len(),
+        n => n.min(buf.len()),
+    };
+    raw_frame_from_v4l2(
+        &neg.format,
+        &buf[..used],
+        neg.width as usize,
+        neg.height as usize,
+        neg.bytes_per_line as usize,
+        levels,
+    )
+    .map_err(|e| bad(e.to_string()))
+}
+
 impl Source for V4l2Source {
     fn next_frame(&mut self) -> Result<Option<RawFrame>, CaptureError> {
         if self.open.is_none() {
@@ -392,21 +426,11 @@ impl Source for V4l2Source {
                 });
             }
         };
-        let neg = open.neg;
-        // bytesused 0 means "not reported" on some drivers: the whole buffer is the frame.
-        let used = match meta.bytesused as usize {
-            0 => buf.len(),
-            n => n.min(buf.len()),
-        };
-        let mut frame = raw_frame_from_v4l2(
-            &neg.format,
-            &buf[..used],
-            neg.width as usize,
-            neg.height as usize,
-            neg.bytes_per_line as usize,
-            self.opts.levels,
-        )?;
+        let result = frame_from_buffer(&open.neg, self.opts.levels, buf, meta, &self.path);
+        // A buffer that is not a frame still used up its driver sequence number: observed
+        // either way, so the next frame does not count it as a driver drop too.
         self.tracker.observe(meta.sequence);
+        let mut frame = result?;
         // time_t is i32 on 32-bit ARM edge boxes: keep the widening cast.
         #[allow(clippy::unnecessary_cast)]
         let ts = meta.timestamp.sec as i64 * 1_000_000_000 + meta.timestamp.usec as i64 * 1000;
@@ -461,6 +485,57 @@ mod tests {
         w.observe(u32::MAX - 1);
         assert_eq!(w.observe(1), 2); // wrapped: MAX and 0 missing
         assert_eq!(w.drops, 2);
+    }
+
+    /// What one dequeued buffer becomes, on real RG10 (16-bit little-endian) bytes: a frame, or
+    /// an error that names the driver's sequence number (so the pipeline counts the lost frame
+    /// once, as failed, not again as a driver drop).
+    #[test]
+    fn a_failed_short_or_out_of_range_buffer_is_an_error_naming_its_sequence() {
+        let neg = Negotiated {
+            format: bayer_format(*b"RG10").unwrap(),
+            width: 4,
+            height: 2,
+            bytes_per_line: 8,
+        };
+        let good: Vec<u8> = (0..8u16).flat_map(|v| (v * 100).to_le_bytes()).collect();
+        let meta = |bytesused: u32, flags: v4l::buffer::Flags| v4l::buffer::Metadata {
+            bytesused,
+            flags,
+            sequence: 41,
+            ..Default::default()
+        };
+        let path = Path::new("/dev/video0");
+        let none = v4l::buffer::Flags::empty();
+        let f = frame_from_buffer(&neg, None, &good, &meta(16, none), path).unwrap();
+        assert_eq!((f.value(3, 1), f.bit_depth()), (700, 10));
+        // bytesused 0 (not reported by some drivers): the whole buffer.
+        assert!(frame_from_buffer(&neg, None, &good, &meta(0, none), path).is_ok());
+        let sequence_of = |r: Result<RawFrame, CaptureError>| {
+            let e = r.unwrap_err();
+            assert!(matches!(e, CaptureError::BadBuffer { sequence: 41, .. }), "{e:?}");
+            (e.sensor_sequence(), e.to_string())
+        };
+        // Marked failed by the driver: its contents may be an earlier frame's.
+        let (seq, msg) = sequence_of(frame_from_buffer(
+            &neg,
+            None,
+            &good,
+            &meta(16, v4l::buffer::Flags::ERROR),
+            path,
+        ));
+        assert_eq!(seq, Some(41));
+        assert!(
+            msg.contains("/dev/video0") && msg.contains("V4L2_BUF_FLAG_ERROR"),
+            "{msg}"
+        );
+        // Short: the driver filled 12 of 16 bytes.
+        let (_, msg) = sequence_of(frame_from_buffer(&neg, None, &good, &meta(12, none), path));
+        assert!(msg.contains("sequence 41"), "{msg}");
+        // A value above 10 bits.
+        let mut hot = good.clone();
+        hot[14..16].copy_from_slice(&1024u16.to_le_bytes());
+        sequence_of(frame_from_buffer(&neg, None, &hot, &meta(16, none), path));
     }
 
     #[test]

@@ -463,6 +463,19 @@ impl Pipeline {
     }
 }
 
+/// Count the frames missing between the last sensor sequence number and `cur` as driver drops,
+/// then remember `cur`. A sequence that goes backwards (a driver restart, a looped recording)
+/// counts nothing.
+fn sensor_gap(last: &mut Option<u64>, cur: Option<u64>, stats: &Stats) {
+    let Some(cur) = cur else { return };
+    if let Some(gap) = last.and_then(|prev| cur.checked_sub(prev)) {
+        if gap > 1 {
+            stats.dropped_driver.fetch_add(gap - 1, Ordering::Relaxed);
+        }
+    }
+    *last = Some(cur);
+}
+
 /// Back-off after a source error on a live source (device hiccup) before asking again.
 const SOURCE_ERROR_BACKOFF: Duration = Duration::from_millis(20);
 
@@ -480,14 +493,7 @@ fn capture_loop(
         match source.next_frame() {
             Ok(Some(frame)) => {
                 Stats::inc(&stats.captured);
-                if let (Some(prev), Some(cur)) = (last_sensor_seq, frame.meta.sensor_sequence) {
-                    if cur > prev + 1 {
-                        stats.dropped_driver.fetch_add(cur - prev - 1, Ordering::Relaxed);
-                    }
-                }
-                if frame.meta.sensor_sequence.is_some() {
-                    last_sensor_seq = frame.meta.sensor_sequence;
-                }
+                sensor_gap(&mut last_sensor_seq, frame.meta.sensor_sequence, stats);
                 // Live: the driver's capture timestamp (same monotonic clock). Replay: stamped
                 // again when the dispatcher takes the frame, so backpressure waiting inside the
                 // reader is not counted as latency.
@@ -508,6 +514,9 @@ fn capture_loop(
             Ok(None) => break,
             Err(e) => {
                 Stats::inc(&stats.failed_source);
+                // A frame the source could not deliver but whose sensor sequence it knows is
+                // counted here as failed only, not also as a driver drop by the next frame.
+                sensor_gap(&mut last_sensor_seq, e.sensor_sequence(), stats);
                 tracing::warn!(source = %source.describe(), "source error: {e}");
                 let ended = source.is_finished();
                 *err.lock().unwrap_or_else(|e| e.into_inner()) = Some((e.to_string(), ended));

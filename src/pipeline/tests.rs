@@ -374,3 +374,77 @@ fn a_sink_that_panics_stops_like_a_failed_one_and_its_frames_are_counted() {
     assert_eq!(report.stats.sink_frames_lost, 9);
     assert_eq!(records.iter().filter(|r| r["type"] == "frame").count(), 12);
 }
+
+/// A source that plays a script: frames carrying a driver sequence number, and errors for the
+/// buffers the driver delivered but that were not frames.
+struct Scripted(std::collections::VecDeque<Result<crate::raw::RawFrame, crate::capture::CaptureError>>);
+
+impl crate::capture::Source for Scripted {
+    fn next_frame(&mut self) -> Result<Option<crate::raw::RawFrame>, crate::capture::CaptureError> {
+        self.0.pop_front().transpose()
+    }
+    fn kind(&self) -> crate::capture::SourceKind {
+        crate::capture::SourceKind::Replay
+    }
+    fn describe(&self) -> String {
+        "scripted".into()
+    }
+}
+
+/// Driver sequences 10, 11 (a failed buffer), 12, 15, 16 (failed), 17, then 3 (a restart) and 4:
+/// the two failed buffers are counted once each, as failed, and only 13 and 14 as driver drops.
+#[test]
+fn a_failed_buffer_is_not_also_counted_as_a_driver_drop() {
+    use crate::capture::CaptureError;
+    use crate::raw::{Cfa, FrameMeta, Levels, RawFrame};
+    let frame = |i: u64, sensor: u64| {
+        Ok(
+            RawFrame::from_u16(16, 8, vec![100; 128], Cfa::Rggb, 12, Levels::uniform(0, 4095))
+                .unwrap()
+                .with_meta(FrameMeta {
+                    sequence: i,
+                    sensor_sequence: Some(sensor),
+                    timestamp_ns: i * 1_000_000,
+                    source: Arc::from("scripted"),
+                }),
+        )
+    };
+    let bad = |sensor: u32| {
+        Err(CaptureError::BadBuffer {
+            path: "/dev/video0".into(),
+            sequence: sensor,
+            reason: "the driver marked it as failed".into(),
+        })
+    };
+    let script = vec![
+        frame(0, 10),
+        bad(11),
+        frame(1, 12),
+        frame(2, 15),
+        bad(16),
+        frame(3, 17),
+        frame(4, 3),
+        frame(5, 4),
+    ];
+    let frames = BufferPool::new(4);
+    let sink = CollectSink::default();
+    let p = Pipeline::start(
+        PipelineSpec {
+            camera: "s".into(),
+            queue_depth: 3,
+            max_in_flight: 1,
+            stage: Stage::new(StageSpec::default(), None).unwrap(),
+            keep_frames: false,
+        },
+        Box::new(Scripted(script.into())),
+        Arc::new(rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap()),
+        Arc::new(ReplayClock::default()),
+        vec![sink.factory("s")],
+        frames,
+    )
+    .unwrap();
+    let s = p.join().stats;
+    assert_eq!((s.captured, s.processed), (6, 6), "{s:?}");
+    assert_eq!(s.failed_source, 2, "{s:?}");
+    assert_eq!(s.dropped_driver, 2, "13 and 14 only: {s:?}");
+}

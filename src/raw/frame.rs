@@ -176,7 +176,11 @@ impl RawFrame {
                 max,
             });
         }
-        let needed = stride * (height - 1) + width;
+        // Checked: sizes from a file or a message must not wrap past this test.
+        let needed = stride
+            .checked_mul(height - 1)
+            .and_then(|v| v.checked_add(width))
+            .unwrap_or(usize::MAX);
         if pixels.len() < needed {
             return Err(RawError::BufferSize {
                 len: pixels.len(),

@@ -128,7 +128,8 @@ impl RawFormat {
 
     /// Exact file size this format describes (`height * stride`).
     pub fn expected_len(&self) -> u64 {
-        self.height as u64 * self.stride() as u64
+        // Saturating: an absurd size is a size no file has, never a wrapped small one.
+        (self.height as u64).saturating_mul(self.stride() as u64)
     }
 }
 
@@ -176,7 +177,9 @@ pub fn frame_from_bytes(bytes: &[u8], fmt: &RawFormat, origin: &Path) -> Result<
         return Err(RawError::EmptyFrame { width: w, height: h });
     }
     let bpp = fmt.container.bytes();
-    let row_bytes = w * bpp;
+    let row_bytes = w
+        .checked_mul(bpp)
+        .ok_or_else(|| format_err(origin, format!("width {w} is too large")))?;
     let stride = fmt.stride();
     if stride < row_bytes {
         return Err(RawError::Stride {
@@ -833,6 +836,61 @@ pub fn memory_origin() -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Dimensions from a sidecar that would wrap `width * bytes` or `height * stride` past the
+    /// size checks (release builds do not trap overflow) are refused, not turned into a frame.
+    #[test]
+    fn absurd_dimensions_cannot_wrap_past_the_size_checks() {
+        let levels = Levels::uniform(0, 4095);
+        let mut fmt = RawFormat::new(
+            (1usize << 63) + 2,
+            2,
+            12,
+            Cfa::Rggb,
+            Container::U16,
+            Endian::Little,
+            levels,
+        );
+        fmt.stride_bytes = Some(4);
+        let e = frame_from_bytes(&[0; 8], &fmt, Path::new("huge.raw")).unwrap_err();
+        assert!(e.to_string().contains("too large"), "{e}");
+        let mut tall = RawFormat::new(
+            2,
+            usize::MAX / 2,
+            12,
+            Cfa::Rggb,
+            Container::U16,
+            Endian::Little,
+            levels,
+        );
+        tall.stride_bytes = Some(8);
+        assert_eq!(tall.expected_len(), u64::MAX);
+        assert!(matches!(
+            frame_from_bytes(&[0; 8], &tall, Path::new("tall.raw")),
+            Err(RawError::SizeMismatch { .. })
+        ));
+        // The frame type itself: stride * (height - 1) + width must not wrap either.
+        let e = RawFrame::new(
+            2,
+            usize::MAX / 2,
+            4,
+            RawPixels::U16(vec![0; 8]),
+            Cfa::Rggb,
+            12,
+            levels,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                RawError::BufferSize {
+                    needed: usize::MAX,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+    }
 
     fn fmt16(w: usize, h: usize, endian: Endian) -> RawFormat {
         RawFormat::new(

@@ -58,13 +58,15 @@ pub fn preview_from_raw(frame: &RawFrame, decimation: usize) -> Option<Preview> 
         return None;
     }
     let lut = luts(frame);
+    let max = frame.max_value() as usize;
     let mut data = Vec::with_capacity(pw * ph);
     for py in 0..ph {
         let sy = (py / 2) * 2 * d + (py & 1);
         for px in 0..pw {
             let sx = (px / 2) * 2 * d + (px & 1);
             let pos = (sy & 1) * 2 + (sx & 1);
-            data.push(lut[pos][frame.value(sx, sy) as usize]);
+            // A value above the bit depth (RawFrame allows them) shows as the brightest.
+            data.push(lut[pos][(frame.value(sx, sy) as usize).min(max)]);
         }
     }
     Some(Preview {

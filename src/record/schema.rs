@@ -140,6 +140,19 @@ pub enum SchemaError {
     /// A container size other than 8 or 16 bits.
     #[error("container_bits {0} is not 8 or 16")]
     Container(u8),
+    /// A pixel value above the frame's declared bit depth (what the file and V4L2 readers
+    /// refuse too; `x`, `y` of the first one).
+    #[error("pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]
+    ValueOutOfRange {
+        /// Value.
+        value: u16,
+        /// x.
+        x: usize,
+        /// y.
+        y: usize,
+        /// Declared depth.
+        bit_depth: u8,
+    },
     /// The header values do not make a valid frame.
     #[error("invalid frame in recording: {0}")]
     Frame(#[from] RawError),
@@ -254,7 +267,7 @@ pub fn decode_raw_frame(data: &[u8]) -> Result<RawFrame, SchemaError> {
     if px.len() != needed {
         return Err(SchemaError::Short {
             len: data.len(),
-            needed: data.len() - px.len() + needed,
+            needed: (data.len() - px.len()).saturating_add(needed),
         });
     }
     let pixels = if bytes == 1 {
@@ -279,6 +292,18 @@ pub fn decode_raw_frame(data: &[u8]) -> Result<RawFrame, SchemaError> {
         h.bit_depth,
         levels,
     )?;
+    // Values above the bit depth: refused as the file and V4L2 readers refuse them.
+    if let RawPixels::U16(v) = f.pixels() {
+        let max = f.max_value();
+        if let Some(i) = v.iter().position(|&p| p > max) {
+            return Err(SchemaError::ValueOutOfRange {
+                value: v[i],
+                x: i % f.width(),
+                y: i / f.width(),
+                bit_depth: f.bit_depth(),
+            });
+        }
+    }
     f.wb_gains = h.wb_gains;
     f.meta = FrameMeta {
         sequence: h.sequence,
@@ -663,6 +688,34 @@ mod tests {
         // Huge header length must not allocate or panic.
         let mut bad = buf.clone();
         bad[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Short { .. })));
+        // A value above the declared bit depth (a RawFrame may hold one; a recording must not:
+        // the preview's tables are sized by the bit depth).
+        let hot =
+            RawFrame::from_u16(2, 2, vec![5, 6, 1024, 7], Cfa::Rggb, 10, Levels::uniform(0, 1023)).unwrap();
+        encode_raw_frame(&hot, &mut buf);
+        let e = decode_raw_frame(&buf).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                SchemaError::ValueOutOfRange {
+                    value: 1024,
+                    x: 0,
+                    y: 1,
+                    bit_depth: 10
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("1024 at (0, 1)"), "{e}");
+        // Absurd dimensions: a clear size error, no overflow.
+        let (mut h, px) = decode_raw_frame_header(&buf).unwrap();
+        (h.width, h.height) = (u32::MAX, u32::MAX);
+        let json = serde_json::to_vec(&h).unwrap();
+        let mut bad = buf[..4].to_vec();
+        bad.extend((json.len() as u32).to_le_bytes());
+        bad.extend(&json);
+        bad.extend(px);
         assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Short { .. })));
     }
 
