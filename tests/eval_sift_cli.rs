@@ -90,7 +90,10 @@ fn one_image_writes_every_output_and_is_the_same_for_any_thread_count() {
             let s = &r[m];
             let rep = s["repeatability"].as_f64().unwrap();
             assert!((0.0..=1.0).contains(&rep), "{r}");
-            assert!(s["correct"].as_u64() <= s["matches"].as_u64(), "{r}");
+            assert!(
+                s["correct"].as_u64().unwrap() <= s["matches"].as_u64().unwrap(),
+                "{r}"
+            );
             assert!(s["n1"].as_u64().unwrap() > 20, "too few keypoints: {r}");
         }
     }

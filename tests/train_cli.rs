@@ -82,7 +82,7 @@ fn reverse_isp_training_is_deterministic_and_recorded() {
         assert!(s["converged"].is_boolean() && s["pg_spread"].is_f64(), "{s}");
     }
     assert!(
-        solves[1]["vectors"].as_u64() > solves[0]["vectors"].as_u64(),
+        solves[1]["vectors"].as_u64().unwrap() > solves[0]["vectors"].as_u64().unwrap(),
         "the second solve has the hard negatives: {solves:?}"
     );
 }

@@ -27,7 +27,9 @@ use v4l::buffer::Type as BufType;
 use v4l::io::traits::CaptureStream;
 use v4l::video::Capture;
 
-use super::v4l2_formats::{bayer_format, fourcc_str, raw_frame_from_v4l2, BayerFormat, Packing};
+use super::v4l2_formats::{
+    bayer_format, fourcc_str, raw_frame_from_v4l2, BayerFormat, Packing, V4l2FormatError,
+};
 use super::{CaptureError, Clock, MonotonicClock, Source, SourceKind};
 use crate::raw::{FrameMeta, Levels, RawFrame};
 
@@ -376,7 +378,9 @@ impl V4l2Source {
 
 /// One dequeued buffer as a frame, or [`CaptureError::BadBuffer`] naming its driver sequence
 /// number: a buffer the driver marked as failed (`V4L2_BUF_FLAG_ERROR`: its contents may be an
-/// earlier frame's), or one that does not hold the negotiated format (short, out of range).
+/// earlier frame's), or one whose contents do not hold the negotiated format (short, a value out
+/// of range). An error of the setup rather than of this buffer (a stride or white level that does
+/// not fit the negotiated format) stays [`CaptureError::Format`]: it fails every frame alike.
 /// `bytesused` 0 means "not reported" on some drivers: then the whole buffer is the frame.
 fn frame_from_buffer(
     neg: &Negotiated,
@@ -405,7 +409,10 @@ fn frame_from_buffer(
         neg.bytes_per_line as usize,
         levels,
     )
-    .map_err(|e| bad(e.to_string()))
+    .map_err(|e| match e {
+        V4l2FormatError::BufferSize { .. } | V4l2FormatError::ValueOutOfRange { .. } => bad(e.to_string()),
+        other => CaptureError::Format(other),
+    })
 }
 
 impl Source for V4l2Source {
@@ -536,6 +543,12 @@ mod tests {
         let mut hot = good.clone();
         hot[14..16].copy_from_slice(&1024u16.to_le_bytes());
         sequence_of(frame_from_buffer(&neg, None, &hot, &meta(16, none), path));
+        // Not the buffer's fault: a white level above the negotiated depth fails every frame, and
+        // stays a format error naming the levels.
+        let levels = Some(Levels::uniform(0, 4095));
+        let e = frame_from_buffer(&neg, levels, &good, &meta(16, none), path).unwrap_err();
+        assert!(matches!(e, CaptureError::Format(_)), "{e:?}");
+        assert_eq!(e.sensor_sequence(), None);
     }
 
     #[test]
