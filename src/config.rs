@@ -275,9 +275,16 @@ pub struct ComputeConfig {
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
     pub strip_rows: usize,
-    /// Also compute mosaic SIFT keypoints (super-pixel DoG, 5x5 extrema; no descriptors) and
-    /// publish them on `<prefix>/<camera>/keypoints` and record them on `/<camera>/keypoints`.
+    /// Also compute mosaic SIFT keypoints (super-pixel DoG, 5x5 extrema) and publish them on
+    /// `<prefix>/<camera>/keypoints` and record them on `/<camera>/keypoints` (Foxglove points)
+    /// and `/<camera>/sift` (full-frame keypoints, with descriptors when computed).
     pub keypoints: bool,
+    /// With `keypoints`: also compute each keypoint's 128-byte SIFT descriptor (on the mosaic
+    /// gradient) and publish and record it beside the keypoint.
+    pub keypoint_descriptors: bool,
+    /// With `keypoints`: double the colour planes first (the mosaic's analogue of OpenCV's
+    /// `firstOctave = -1`): finer keypoints, at about 4x the cost of the stage.
+    pub keypoints_double: bool,
 }
 
 impl Default for ComputeConfig {
@@ -297,6 +304,8 @@ impl Default for ComputeConfig {
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
+            keypoint_descriptors: false,
+            keypoints_double: false,
         }
     }
 }
@@ -634,6 +643,18 @@ impl Config {
         c.mosaic_taps_override()?;
         c.mosaic_tone_override()?;
         c.wb_gains()?;
+        for (key, on) in [
+            ("compute.keypoint_descriptors", c.keypoint_descriptors),
+            ("compute.keypoints_double", c.keypoints_double),
+        ] {
+            if on && !c.keypoints {
+                return Err(ConfigError::OutOfRange {
+                    key: key.into(),
+                    value: "true".into(),
+                    allowed: "false unless compute.keypoints = true (it qualifies the keypoint stage)".into(),
+                });
+            }
+        }
         if c.model.is_empty() {
             return Err(ConfigError::Missing {
                 key: "compute.model".into(),
@@ -857,6 +878,11 @@ mod tests {
             ("[compute]\nsvm = \"f16\"\n", "compute.svm"),
             ("[compute]\nmosaic_taps = \"diagonal\"\n", "compute.mosaic_taps"),
             ("[compute]\nmosaic_tone = \"gamma\"\n", "compute.mosaic_tone"),
+            (
+                "[compute]\nkeypoint_descriptors = true\n",
+                "compute.keypoint_descriptors",
+            ),
+            ("[compute]\nkeypoints_double = true\n", "compute.keypoints_double"),
             ("[compute]\nwb_gains = \"warm\"\n", "compute.wb_gains"),
             ("[compute]\nwb_gains = \"2,1\"\n", "compute.wb_gains"),
             ("[compute]\nwb_gains = \"2,0,1\"\n", "compute.wb_gains"),

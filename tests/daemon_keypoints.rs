@@ -3,13 +3,17 @@
 //! 160x120 10-bit GRBG made by our own code) computes mosaic SIFT keypoints per frame, publishes them on
 //! `<prefix>/<camera>/keypoints` to a `mosaicd listen --keypoints` process over real iceoryx2 shared
 //! memory, writes them to the results file, and records them in MCAP as `foxglove.ImageAnnotations`
-//! points. With the stage off (the default) none of these appear.
+//! points and as `mosaicd.SiftFeatures` (full-frame keypoints). With `compute.keypoint_descriptors`
+//! every keypoint carries its 128-byte descriptor through all three, the same bytes everywhere and
+//! for any thread count. With the stage off (the default) none of these appear.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use mosaicd::features::sift::Keypoint;
+
 use mosaicd::record::read::{read_json_topic, RecordingInfo};
-use mosaicd::record::schema::{ImageAnnotations, POINTS_POINTS};
+use mosaicd::record::schema::{base64_decode, ImageAnnotations, SiftFeaturesMessage, POINTS_POINTS};
 use mosaicd::record::Topics;
 
 mod common;
@@ -24,15 +28,27 @@ fn recording() -> PathBuf {
 }
 
 fn config(dir: &Path, prefix: &str, camera: &str, keypoints: bool) -> PathBuf {
+    config_with(dir, prefix, camera, keypoints, "", 2)
+}
+
+/// A config; `extra` goes into `[compute]`.
+fn config_with(
+    dir: &Path,
+    prefix: &str,
+    camera: &str,
+    keypoints: bool,
+    extra: &str,
+    threads: usize,
+) -> PathBuf {
     let p = dir.join(format!("{camera}.toml"));
     let rec = dir.join("{camera}.mcap");
     std::fs::write(
         &p,
         format!(
-            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n\
+            "[daemon]\nthreads = {threads}\nstats_interval_ms = 200\n\
              [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 64\n\
              [record]\nenabled = true\npath = \"{}\"\n\
-             [compute]\ndetect = false\nkeypoints = {keypoints}\n\
+             [compute]\ndetect = false\nkeypoints = {keypoints}\n{extra}\
              [[camera]]\nname = \"{camera}\"\nsource = \"mcap\"\npath = \"{}\"\n",
             rec.display(),
             recording().display()
@@ -61,6 +77,58 @@ fn run_daemon(cfg: &Path, dir: &Path) -> PathBuf {
     results
 }
 
+/// `got` equals the results file's keypoints `want` (a JSON array), compared as the `f32` values
+/// both were written from (JSON text parsed as `f64` can differ in the last digits).
+fn assert_same_keypoints(got: &[Keypoint], want: &serde_json::Value) {
+    let want = want.as_array().unwrap();
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(want) {
+        let f = |k: &str| w[k].as_f64().unwrap() as f32;
+        assert_eq!(
+            (g.x, g.y, g.size, g.angle, g.response),
+            (f("x"), f("y"), f("size"), f("angle"), f("response")),
+            "{w}"
+        );
+        assert_eq!(
+            (g.octave as i64, g.layer as u64),
+            (w["octave"].as_i64().unwrap(), w["layer"].as_u64().unwrap())
+        );
+    }
+}
+
+/// Run the daemon with `cfg` while a `mosaicd listen --keypoints` process subscribes: the
+/// results path, its frame records (one per recorded frame, checked) and the listener's messages.
+fn run_with_listener(
+    cfg: &Path,
+    dir: &Path,
+    prefix: &str,
+    camera: &str,
+) -> (PathBuf, Vec<serde_json::Value>, Vec<serde_json::Value>) {
+    let listener = common::spawn_listener(
+        BIN,
+        &[
+            "--camera",
+            camera,
+            "--prefix",
+            prefix,
+            "--keypoints",
+            "--until-final",
+            "--timeout-s",
+            "60",
+        ],
+    );
+    let results = run_daemon(cfg, dir);
+    let frames: Vec<serde_json::Value> = json_lines(&std::fs::read_to_string(&results).unwrap())
+        .into_iter()
+        .filter(|r| r["type"] == "frame")
+        .collect();
+    assert_eq!(frames.len() as u64, FRAMES);
+    let lout = listener.wait_with_output().unwrap();
+    assert!(lout.status.success(), "{}", String::from_utf8_lossy(&lout.stderr));
+    let msgs = json_lines(&String::from_utf8_lossy(&lout.stdout));
+    (results, frames, msgs)
+}
+
 fn json_lines(text: &str) -> Vec<serde_json::Value> {
     text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
 }
@@ -70,28 +138,9 @@ fn keypoints_reach_a_listen_process_the_results_file_and_the_mcap() {
     let dir = tempfile::tempdir().unwrap();
     let (prefix, camera) = (format!("t{}kp", std::process::id()), "kpcam");
     let cfg = config(dir.path(), &prefix, camera, true);
-    let listener = common::spawn_listener(
-        BIN,
-        &[
-            "--camera",
-            camera,
-            "--prefix",
-            &prefix,
-            "--keypoints",
-            "--until-final",
-            "--timeout-s",
-            "60",
-        ],
-    );
-
-    let results = run_daemon(&cfg, dir.path());
+    let (results, frames, msgs) = run_with_listener(&cfg, dir.path(), &prefix, camera);
 
     // Results file: every frame carries its keypoints, strongest first.
-    let frames: Vec<serde_json::Value> = json_lines(&std::fs::read_to_string(&results).unwrap())
-        .into_iter()
-        .filter(|r| r["type"] == "frame")
-        .collect();
-    assert_eq!(frames.len() as u64, FRAMES);
     let mut total = 0;
     for f in &frames {
         let k = f["keypoints"].as_array().expect("keypoints array in every frame");
@@ -110,9 +159,6 @@ fn keypoints_reach_a_listen_process_the_results_file_and_the_mcap() {
     );
 
     // Listener: one keypoints message per frame, before that frame's detections, same content.
-    let lout = listener.wait_with_output().unwrap();
-    assert!(lout.status.success(), "{}", String::from_utf8_lossy(&lout.stderr));
-    let msgs = json_lines(&String::from_utf8_lossy(&lout.stdout));
     let kmsgs: Vec<&serde_json::Value> = msgs.iter().filter(|m| m["topic"] == "keypoints").collect();
     let idx: Vec<u64> = kmsgs.iter().map(|m| m["index"].as_u64().unwrap()).collect();
     assert_eq!(idx, (0..FRAMES).collect::<Vec<_>>());
@@ -148,6 +194,99 @@ fn keypoints_reach_a_listen_process_the_results_file_and_the_mcap() {
         let pts: usize = a.message.points.iter().map(|p| p.points.len()).sum();
         assert_eq!(pts, n);
         assert!(a.message.points.iter().all(|p| p.kind == POINTS_POINTS));
+    }
+    // And as mosaicd.SiftFeatures: the results file's keypoints, full-frame, without descriptors.
+    let sift = read_json_topic::<SiftFeaturesMessage>(&rec, &Topics::new(camera).sift).unwrap();
+    assert_eq!(sift.len() as u64, FRAMES);
+    for (s, f) in sift.iter().zip(&frames) {
+        assert_same_keypoints(&s.message.keypoints, &f["keypoints"]);
+        assert!(s.message.descriptors.is_empty());
+        assert_eq!(s.message.sequence, f["sequence"].as_u64().unwrap());
+    }
+    assert!(frames.iter().all(|f| f.get("descriptors").is_none()));
+    assert!(kmsgs
+        .iter()
+        .all(|m| m["descriptor_len"] == 0 && m["descriptors"].is_null()));
+}
+
+/// Descriptors on: the listener, the results file and the MCAP carry the same bytes per keypoint,
+/// and a replay with one thread writes the same results file as with two.
+#[test]
+fn descriptors_reach_every_output_with_their_keypoints() {
+    let dir = tempfile::tempdir().unwrap();
+    let (prefix, camera) = (format!("t{}kd", std::process::id()), "kdcam");
+    let extra = "keypoint_descriptors = true\n";
+    let cfg = config_with(dir.path(), &prefix, camera, true, extra, 2);
+    let (results, frames, msgs) = run_with_listener(&cfg, dir.path(), &prefix, camera);
+    let decode = |v: &serde_json::Value| -> Vec<Vec<u8>> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|s| base64_decode(s.as_str().unwrap()).unwrap())
+            .collect()
+    };
+    let mut total = 0;
+    for f in &frames {
+        let d = decode(&f["descriptors"]);
+        assert_eq!(d.len(), f["keypoints"].as_array().unwrap().len());
+        assert!(d.iter().all(|x| x.len() == 128 && x.iter().any(|&b| b > 0)));
+        total += d.len();
+    }
+    assert!(total >= FRAMES as usize, "only {total} descriptors");
+
+    let kmsgs: Vec<&serde_json::Value> = msgs.iter().filter(|m| m["topic"] == "keypoints").collect();
+    assert_eq!(kmsgs.len() as u64, FRAMES);
+    for (m, f) in kmsgs.iter().zip(&frames) {
+        assert_eq!(m["descriptor_len"], 128);
+        assert_eq!(m["descriptors"], f["descriptors"], "frame {}", m["index"]);
+    }
+
+    let rec = dir.path().join(format!("{camera}.mcap"));
+    let sift = read_json_topic::<SiftFeaturesMessage>(&rec, &Topics::new(camera).sift).unwrap();
+    assert_eq!(sift.len() as u64, FRAMES);
+    for (s, f) in sift.iter().zip(&frames) {
+        assert_same_keypoints(&s.message.keypoints, &f["keypoints"]);
+        let got: Vec<Vec<u8>> = s
+            .message
+            .decoded_descriptors()
+            .unwrap()
+            .iter()
+            .map(|d| d.to_vec())
+            .collect();
+        assert_eq!(got, decode(&f["descriptors"]));
+    }
+
+    // One thread: the same results, byte for byte (wall-clock fields removed).
+    let one = tempfile::tempdir().unwrap();
+    let cfg1 = config_with(one.path(), &format!("{prefix}1"), camera, true, extra, 1);
+    let results1 = run_daemon(&cfg1, one.path());
+    let strip = |p: &Path| -> Vec<serde_json::Value> {
+        json_lines(&std::fs::read_to_string(p).unwrap())
+            .into_iter()
+            .filter(|r| r["type"] == "frame")
+            .map(|mut r| {
+                r.as_object_mut().unwrap().remove("wall");
+                r
+            })
+            .collect()
+    };
+    assert_eq!(strip(&results), strip(&results1));
+}
+
+#[test]
+fn descriptors_or_doubling_without_the_keypoint_stage_are_refused_at_start_up() {
+    let dir = tempfile::tempdir().unwrap();
+    for key in ["keypoint_descriptors", "keypoints_double"] {
+        let cfg = config_with(dir.path(), "tkr", "kr", false, &format!("{key} = true\n"), 2);
+        let out = Command::new(BIN)
+            .args(["run", "--config"])
+            .arg(&cfg)
+            .env("RUST_LOG", "warn")
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("compute.{key}")), "{err}");
     }
 }
 

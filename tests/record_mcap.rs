@@ -67,6 +67,13 @@ fn kps(i: u64) -> Vec<Keypoint> {
         .collect()
 }
 
+/// One descriptor per keypoint of [`kps`], each byte a function of frame, keypoint and position.
+fn descs(i: u64) -> Vec<[u8; 128]> {
+    (0..(i % 4))
+        .map(|k| std::array::from_fn(|j| (i as usize * 31 + k as usize * 7 + j) as u8))
+        .collect()
+}
+
 fn record(path: &Path, n: u64, opts: RecorderOptions) -> mosaicd::record::RecordingSummary {
     let keypoints = opts.keypoints;
     let mut rec = McapRecorder::create(path, opts).unwrap();
@@ -77,6 +84,17 @@ fn record(path: &Path, n: u64, opts: RecorderOptions) -> mosaicd::record::Record
             .unwrap();
         if keypoints {
             rec.write_keypoints(f.meta.timestamp_ns, &kps(i)).unwrap();
+            // Descriptors on odd frames only, to see both forms of the message.
+            let d = descs(i);
+            rec.write_sift(
+                i,
+                f.meta.timestamp_ns,
+                64,
+                48,
+                &kps(i),
+                (i % 2 == 1).then_some(&d[..]),
+            )
+            .unwrap();
         }
         if i % 5 == 4 {
             rec.write_stats(f.meta.timestamp_ns, &serde_json::json!({"frames": i + 1}))
@@ -595,12 +613,53 @@ fn foxglove_messages_match_their_schemas() {
         Ok(())
     })
     .unwrap();
-    assert!(checked >= 12);
+    assert!(checked >= 15);
     assert_eq!(
         keypoint_points,
         vec![0, 1, 2],
         "one annotation per frame, i % 4 points"
     );
+}
+
+/// `/<camera>/sift` round trip: full-frame keypoints in the order given, and the descriptors,
+/// base64 in the file, decode to the bytes written (none on frames written without them).
+#[test]
+fn sift_features_round_trip_with_and_without_descriptors() {
+    use mosaicd::record::schema::{SiftFeaturesMessage, SIFT_FEATURES_SCHEMA};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.mcap");
+    let opts = RecorderOptions {
+        keypoints: true,
+        ..RecorderOptions::default()
+    };
+    record(&path, 6, opts);
+    let topic = mosaicd::record::Topics::new("camera").sift;
+    let info = RecordingInfo::read(&path).unwrap();
+    assert_eq!(info.count(&topic), 6);
+    let msgs = mosaicd::record::read::read_json_topic::<SiftFeaturesMessage>(&path, &topic).unwrap();
+    for (i, m) in msgs.iter().enumerate() {
+        let i = i as u64;
+        let t = frame(i, 64, 48).meta.timestamp_ns;
+        assert_eq!(m.log_time, t);
+        let s = &m.message;
+        assert_eq!(
+            (s.sequence, s.timestamp_ns, s.frame_width, s.frame_height),
+            (i, t, 64, 48)
+        );
+        assert_eq!(s.keypoints, kps(i), "full-frame coordinates, not preview");
+        let want = if i % 2 == 1 { descs(i) } else { Vec::new() };
+        assert_eq!(s.decoded_descriptors().unwrap(), want, "frame {i}");
+    }
+    let mut schemas = 0;
+    mosaicd::record::read::for_each_message(&path, |m| {
+        if m.channel.topic == topic {
+            assert_eq!(m.channel.schema.as_ref().unwrap().name, SIFT_FEATURES_SCHEMA);
+            schemas += 1;
+        }
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(schemas, 6);
 }
 
 #[test]
@@ -609,9 +668,31 @@ fn keypoints_need_the_keypoints_channel() {
     let mut rec = McapRecorder::create(dir.path().join("k.mcap"), RecorderOptions::default()).unwrap();
     let e = rec.write_keypoints(0, &kps(1)).unwrap_err();
     assert!(e.to_string().contains("keypoints"), "{e}");
+    let e = rec.write_sift(0, 0, 64, 48, &kps(1), None).unwrap_err();
+    assert!(e.to_string().contains("keypoints"), "{e}");
     // The recorder is not stopped by the refusal.
     rec.write_detections(0, 0, 64, 48, &det(1)).unwrap();
     rec.finish().unwrap();
+}
+
+#[test]
+fn sift_features_refuse_descriptors_that_do_not_pair_with_the_keypoints() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = RecorderOptions {
+        keypoints: true,
+        ..RecorderOptions::default()
+    };
+    let path = dir.path().join("m.mcap");
+    let mut rec = McapRecorder::create(&path, opts).unwrap();
+    let e = rec
+        .write_sift(0, 0, 64, 48, &kps(3), Some(&descs(2)))
+        .unwrap_err();
+    assert!(e.to_string().contains("2 for 3 keypoints"), "{e}");
+    // Refused before anything was written; the recorder goes on.
+    rec.write_sift(0, 0, 64, 48, &kps(3), Some(&descs(3))).unwrap();
+    rec.finish().unwrap();
+    let topic = mosaicd::record::Topics::new("camera").sift;
+    assert_eq!(RecordingInfo::read(&path).unwrap().count(&topic), 1);
 }
 
 /// Every property of `v` is declared in `schema` with a matching JSON type.

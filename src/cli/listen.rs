@@ -61,6 +61,8 @@ fn keypoints_json(m: &KeypointsMsg) -> serde_json::Value {
         "keypoint_count": m.keypoint_count,
         "overflow": m.overflow,
         "keypoints": m.keypoints(),
+        "descriptor_len": m.descriptor_len,
+        "descriptors": m.descriptors().map(mosaicd::pipeline::sinks::descriptors_json),
     })
 }
 

@@ -171,6 +171,8 @@ pub fn stage_spec(cfg: &Config) -> Result<StageSpec, crate::config::ConfigError>
         strip_rows: cfg.compute.strip_rows,
         detect: cfg.compute.detect,
         keypoints: cfg.compute.keypoints,
+        keypoint_descriptors: cfg.compute.keypoint_descriptors,
+        keypoints_double: cfg.compute.keypoints_double,
         wb_gains: cfg.compute.wb_gains()?,
     })
 }

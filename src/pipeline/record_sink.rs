@@ -2,7 +2,8 @@
 //!
 //! Per processed frame: the detections as `foxglove.ImageAnnotations` and `mosaicd.Detections`
 //! (log time = the frame's capture timestamp), the mosaic SIFT keypoints when `compute.keypoints`
-//! is on, optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
+//! is on (Foxglove points on `/<camera>/keypoints`, and full-frame keypoints with their
+//! descriptors, when computed, as `mosaicd.SiftFeatures` on `/<camera>/sift`), optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
 //! ([`super::sinks::stats_json`]; with `daemon.deterministic_outputs` only the final stats,
 //! without that group: [`super::sinks::stats_record`]). Chunks are flushed every `record.flush_frames` frames, so a crash
 //! loses at most that many; [`Sink::finish`] writes the summary and index.
@@ -213,6 +214,14 @@ impl McapSink {
         )?;
         if let Some(k) = &r.output.keypoints {
             self.recorder.write_keypoints(r.meta.timestamp_ns, k)?;
+            self.recorder.write_sift(
+                r.meta.sequence,
+                r.meta.timestamp_ns,
+                r.width as u32,
+                r.height as u32,
+                k,
+                r.output.descriptors.as_deref(),
+            )?;
         }
         Ok(())
     }

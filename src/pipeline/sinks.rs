@@ -2,7 +2,8 @@
 //! in-memory collector for tests.
 //!
 //! The results file has one line per processed frame (index, sequence, timestamps, size, mean
-//! gradient magnitude, boxes, and keypoints when `compute.keypoints` is on) and the final stats. Wall-clock fields are grouped under the key
+//! gradient magnitude, boxes, keypoints when `compute.keypoints` is on and their descriptors when
+//! `compute.keypoint_descriptors` is) and the final stats. Wall-clock fields are grouped under the key
 //! `"wall"` so a comparison can drop them; everything else is a function of the input alone, so
 //! replaying a recording gives a byte-identical file for any thread count once `"wall"` is removed
 //! ([`strip_wall_clock`]), or at once with `daemon.deterministic_outputs` (the default of
@@ -20,7 +21,8 @@ use crate::publish::messages::StatsMsg;
 /// Key under which wall-clock (non-deterministic) values are grouped.
 pub const WALL_KEY: &str = "wall";
 
-/// The JSON record of one frame (`"keypoints"` only when the stage computes them).
+/// The JSON record of one frame (`"keypoints"` only when the stage computes them, `"descriptors"`
+/// only when it computes those: base64, one per keypoint, same order).
 pub fn frame_json(r: &FrameResult) -> serde_json::Value {
     let mut v = json!({
         "type": "frame",
@@ -39,7 +41,18 @@ pub fn frame_json(r: &FrameResult) -> serde_json::Value {
     if let Some(k) = &r.output.keypoints {
         v["keypoints"] = json!(k);
     }
+    if let Some(d) = &r.output.descriptors {
+        v["descriptors"] = descriptors_json(d);
+    }
     v
+}
+
+/// SIFT descriptors as a JSON array of base64 strings (128 bytes each, standard padded base64:
+/// the encoding Foxglove's JSON schemas use for bytes), one per keypoint.
+pub fn descriptors_json(d: &[[u8; crate::features::sift::DESCRIPTOR_LEN]]) -> serde_json::Value {
+    d.iter()
+        .map(|x| serde_json::Value::String(crate::record::schema::base64_encode(x)))
+        .collect()
 }
 
 /// The JSON record of a stats message.

@@ -16,9 +16,12 @@
 //!   an error).
 //! * **Keypoints** (optional, `compute.keypoints`): the paper's mosaic SIFT
 //!   ([`crate::features::sift::keypoints_from_frame`]: black level subtracted per tile, super-pixel
-//!   DoG pyramid, 5x5 extrema, no descriptors), sorted by decreasing |response| with ties broken by
-//!   position, so the order — and which keypoints fit a message — is the same for any thread count.
-//!   A frame smaller than SIFT's minimum size gives an empty list (not an error).
+//!   DoG pyramid, 5x5 extrema), sorted by decreasing |response| with ties broken by position, so
+//!   the order — and which keypoints fit a message — is the same for any thread count. With
+//!   `compute.keypoint_descriptors` each keypoint also gets its 128-byte descriptor
+//!   ([`crate::features::sift::features_from_frame`]), kept in the keypoints' order; with
+//!   `compute.keypoints_double` the colour planes are doubled first (finer keypoints, about 4x the
+//!   cost). A frame smaller than SIFT's minimum size gives empty lists (not an error).
 //! * **mean_magnitude**: `Σ mag · 2^s / (white − max black) / (w·h)`, a cheap liveness signal in
 //!   normalised units. The sum is an exact integer, so it is identical for any thread count.
 //!
@@ -41,10 +44,15 @@ use crate::detect::types::Detection;
 use crate::detect::Detector;
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
 use crate::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
-use crate::features::sift::{keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec};
+use crate::features::sift::{
+    features_from_frame, keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec, DESCRIPTOR_LEN,
+};
 use crate::image::{Image, ImageViewMut};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
 use crate::raw::RawFrame;
+
+/// One SIFT descriptor (OpenCV's 128 stored bytes).
+pub type Descriptor = [u8; DESCRIPTOR_LEN];
 
 /// Errors of the compute stage.
 #[derive(Debug, thiserror::Error)]
@@ -102,6 +110,11 @@ pub struct StageSpec {
     pub detect: bool,
     /// Compute mosaic SIFT keypoints.
     pub keypoints: bool,
+    /// With `keypoints`: also compute their descriptors.
+    pub keypoint_descriptors: bool,
+    /// With `keypoints`: double the colour planes first (OpenCV's `firstOctave = -1` on the
+    /// mosaic).
+    pub keypoints_double: bool,
     /// White-balance gains of the detector's mosaic when the model's tone is
     /// [`MosaicTone::Srgb`] (`compute.wb_gains`; [`Gains::Auto`]: the frame's own, else grey
     /// world).
@@ -115,6 +128,8 @@ impl Default for StageSpec {
             strip_rows: 64,
             detect: true,
             keypoints: false,
+            keypoint_descriptors: false,
+            keypoints_double: false,
             wb_gains: Gains::Auto,
         }
     }
@@ -170,7 +185,11 @@ impl Stage {
             serial: false,
         })?;
         let sift = if spec.keypoints {
-            Some(SiftOptions::mosaic().build()?)
+            Some(
+                SiftOptions::mosaic()
+                    .build()?
+                    .with_double_image(spec.keypoints_double),
+            )
         } else {
             None
         };
@@ -242,13 +261,18 @@ impl Stage {
             }
             None => Vec::new(),
         };
-        let keypoints = match &self.sift {
-            Some(spec) => Some(keypoints_sorted(frame, spec)?),
-            None => None,
+        let (keypoints, descriptors) = match &self.sift {
+            Some(spec) if self.spec.keypoint_descriptors => {
+                let (k, d) = features_sorted(frame, spec)?;
+                (Some(k), Some(d))
+            }
+            Some(spec) => (Some(keypoints_sorted(frame, spec)?), None),
+            None => (None, None),
         };
         Ok(StageOutput {
             detections,
             keypoints,
+            descriptors,
             mean_magnitude: mean as f32,
         })
     }
@@ -271,24 +295,41 @@ impl Stage {
     }
 }
 
-/// Mosaic SIFT keypoints of `frame`, strongest first (total order: |response| descending, then x,
-/// y, size, angle); an empty list for a frame below SIFT's minimum size.
+/// The stage's keypoint order: |response| descending, then x, y, size, angle (a total order on
+/// the library's deduplicated keypoints).
+fn strongest_first(a: &Keypoint, b: &Keypoint) -> std::cmp::Ordering {
+    b.response
+        .abs()
+        .total_cmp(&a.response.abs())
+        .then(a.x.total_cmp(&b.x))
+        .then(a.y.total_cmp(&b.y))
+        .then(a.size.total_cmp(&b.size))
+        .then(a.angle.total_cmp(&b.angle))
+}
+
+/// Mosaic SIFT keypoints of `frame`, strongest first ([`strongest_first`]); an empty list for a
+/// frame below SIFT's minimum size.
 fn keypoints_sorted(frame: &RawFrame, spec: &SiftSpec) -> Result<Vec<Keypoint>, SiftError> {
     let mut k = match keypoints_from_frame(frame, spec) {
         Ok(k) => k,
         Err(SiftError::TooSmall { .. }) => return Ok(Vec::new()),
         Err(e) => return Err(e),
     };
-    k.sort_by(|a, b| {
-        b.response
-            .abs()
-            .total_cmp(&a.response.abs())
-            .then(a.x.total_cmp(&b.x))
-            .then(a.y.total_cmp(&b.y))
-            .then(a.size.total_cmp(&b.size))
-            .then(a.angle.total_cmp(&b.angle))
-    });
+    k.sort_by(strongest_first);
     Ok(k)
+}
+
+/// Mosaic SIFT keypoints of `frame` with their descriptors, both strongest first
+/// ([`strongest_first`]); empty lists for a frame below SIFT's minimum size.
+fn features_sorted(frame: &RawFrame, spec: &SiftSpec) -> Result<(Vec<Keypoint>, Vec<Descriptor>), SiftError> {
+    let f = match features_from_frame(frame, spec) {
+        Ok(f) => f,
+        Err(SiftError::TooSmall { .. }) => return Ok((Vec::new(), Vec::new())),
+        Err(e) => return Err(e),
+    };
+    let mut pairs: Vec<(Keypoint, Descriptor)> = f.keypoints.into_iter().zip(f.descriptors).collect();
+    pairs.sort_by(|a, b| strongest_first(&a.0, &b.0));
+    Ok(pairs.into_iter().unzip())
 }
 
 /// Gradient maps of one frame (reused between frames through the buffer pool).
@@ -327,6 +368,9 @@ pub struct StageOutput {
     pub detections: Vec<Detection>,
     /// Mosaic SIFT keypoints, strongest first; `None` when the stage does not compute them.
     pub keypoints: Option<Vec<Keypoint>>,
+    /// The keypoints' descriptors, in the same order; `None` unless the stage computes them
+    /// (`keypoint_descriptors`).
+    pub descriptors: Option<Vec<Descriptor>>,
     /// Mean gradient magnitude over the frame, normalised units.
     pub mean_magnitude: f32,
 }
@@ -418,16 +462,33 @@ mod tests {
     }
 
     fn keypoint_stage() -> Stage {
+        sift_stage(false, false)
+    }
+
+    /// A stage computing keypoints, with descriptors and doubled planes as asked.
+    fn sift_stage(descriptors: bool, double: bool) -> Stage {
         Stage::new(
             StageSpec {
                 detect: false,
                 keypoints: true,
+                keypoint_descriptors: descriptors,
+                keypoints_double: double,
                 strip_rows: 4,
                 ..StageSpec::default()
             },
             None,
         )
         .unwrap()
+    }
+
+    /// `got` holds the same keypoints as `spec`'s library call on `f`, in any order.
+    fn assert_library_keypoints(got: &[Keypoint], f: &RawFrame, spec: &SiftSpec) {
+        let mut lib = keypoints_from_frame(f, spec).unwrap();
+        let mut got = got.to_vec();
+        let key = |p: &Keypoint| (p.x.to_bits(), p.y.to_bits(), p.size.to_bits(), p.angle.to_bits());
+        lib.sort_by_key(key);
+        got.sort_by_key(key);
+        assert_eq!(got, lib);
     }
 
     #[test]
@@ -452,13 +513,70 @@ mod tests {
         // Strongest first.
         assert!(k.windows(2).all(|p| p[0].response.abs() >= p[1].response.abs()));
         // The same keypoints as the library call, reordered.
+        assert_library_keypoints(&k, &f, &SiftOptions::mosaic().build().unwrap());
+    }
+
+    fn descriptor_stage(double: bool) -> Stage {
+        sift_stage(true, double)
+    }
+
+    #[test]
+    fn descriptors_follow_their_keypoints_in_the_stage_order() {
+        let f = blobs(160, 128);
+        let mut maps = GradientMaps::default();
+        let plain = keypoint_stage().compute(&f, &mut maps).unwrap();
+        assert_eq!(plain.descriptors, None, "descriptors are off unless asked for");
+        let out = descriptor_stage(false).compute(&f, &mut maps).unwrap();
+        let (k, d) = (out.keypoints.unwrap(), out.descriptors.unwrap());
+        // The same keypoints in the same order as without descriptors, one descriptor each.
+        assert_eq!(Some(&k), plain.keypoints.as_ref());
+        assert_eq!(d.len(), k.len());
+        // Each is the library's descriptor of that keypoint.
         let spec = SiftOptions::mosaic().build().unwrap();
-        let mut lib = keypoints_from_frame(&f, &spec).unwrap();
-        let mut got = k.clone();
-        let key = |p: &Keypoint| (p.x.to_bits(), p.y.to_bits(), p.size.to_bits(), p.angle.to_bits());
-        lib.sort_by_key(key);
-        got.sort_by_key(key);
-        assert_eq!(got, lib);
+        let lib = features_from_frame(&f, &spec).unwrap();
+        for (kp, desc) in k.iter().zip(&d) {
+            let i = lib
+                .keypoints
+                .iter()
+                .position(|q| q == kp)
+                .expect("library keypoint");
+            assert_eq!(desc, &lib.descriptors[i]);
+        }
+        assert!(d.iter().all(|x| x.iter().any(|&v| v > 0)), "an empty descriptor");
+        // Identical for any pool.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        let again = pool
+            .install(|| descriptor_stage(false).compute(&f, &mut maps))
+            .unwrap();
+        assert_eq!((again.keypoints, again.descriptors), (Some(k), Some(d)));
+        // Tiny frames give empty lists of both.
+        let tiny = RawFrame::from_u16(8, 8, vec![100; 64], Cfa::Rggb, 12, Levels::uniform(0, 4095)).unwrap();
+        let out = descriptor_stage(false).compute(&tiny, &mut maps).unwrap();
+        assert_eq!(
+            (out.keypoints, out.descriptors),
+            (Some(Vec::new()), Some(Vec::new()))
+        );
+    }
+
+    #[test]
+    fn doubled_planes_add_the_finer_octave() {
+        let f = blobs(160, 128);
+        let mut maps = GradientMaps::default();
+        let out = descriptor_stage(true).compute(&f, &mut maps).unwrap();
+        let k = out.keypoints.unwrap();
+        assert_eq!(out.descriptors.unwrap().len(), k.len());
+        assert!(
+            k.iter().any(|p| p.octave == -1),
+            "no keypoint from the doubled octave"
+        );
+        let undoubled = keypoint_stage()
+            .compute(&f, &mut maps)
+            .unwrap()
+            .keypoints
+            .unwrap();
+        assert!(undoubled.iter().all(|p| p.octave >= 0));
+        let spec = SiftOptions::mosaic().build().unwrap().with_double_image(true);
+        assert_library_keypoints(&k, &f, &spec);
     }
 
     #[test]

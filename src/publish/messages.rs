@@ -169,10 +169,17 @@ impl From<&Keypoint> for KeypointMsg {
     }
 }
 
-/// Mosaic SIFT keypoints of one frame (`<prefix>/<camera>/keypoints`).
+/// Bytes of one SIFT descriptor in [`KeypointsMsg::descriptors`].
+pub const DESCRIPTOR_BYTES: usize = crate::features::sift::DESCRIPTOR_LEN;
+
+/// Mosaic SIFT keypoints of one frame (`<prefix>/<camera>/keypoints`), with their descriptors when
+/// the daemon computes them (`compute.keypoint_descriptors`).
+///
+/// v2 added `descriptor_len` and `descriptors` (a v1 subscriber is refused by the type name
+/// rather than misreading the layout).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, ZeroCopySend)]
-#[type_name("mosaicd.KeypointsMsg.v1")]
+#[type_name("mosaicd.KeypointsMsg.v2")]
 pub struct KeypointsMsg {
     /// The pipeline's dense frame index (the same as the frame's [`DetectionsMsg::index`]).
     pub index: u64,
@@ -190,8 +197,16 @@ pub struct KeypointsMsg {
     pub keypoint_count: u32,
     /// Keypoints that did not fit ([`MAX_KEYPOINTS`]).
     pub overflow: u32,
+    /// Bytes per descriptor: [`DESCRIPTOR_BYTES`] when `descriptors` holds one per valid
+    /// keypoint, 0 when the daemon computes none.
+    pub descriptor_len: u32,
+    /// Reserved (keeps `keypoints` 8-byte aligned); 0.
+    pub reserved: u32,
     /// The keypoints, `keypoint_count` valid, strongest first.
     pub keypoints: [KeypointMsg; MAX_KEYPOINTS],
+    /// `descriptors[i]` is the SIFT descriptor of `keypoints[i]` (OpenCV's 128 stored bytes) when
+    /// `descriptor_len` is nonzero; zeros otherwise.
+    pub descriptors: [[u8; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
 }
 
 impl Default for KeypointsMsg {
@@ -205,14 +220,19 @@ impl Default for KeypointsMsg {
             frame_height: 0,
             keypoint_count: 0,
             overflow: 0,
+            descriptor_len: 0,
+            reserved: 0,
             keypoints: [KeypointMsg::default(); MAX_KEYPOINTS],
+            descriptors: [[0; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
         }
     }
 }
 
 impl KeypointsMsg {
-    /// Copy keypoints in, counting those beyond [`MAX_KEYPOINTS`] in `overflow`.
-    pub fn set_keypoints(&mut self, keypoints: &[Keypoint]) {
+    /// Copy keypoints in, counting those beyond [`MAX_KEYPOINTS`] in `overflow`, with their
+    /// descriptors when given (`descriptors[i]` belongs to `keypoints[i]`; extra entries on
+    /// either side are ignored, missing ones are zeros).
+    pub fn set_keypoints(&mut self, keypoints: &[Keypoint], descriptors: Option<&[[u8; DESCRIPTOR_BYTES]]>) {
         let n = keypoints.len().min(MAX_KEYPOINTS);
         for (d, k) in self.keypoints.iter_mut().zip(&keypoints[..n]) {
             *d = KeypointMsg::from(k);
@@ -220,11 +240,30 @@ impl KeypointsMsg {
         self.keypoints[n..].fill(KeypointMsg::default());
         self.keypoint_count = n as u32;
         self.overflow = (keypoints.len() - n) as u32;
+        let m = match descriptors {
+            Some(d) => {
+                let m = d.len().min(n);
+                self.descriptors[..m].copy_from_slice(&d[..m]);
+                self.descriptor_len = DESCRIPTOR_BYTES as u32;
+                m
+            }
+            None => {
+                self.descriptor_len = 0;
+                0
+            }
+        };
+        self.descriptors[m..].fill([0; DESCRIPTOR_BYTES]);
     }
 
     /// The valid keypoints.
     pub fn keypoints(&self) -> &[KeypointMsg] {
         &self.keypoints[..(self.keypoint_count as usize).min(MAX_KEYPOINTS)]
+    }
+
+    /// The valid keypoints' descriptors (same order), or `None` when the message carries none.
+    pub fn descriptors(&self) -> Option<&[[u8; DESCRIPTOR_BYTES]]> {
+        (self.descriptor_len != 0)
+            .then(|| &self.descriptors[..(self.keypoint_count as usize).min(MAX_KEYPOINTS)])
     }
 }
 
@@ -317,21 +356,48 @@ mod tests {
     fn keypoints_beyond_capacity_are_counted_not_written() {
         let ks: Vec<Keypoint> = (0..MAX_KEYPOINTS + 7).map(kp).collect();
         let mut m = KeypointsMsg::default();
-        m.set_keypoints(&ks);
+        m.set_keypoints(&ks, None);
         assert_eq!(m.keypoint_count as usize, MAX_KEYPOINTS);
         assert_eq!(m.overflow, 7);
         assert_eq!(m.keypoints()[3], KeypointMsg::from(&ks[3]));
+        assert_eq!(m.descriptors(), None);
         // A shorter list afterwards clears the tail and the overflow.
-        m.set_keypoints(&ks[..2]);
+        m.set_keypoints(&ks[..2], None);
         assert_eq!(m.keypoints().len(), 2);
         assert_eq!(m.overflow, 0);
         assert_eq!(m.keypoints[2], KeypointMsg::default());
     }
 
     #[test]
+    fn descriptors_travel_with_their_keypoints_and_are_cleared_after() {
+        let ks: Vec<Keypoint> = (0..MAX_KEYPOINTS + 3).map(kp).collect();
+        let ds: Vec<[u8; DESCRIPTOR_BYTES]> = (0..ks.len())
+            .map(|i| [(i % 251) as u8; DESCRIPTOR_BYTES])
+            .collect();
+        let mut m = KeypointsMsg::default();
+        m.set_keypoints(&ks, Some(&ds));
+        assert_eq!(m.descriptor_len as usize, DESCRIPTOR_BYTES);
+        let d = m.descriptors().unwrap();
+        assert_eq!(d.len(), MAX_KEYPOINTS);
+        assert_eq!(d[200], ds[200]);
+        assert_eq!(d[MAX_KEYPOINTS - 1], ds[MAX_KEYPOINTS - 1]);
+        // Fewer keypoints next frame: the stale descriptors behind them are zeroed.
+        m.set_keypoints(&ks[..2], Some(&ds[5..7]));
+        assert_eq!(m.descriptors().unwrap(), &ds[5..7]);
+        assert_eq!(m.descriptors[2], [0; DESCRIPTOR_BYTES]);
+        // Then a frame without descriptors carries none, and no stale bytes.
+        m.set_keypoints(&ks[..2], None);
+        assert_eq!((m.descriptor_len, m.descriptors()), (0, None));
+        assert_eq!(m.descriptors[0], [0; DESCRIPTOR_BYTES]);
+    }
+
+    #[test]
     fn keypoints_message_fits_a_shared_memory_sample() {
-        // 512 keypoints x 20 bytes + header: about 10 KiB per sample.
+        // 512 keypoints x (20 bytes + a 128-byte descriptor) + header: about 74 KiB per sample.
         assert_eq!(std::mem::size_of::<KeypointMsg>(), 20);
-        assert!(std::mem::size_of::<KeypointsMsg>() <= 48 + 20 * MAX_KEYPOINTS);
+        assert_eq!(
+            std::mem::size_of::<KeypointsMsg>(),
+            56 + (20 + DESCRIPTOR_BYTES) * MAX_KEYPOINTS
+        );
     }
 }

@@ -99,7 +99,7 @@ pub fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
         frame_height: r.height as u32,
         ..KeypointsMsg::default()
     };
-    m.set_keypoints(kps);
+    m.set_keypoints(kps, r.output.descriptors.as_deref());
     Some(m)
 }
 

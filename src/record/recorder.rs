@@ -113,7 +113,8 @@ pub struct RecorderOptions {
     pub raw: bool,
     /// Record the 8-bit Foxglove preview.
     pub preview: Option<PreviewOptions>,
-    /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations).
+    /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations) and
+    /// the `/<camera>/sift` channel (`mosaicd.SiftFeatures`: full-frame keypoints and descriptors).
     pub keypoints: bool,
     /// Never overwrite an existing file (the daemon: a restart must not truncate the recording of
     /// the run before it). Files are then numbered as rotation numbers them, `stem-NNNN.mcap`,
@@ -207,6 +208,8 @@ pub struct Topics {
     pub stats: String,
     /// `/<camera>/keypoints` (`foxglove.ImageAnnotations`, POINTS).
     pub keypoints: String,
+    /// `/<camera>/sift` (`mosaicd.SiftFeatures`).
+    pub sift: String,
 }
 
 impl Topics {
@@ -219,6 +222,7 @@ impl Topics {
             detections: format!("/{camera}/detections"),
             stats: format!("/{camera}/stats"),
             keypoints: format!("/{camera}/keypoints"),
+            sift: format!("/{camera}/sift"),
         }
     }
 }
@@ -270,6 +274,7 @@ struct ChannelIds {
     detections: u16,
     stats: u16,
     keypoints: Option<u16>,
+    sift: Option<u16>,
 }
 
 struct Segment {
@@ -310,8 +315,9 @@ pub struct McapRecorder {
     state: State,
     segment_index: u32,
     files: Vec<PathBuf>,
-    /// Per-channel message sequence (raw, preview, annotations, detections, stats, keypoints).
-    seq: [u32; 6],
+    /// Per-channel message sequence (raw, preview, annotations, detections, stats, keypoints,
+    /// sift).
+    seq: [u32; 7],
     frames: u64,
     detections: u64,
     stats: u64,
@@ -367,7 +373,7 @@ impl McapRecorder {
             state: State::Idle,
             segment_index: 0,
             files: Vec::new(),
-            seq: [0; 6],
+            seq: [0; 7],
             frames: 0,
             detections: 0,
             stats: 0,
@@ -655,10 +661,16 @@ impl McapRecorder {
         )?;
         let stats = w.add_channel(s, &topics.stats, "json", &none)?;
         // Added last, so the other channels keep their ids whether or not keypoints are recorded.
-        let keypoints = if opts.keypoints {
-            Some(w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?)
+        let (keypoints, sift) = if opts.keypoints {
+            let k = w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?;
+            let s = w.add_schema(
+                schema::SIFT_FEATURES_SCHEMA,
+                "jsonschema",
+                schema::SIFT_FEATURES_JSON_SCHEMA.as_bytes(),
+            )?;
+            (Some(k), Some(w.add_channel(s, &topics.sift, "json", &none)?))
         } else {
-            None
+            (None, None)
         };
         Ok(ChannelIds {
             raw,
@@ -667,6 +679,7 @@ impl McapRecorder {
             detections,
             stats,
             keypoints,
+            sift,
         })
     }
 
@@ -880,6 +893,49 @@ impl McapRecorder {
         let ann = schema::annotations_from_keypoints(timestamp_ns, keypoints, scale);
         let json = serde_json::to_vec(&ann).expect("annotations serialise");
         self.write_message(5, ch, timestamp_ns, &json)
+    }
+
+    /// Record the mosaic SIFT features of one frame as `mosaicd.SiftFeatures` on `/<camera>/sift`:
+    /// keypoints in full-frame coordinates and, when given, their descriptors (`descriptors[i]`
+    /// belongs to `keypoints[i]`; a length mismatch is refused). Refused with
+    /// [`RecordError::Option`] when the recorder was created without `keypoints`.
+    pub fn write_sift(
+        &mut self,
+        sequence: u64,
+        timestamp_ns: u64,
+        frame_width: u32,
+        frame_height: u32,
+        keypoints: &[Keypoint],
+        descriptors: Option<&[[u8; crate::features::sift::DESCRIPTOR_LEN]]>,
+    ) -> Result<(), RecordError> {
+        let Some(ch) = self.segment()?.ids.sift else {
+            return Err(RecordError::Option {
+                name: "keypoints",
+                value: "false".into(),
+                why: "true to record SIFT features",
+            });
+        };
+        if let Some(d) = descriptors.filter(|d| d.len() != keypoints.len()) {
+            return Err(RecordError::Option {
+                name: "descriptors",
+                value: format!("{} for {} keypoints", d.len(), keypoints.len()),
+                why: "one descriptor per keypoint",
+            });
+        }
+        let msg = schema::SiftFeaturesMessage {
+            sequence,
+            timestamp_ns,
+            frame_width,
+            frame_height,
+            keypoints: keypoints.to_vec(),
+            descriptors: descriptors
+                .unwrap_or_default()
+                .iter()
+                .map(|d| schema::base64_encode(d))
+                .collect(),
+        };
+        let json = serde_json::to_vec(&msg).expect("SIFT features serialise");
+        self.write_message(6, ch, timestamp_ns, &json)
     }
 
     /// Record a stats message (any serialisable value, e.g. `serde_json::Value` or a struct).

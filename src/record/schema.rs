@@ -1,6 +1,6 @@
 //! Message schemas of mosaicd recordings, and their encoders / decoders.
 //!
-//! A recording holds up to six channels per camera (`<camera>` defaults to `camera`):
+//! A recording holds up to seven channels per camera (`<camera>` defaults to `camera`):
 //!
 //! | topic | schema name | schema encoding | message encoding | content |
 //! |---|---|---|---|---|
@@ -10,6 +10,7 @@
 //! | `/<camera>/detections` | `mosaicd.Detections` | `jsonschema` | `json` | boxes in full-frame coordinates |
 //! | `/<camera>/stats` | `mosaicd.Stats` | `jsonschema` | `json` | free-form pipeline statistics |
 //! | `/<camera>/keypoints` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | with `compute.keypoints`: mosaic SIFT keypoints as one POINTS annotation, preview coordinates |
+//! | `/<camera>/sift` | `mosaicd.SiftFeatures` | `jsonschema` | `json` | with `compute.keypoints`: the keypoints in full-frame coordinates (size, angle, response, octave), strongest first, and with `compute.keypoint_descriptors` their 128-byte descriptors (base64) |
 //!
 //! ## `mosaicd.RawFrame` (message encoding `mosaicd.rawframe.v1`)
 //!
@@ -63,6 +64,8 @@ pub const IMAGE_ANNOTATIONS_SCHEMA: &str = "foxglove.ImageAnnotations";
 pub const DETECTIONS_SCHEMA: &str = "mosaicd.Detections";
 /// Schema name of our stats channel.
 pub const STATS_SCHEMA: &str = "mosaicd.Stats";
+/// Schema name of our SIFT features channel.
+pub const SIFT_FEATURES_SCHEMA: &str = "mosaicd.SiftFeatures";
 /// Foxglove `PointsAnnotationType::POINTS`.
 pub const POINTS_POINTS: u8 = 1;
 /// Foxglove `PointsAnnotationType::LINE_LOOP`.
@@ -77,6 +80,9 @@ pixels row-major without padding, u8 (container 8) or u16 little-endian LSB-alig
 
 /// JSON schema of `mosaicd.Detections`.
 pub const DETECTIONS_JSON_SCHEMA: &str = r#"{"title":"mosaicd.Detections","description":"Person detections of one frame, full-frame pixel coordinates","type":"object","properties":{"sequence":{"type":"integer","minimum":0},"timestamp_ns":{"type":"integer","minimum":0},"frame_width":{"type":"integer","minimum":0},"frame_height":{"type":"integer","minimum":0},"detections":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"width":{"type":"number"},"height":{"type":"number"},"score":{"type":"number"}}}}}}"#;
+
+/// JSON schema of `mosaicd.SiftFeatures`.
+pub const SIFT_FEATURES_JSON_SCHEMA: &str = r#"{"title":"mosaicd.SiftFeatures","description":"Mosaic SIFT keypoints of one frame, strongest first, full-frame pixel coordinates (pixel centres at integers); descriptors[i] belongs to keypoints[i] and is empty when the daemon computes no descriptors","type":"object","properties":{"sequence":{"type":"integer","minimum":0},"timestamp_ns":{"type":"integer","minimum":0},"frame_width":{"type":"integer","minimum":0},"frame_height":{"type":"integer","minimum":0},"keypoints":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"size":{"type":"number"},"angle":{"type":"number"},"response":{"type":"number"},"octave":{"type":"integer"},"layer":{"type":"integer"}}}},"descriptors":{"type":"array","items":{"type":"string","contentEncoding":"base64"}}}}"#;
 
 /// JSON schema of `mosaicd.Stats` (free-form object).
 pub const STATS_JSON_SCHEMA: &str = r#"{"title":"mosaicd.Stats","description":"Pipeline statistics (counters, latency); free-form object","type":"object"}"#;
@@ -327,6 +333,34 @@ pub struct DetectionsMessage {
     pub frame_height: u32,
     /// Boxes in full-frame pixel coordinates.
     pub detections: Vec<Detection>,
+}
+
+/// A `mosaicd.SiftFeatures` message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SiftFeaturesMessage {
+    /// Frame sequence number.
+    pub sequence: u64,
+    /// Frame capture timestamp (ns).
+    pub timestamp_ns: u64,
+    /// Frame width.
+    pub frame_width: u32,
+    /// Frame height.
+    pub frame_height: u32,
+    /// Keypoints in full-frame mosaic pixel coordinates, strongest first.
+    pub keypoints: Vec<Keypoint>,
+    /// `descriptors[i]`: the 128-byte descriptor of `keypoints[i]`, standard padded base64; empty
+    /// when no descriptors were computed.
+    pub descriptors: Vec<String>,
+}
+
+impl SiftFeaturesMessage {
+    /// The decoded descriptors; `None` if one is not valid base64 of 128 bytes.
+    pub fn decoded_descriptors(&self) -> Option<Vec<[u8; crate::features::sift::DESCRIPTOR_LEN]>> {
+        self.descriptors
+            .iter()
+            .map(|s| base64_decode(s).and_then(|v| v.try_into().ok()))
+            .collect()
+    }
 }
 
 /// Foxglove `time`.
@@ -848,6 +882,7 @@ mod tests {
             image_annotations_json_schema(),
             DETECTIONS_JSON_SCHEMA.to_string(),
             STATS_JSON_SCHEMA.to_string(),
+            SIFT_FEATURES_JSON_SCHEMA.to_string(),
         ] {
             serde_json::from_str::<serde_json::Value>(&s).unwrap();
         }
