@@ -138,7 +138,7 @@ fn keypoints_reach_a_listen_process_the_results_file_and_the_mcap() {
     let dir = tempfile::tempdir().unwrap();
     let (prefix, camera) = (format!("t{}kp", std::process::id()), "kpcam");
     let cfg = config(dir.path(), &prefix, camera, true);
-    let (results, frames, msgs) = run_with_listener(&cfg, dir.path(), &prefix, camera);
+    let (_, frames, msgs) = run_with_listener(&cfg, dir.path(), &prefix, camera);
 
     // Results file: every frame carries its keypoints, strongest first.
     let mut total = 0;
