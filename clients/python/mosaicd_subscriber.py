@@ -1,0 +1,401 @@
+#!/usr/bin/env python3
+"""A mosaicd subscriber in Python: the daemon's iceoryx2 messages as ctypes structures.
+
+mosaicd publishes fixed-layout ``#[repr(C)]`` messages over iceoryx2 shared memory
+(``src/publish/messages.rs``). This module declares the same layouts with :mod:`ctypes`, under
+the same iceoryx2 type names, so a Python process reads them without copies or a serialisation
+step, and a layout that does not match (another message version) is refused by iceoryx2 when the
+service is opened instead of being misread. It needs the ``iceoryx2`` wheel of the same version
+as the daemon's crate (0.10; ``pip install iceoryx2==0.10.0``).
+
+Run as a script it is the Python twin of ``mosaicd listen``: it prints what a daemon publishes as
+JSON lines, one object per sample with a ``"topic"`` key, in the same form::
+
+    python3 clients/python/mosaicd_subscriber.py --camera front --until-final --keypoints
+
+Used as a module::
+
+    import iceoryx2 as iox2
+    from mosaicd_subscriber import DetectionsMsg, open_service
+
+    node = iox2.NodeBuilder.new().create(iox2.ServiceType.Ipc)
+    sub = open_service(node, "mosaicd", "front", "detections", DetectionsMsg, 64)
+    sub = sub.subscriber_builder().buffer_size(64).create()
+    sample = sub.receive()          # None when nothing is waiting
+    if sample is not None:
+        msg = sample.payload().contents
+        boxes = msg.boxes[: min(msg.box_count, MAX_BOXES)]
+
+Descriptors (``compute.keypoint_descriptors = true``) come as ``bytes(msg.descriptors[i])``, and
+``numpy.frombuffer(msg.descriptors, numpy.uint8).reshape(MAX_KEYPOINTS, 128)`` views them all.
+``--layout`` prints each structure's size and alignment (the Rust tests compare them with the
+daemon's).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import ctypes
+import json
+import os
+import sys
+import time
+from typing import Any, Iterable
+
+import iceoryx2 as iox2
+
+#: Capacity of ``DetectionsMsg.boxes`` (``MAX_BOXES`` in the daemon).
+MAX_BOXES = 64
+#: Capacity of ``KeypointsMsg.keypoints`` (``MAX_KEYPOINTS``).
+MAX_KEYPOINTS = 512
+#: Bytes of one SIFT descriptor (``DESCRIPTOR_BYTES``).
+DESCRIPTOR_BYTES = 128
+#: ``DetectionsMsg.sensor_sequence`` when the source has none.
+NO_SENSOR_SEQUENCE = 2**64 - 1
+
+# The daemon's service settings (src/publish/service.rs); a subscriber opens with the same ones.
+_HISTORY = 1
+_MAX_PUBLISHERS = 2
+_MAX_SUBSCRIBERS = 16
+
+
+class BoxMsg(ctypes.Structure):
+    """One box: full-frame pixel coordinates and the SVM score."""
+
+    _fields_ = [
+        ("x", ctypes.c_float),
+        ("y", ctypes.c_float),
+        ("width", ctypes.c_float),
+        ("height", ctypes.c_float),
+        ("score", ctypes.c_float),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.BoxMsg.v1"
+
+
+class DetectionsMsg(ctypes.Structure):
+    """Detections of one frame (``<prefix>/<camera>/detections``)."""
+
+    _fields_ = [
+        ("index", ctypes.c_uint64),
+        ("sequence", ctypes.c_uint64),
+        ("sensor_sequence", ctypes.c_uint64),
+        ("capture_timestamp_ns", ctypes.c_uint64),
+        ("publish_timestamp_ns", ctypes.c_uint64),
+        ("latency_ns", ctypes.c_uint64),
+        ("frame_width", ctypes.c_uint32),
+        ("frame_height", ctypes.c_uint32),
+        ("box_count", ctypes.c_uint32),
+        ("overflow", ctypes.c_uint32),
+        ("mean_magnitude", ctypes.c_float),
+        ("reserved", ctypes.c_uint32),
+        ("boxes", BoxMsg * MAX_BOXES),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.DetectionsMsg.v1"
+
+
+class KeypointMsg(ctypes.Structure):
+    """One mosaic SIFT keypoint: full-resolution mosaic pixel coordinates, scale, orientation."""
+
+    _fields_ = [
+        ("x", ctypes.c_float),
+        ("y", ctypes.c_float),
+        ("size", ctypes.c_float),
+        ("angle", ctypes.c_float),
+        ("response", ctypes.c_float),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.KeypointMsg.v1"
+
+
+class KeypointsMsg(ctypes.Structure):
+    """Mosaic SIFT keypoints of one frame, strongest first, with descriptors when computed."""
+
+    _fields_ = [
+        ("index", ctypes.c_uint64),
+        ("sequence", ctypes.c_uint64),
+        ("capture_timestamp_ns", ctypes.c_uint64),
+        ("publish_timestamp_ns", ctypes.c_uint64),
+        ("frame_width", ctypes.c_uint32),
+        ("frame_height", ctypes.c_uint32),
+        ("keypoint_count", ctypes.c_uint32),
+        ("overflow", ctypes.c_uint32),
+        ("descriptor_len", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("keypoints", KeypointMsg * MAX_KEYPOINTS),
+        ("descriptors", (ctypes.c_uint8 * DESCRIPTOR_BYTES) * MAX_KEYPOINTS),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.KeypointsMsg.v2"
+
+
+class StatsMsg(ctypes.Structure):
+    """Counters of one camera's pipeline (``<prefix>/<camera>/stats``)."""
+
+    _fields_ = [
+        ("timestamp_ns", ctypes.c_uint64),
+        ("captured", ctypes.c_uint64),
+        ("processed", ctypes.c_uint64),
+        ("dropped_queue_full", ctypes.c_uint64),
+        ("dropped_driver", ctypes.c_uint64),
+        ("failed_source", ctypes.c_uint64),
+        ("failed_compute", ctypes.c_uint64),
+        ("failed_sink", ctypes.c_uint64),
+        ("sink_frames_lost", ctypes.c_uint64),
+        ("detections", ctypes.c_uint64),
+        ("box_overflow", ctypes.c_uint64),
+        ("fps", ctypes.c_float),
+        ("latency_p50_us", ctypes.c_float),
+        ("latency_p99_us", ctypes.c_float),
+        ("is_final", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.StatsMsg.v3"
+
+
+class GradientsHeader(ctypes.Structure):
+    """User header of a gradients sample; the payload is ``u8`` bytes: ``width * height``
+    little-endian ``u16`` magnitudes, then ``width * height`` orientation bins."""
+
+    _fields_ = [
+        ("index", ctypes.c_uint64),
+        ("capture_timestamp_ns", ctypes.c_uint64),
+        ("width", ctypes.c_uint32),
+        ("height", ctypes.c_uint32),
+        ("decimation", ctypes.c_uint32),
+        ("orientation_bins", ctypes.c_uint32),
+        ("mag_shift", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.GradientsHeader.v2"
+
+
+#: Every message structure, for ``--layout``.
+STRUCTS = [BoxMsg, DetectionsMsg, KeypointMsg, KeypointsMsg, StatsMsg, GradientsHeader]
+
+
+def service_name(prefix: str, camera: str, topic: str) -> str:
+    """``<prefix>/<camera>/<topic>``, as the daemon names its services."""
+    return f"{prefix}/{camera}/{topic}"
+
+
+def _with_daemon_settings(builder: Any, buffer: int) -> Any:
+    return (
+        builder.enable_safe_overflow(True)
+        .subscriber_max_buffer_size(buffer)
+        .history_size(_HISTORY)
+        .max_publishers(_MAX_PUBLISHERS)
+        .max_subscribers(_MAX_SUBSCRIBERS)
+    )
+
+
+def open_service(node: Any, prefix: str, camera: str, topic: str, payload: type, buffer: int) -> Any:
+    """Open (or create, if this process is first) a fixed-size service with the daemon's settings.
+
+    ``buffer`` must not exceed the daemon's ``publish.subscriber_buffer``; iceoryx2 refuses an
+    incompatible service (settings or message layout) with an error naming it.
+    """
+    name = iox2.ServiceName.new(service_name(prefix, camera, topic))
+    builder = node.service_builder(name).publish_subscribe(payload)
+    return _with_daemon_settings(builder, buffer).open_or_create()
+
+
+def open_gradients_service(node: Any, prefix: str, camera: str, buffer: int) -> Any:
+    """Open (or create) the gradients service (``u8`` slices with a :class:`GradientsHeader`)."""
+    name = iox2.ServiceName.new(service_name(prefix, camera, "gradients"))
+    builder = (
+        node.service_builder(name)
+        .publish_subscribe(iox2.Slice[ctypes.c_uint8])
+        .user_header(GradientsHeader)
+    )
+    return _with_daemon_settings(builder, buffer).open_or_create()
+
+
+def _struct_items(s: ctypes.Structure, skip: Iterable[str] = ()) -> dict:
+    out = {}
+    for name, _ in s._fields_:
+        if name not in skip:
+            out[name] = getattr(s, name)
+    return out
+
+
+def box_json(b: BoxMsg) -> dict:
+    return {k: getattr(b, k) for k, _ in BoxMsg._fields_}
+
+
+def detections_json(m: DetectionsMsg) -> dict:
+    """A detections message as ``mosaicd listen`` prints it."""
+    n = min(m.box_count, MAX_BOXES)
+    return {
+        "topic": "detections",
+        "index": m.index,
+        "sequence": m.sequence,
+        "sensor_sequence": None if m.sensor_sequence == NO_SENSOR_SEQUENCE else m.sensor_sequence,
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "publish_timestamp_ns": m.publish_timestamp_ns,
+        "latency_ns": m.latency_ns,
+        "frame_width": m.frame_width,
+        "frame_height": m.frame_height,
+        "box_count": m.box_count,
+        "overflow": m.overflow,
+        "mean_magnitude": m.mean_magnitude,
+        "boxes": [box_json(b) for b in m.boxes[:n]],
+    }
+
+
+def descriptors(m: KeypointsMsg) -> list[bytes] | None:
+    """The valid keypoints' descriptors (128 bytes each, same order), or ``None``."""
+    if m.descriptor_len == 0:
+        return None
+    n = min(m.keypoint_count, MAX_KEYPOINTS)
+    return [bytes(m.descriptors[i]) for i in range(n)]
+
+
+def keypoints_json(m: KeypointsMsg) -> dict:
+    """A keypoints message as ``mosaicd listen`` prints it (descriptors in base64)."""
+    n = min(m.keypoint_count, MAX_KEYPOINTS)
+    d = descriptors(m)
+    return {
+        "topic": "keypoints",
+        "index": m.index,
+        "sequence": m.sequence,
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "publish_timestamp_ns": m.publish_timestamp_ns,
+        "frame_width": m.frame_width,
+        "frame_height": m.frame_height,
+        "keypoint_count": m.keypoint_count,
+        "overflow": m.overflow,
+        "keypoints": [{k: getattr(p, k) for k, _ in KeypointMsg._fields_} for p in m.keypoints[:n]],
+        "descriptor_len": m.descriptor_len,
+        "descriptors": None if d is None else [base64.b64encode(x).decode("ascii") for x in d],
+    }
+
+
+def stats_json(m: StatsMsg) -> dict:
+    """A stats message as ``mosaicd listen`` prints it."""
+    v = _struct_items(m)
+    v["topic"] = "stats"
+    return v
+
+
+def layout() -> dict:
+    """Size and alignment of every message structure, by iceoryx2 type name."""
+    return {s.type_name(): {"size": ctypes.sizeof(s), "align": ctypes.alignment(s)} for s in STRUCTS}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--camera", help="camera name (as in the daemon's config)")
+    p.add_argument("--prefix", default="mosaicd", help="service name prefix (publish.service_prefix)")
+    p.add_argument("--buffer", type=int, default=64, help="samples buffered per service")
+    p.add_argument("--count", type=int, help="exit after this many detections messages")
+    p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")
+    p.add_argument("--timeout-s", type=float, help="exit with an error after this many seconds")
+    p.add_argument("--keypoints", action="store_true", help="also print the keypoints service")
+    p.add_argument("--gradients", action="store_true", help="also print the gradients service")
+    p.add_argument("--layout", action="store_true", help="print the structures' sizes and exit")
+    a = p.parse_args(argv)
+    if a.layout:
+        print(json.dumps(layout(), sort_keys=True))
+        return 0
+    if not a.camera:
+        p.error("--camera is required")
+    if a.buffer < 1:
+        p.error("--buffer must be at least 1")
+
+    iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
+    node = (
+        iox2.NodeBuilder.new()
+        .name(iox2.NodeName.new(f"mosaicd-py-listen-{os.getpid()}"))
+        .create(iox2.ServiceType.Ipc)
+    )
+
+    def subscribe(topic: str, payload: type | None) -> Any:
+        # iceoryx2 refuses a service whose settings or message layout differ from ours (another
+        # daemon version, a smaller publish.subscriber_buffer): say which, in one line.
+        try:
+            if payload is None:
+                svc = open_gradients_service(node, a.prefix, a.camera, a.buffer)
+            else:
+                svc = open_service(node, a.prefix, a.camera, topic, payload, a.buffer)
+            return svc.subscriber_builder().buffer_size(a.buffer).create()
+        except Exception as e:  # iceoryx2 raises its own exception types per builder
+            name = service_name(a.prefix, a.camera, topic)
+            raise SystemExit(
+                f"mosaicd_subscriber: cannot subscribe to {name}: {type(e).__name__}: {e} "
+                f"(a different message version, or --buffer {a.buffer} above the daemon's "
+                "publish.subscriber_buffer?)"
+            ) from None
+
+    det = subscribe("detections", DetectionsMsg)
+    st = subscribe("stats", StatsMsg)
+    kp = subscribe("keypoints", KeypointsMsg) if a.keypoints else None
+    grad = subscribe("gradients", None) if a.gradients else None
+    print(f"mosaicd_subscriber: subscribed to {a.prefix}/{a.camera}/{{detections,stats}}", file=sys.stderr, flush=True)
+
+    out = sys.stdout
+    received = 0
+    start = time.monotonic()
+
+    def emit(v: dict) -> None:
+        out.write(json.dumps(v) + "\n")
+
+    def drain_detections() -> None:
+        nonlocal received
+        # Keypoints go out before their frame's detections: draining them first keeps a frame's
+        # lines together, as `mosaicd listen` does.
+        while kp is not None and (s := kp.receive()) is not None:
+            emit(keypoints_json(s.payload().contents))
+        while (s := det.receive()) is not None:
+            emit(detections_json(s.payload().contents))
+            received += 1
+
+    cycle = iox2.Duration.from_millis(1)
+    finished = False
+    while True:
+        try:
+            node.wait(cycle)
+        except iox2.NodeWaitFailure:
+            break  # SIGINT / SIGTERM
+        drain_detections()
+        while grad is not None and (s := grad.receive()) is not None:
+            v = _struct_items(s.user_header().contents)
+            v["topic"] = "gradients"
+            v["payload_bytes"] = s.payload().len()
+            emit(v)
+        while (s := st.receive()) is not None:
+            m = s.payload().contents
+            emit(stats_json(m))
+            if m.is_final:
+                finished = True
+        out.flush()
+        if finished and a.until_final:
+            drain_detections()
+            break
+        if a.count is not None and received >= a.count:
+            break
+        if a.timeout_s is not None and time.monotonic() - start >= a.timeout_s:
+            out.flush()
+            print(f"timed out after {a.timeout_s} s with {received} detections messages", file=sys.stderr)
+            return 1
+    out.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

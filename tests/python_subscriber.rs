@@ -1,0 +1,240 @@
+//! The Python subscriber (`clients/python/mosaicd_subscriber.py`, ctypes structures over the
+//! `iceoryx2` wheel) against the real daemon: its structures have the Rust messages' sizes,
+//! alignments and iceoryx2 type names, and a Python process subscribed to a running daemon reads
+//! every frame's boxes, keypoints and descriptors exactly as the daemon wrote them to its results
+//! file. Needs python3 with the packages of `tests/oracle/requirements.txt` (`make setup`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use iceoryx2::prelude::ZeroCopySend;
+use mosaicd::publish::messages::{
+    BoxMsg, DetectionsMsg, GradientsHeader, KeypointMsg, KeypointsMsg, StatsMsg,
+};
+
+const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
+
+fn script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("clients/python/mosaicd_subscriber.py")
+}
+
+fn python() -> Command {
+    let mut c = Command::new("python3");
+    c.arg(script());
+    c
+}
+
+/// Size, alignment and iceoryx2 type name of a message type.
+fn rust_layout<T: ZeroCopySend>() -> (String, usize, usize) {
+    // SAFETY: `type_name` only returns the name given in `#[type_name]`.
+    let name = unsafe { <T as ZeroCopySend>::type_name() }.to_string();
+    (name, std::mem::size_of::<T>(), std::mem::align_of::<T>())
+}
+
+#[test]
+fn python_structures_match_the_rust_messages() {
+    let out = python().arg("--layout").output().expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "the Python subscriber failed (is the iceoryx2 wheel installed? run `make setup`): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let py: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rust = [
+        rust_layout::<BoxMsg>(),
+        rust_layout::<DetectionsMsg>(),
+        rust_layout::<KeypointMsg>(),
+        rust_layout::<KeypointsMsg>(),
+        rust_layout::<StatsMsg>(),
+        rust_layout::<GradientsHeader>(),
+    ];
+    assert_eq!(py.as_object().unwrap().len(), rust.len(), "{py}");
+    for (name, size, align) in rust {
+        let p = &py[&name];
+        assert!(p.is_object(), "no Python structure named {name}: {py}");
+        assert_eq!(
+            (p["size"].as_u64(), p["align"].as_u64()),
+            (Some(size as u64), Some(align as u64)),
+            "{name}"
+        );
+    }
+}
+
+/// `got` (a Python JSON number, an f32 widened to f64) equals `want` (the results file's number,
+/// written by Rust from the same f32), compared as f32.
+fn same_f32(got: &serde_json::Value, want: &serde_json::Value) -> bool {
+    got.as_f64().map(|g| g as f32) == want.as_f64().map(|w| w as f32)
+}
+
+fn json_lines(text: &str) -> Vec<serde_json::Value> {
+    text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+}
+
+/// A Python process subscribed to a running daemon (six INRIA person crops played as raw files,
+/// detection with OpenCV's weights, keypoints with descriptors) receives every frame's message
+/// with the same content as the results file, then the final stats.
+#[test]
+fn a_python_process_reads_what_the_daemon_publishes() {
+    let crops = mosaicd::data::require("pedestrian/inria_pos_96x160");
+    let dir = tempfile::tempdir().unwrap();
+    let frames_dir = dir.path().join("frames");
+    std::fs::create_dir(&frames_dir).unwrap();
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&crops)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    names.sort();
+    for (i, p) in names.iter().take(6).enumerate() {
+        std::os::unix::fs::symlink(p, frames_dir.join(format!("{i:02}.png"))).unwrap();
+    }
+    let (prefix, camera) = (format!("py{}", std::process::id()), "pycam");
+    let cfg = dir.path().join("py.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 100\n\
+             [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 64\n\
+             [compute]\nkeypoints = true\nkeypoint_descriptors = true\n\
+             [[camera]]\nname = \"{camera}\"\nsource = \"files\"\npath = {:?}\nfps = 10.0\n",
+            frames_dir.display().to_string()
+        ),
+    )
+    .unwrap();
+
+    let mut sub = python()
+        .args(["--camera", camera, "--prefix", &prefix, "--keypoints"])
+        .args(["--until-final", "--timeout-s", "60"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    {
+        use std::io::{BufRead, BufReader};
+        let mut err = BufReader::new(sub.stderr.take().unwrap());
+        let mut line = String::new();
+        while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+            line.clear();
+        }
+        assert!(
+            line.contains("subscribed"),
+            "the Python subscriber did not start (run `make setup`): {line}"
+        );
+    }
+
+    let results = dir.path().join("results.jsonl");
+    let out = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&cfg)
+        .arg("--results")
+        .arg(&results)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let sout = sub.wait_with_output().unwrap();
+    assert!(
+        sout.status.success(),
+        "Python subscriber: {}",
+        String::from_utf8_lossy(&sout.stderr)
+    );
+
+    let frames: Vec<serde_json::Value> = json_lines(&std::fs::read_to_string(&results).unwrap())
+        .into_iter()
+        .filter(|r| r["type"] == "frame")
+        .collect();
+    assert_eq!(frames.len(), 6);
+    let msgs = json_lines(&String::from_utf8_lossy(&sout.stdout));
+    let of =
+        |topic: &str| -> Vec<&serde_json::Value> { msgs.iter().filter(|m| m["topic"] == topic).collect() };
+    let (dets, kps) = (of("detections"), of("keypoints"));
+    assert_eq!((dets.len(), kps.len()), (6, 6), "one of each per frame");
+
+    let mut boxes = 0;
+    for ((d, k), f) in dets.iter().zip(&kps).zip(&frames) {
+        for key in [
+            "index",
+            "sequence",
+            "capture_timestamp_ns",
+            "publish_timestamp_ns",
+        ] {
+            assert_eq!(d[key], f[key], "{key}");
+            assert_eq!(k[key], f[key], "{key}");
+        }
+        assert_eq!(
+            (&d["frame_width"], &d["frame_height"]),
+            (&f["width"], &f["height"])
+        );
+        let want = f["detections"].as_array().unwrap();
+        let got = d["boxes"].as_array().unwrap();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(want) {
+            for key in ["x", "y", "width", "height", "score"] {
+                assert!(same_f32(&g[key], &w[key]), "box {key}: {g} vs {w}");
+            }
+        }
+        boxes += got.len();
+        assert!(same_f32(&d["mean_magnitude"], &f["mean_magnitude"]));
+
+        let want = f["keypoints"].as_array().unwrap();
+        let got = k["keypoints"].as_array().unwrap();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(want) {
+            for key in ["x", "y", "size", "angle", "response"] {
+                assert!(same_f32(&g[key], &w[key]), "keypoint {key}: {g} vs {w}");
+            }
+        }
+        assert_eq!(k["descriptor_len"], 128);
+        assert_eq!(k["descriptors"], f["descriptors"], "descriptors (base64)");
+    }
+    // OpenCV's weights fire on 2 of these 6 crops (no upsampling); the comparison needs some.
+    assert!(boxes >= 1, "no box to compare");
+
+    let last = of("stats").into_iter().last().cloned().unwrap();
+    assert_eq!(
+        (last["is_final"].as_u64(), last["processed"].as_u64()),
+        (Some(1), Some(6))
+    );
+}
+
+/// A service the Python subscriber cannot use is refused in one line naming it: a smaller
+/// subscriber buffer than it asks for, and a keypoints service of another message version.
+#[test]
+fn an_incompatible_service_is_a_clear_error() {
+    use mosaicd::publish::service::{create_node, detections_service};
+    let prefix = format!("pyx{}", std::process::id());
+    let node = create_node(&format!("pyx-test-{}", std::process::id()), false).unwrap();
+    let _det = detections_service(&node, &prefix, "c", 4).unwrap();
+    let err = refused(&["--camera", "c", "--prefix", &prefix, "--buffer", "64"]);
+    assert!(
+        err.contains(&format!("cannot subscribe to {prefix}/c/detections")) && err.contains("--buffer 64"),
+        "{err}"
+    );
+
+    // A keypoints service carrying another payload type (as a v1 daemon's would).
+    let name: iceoryx2::prelude::ServiceName = format!("{prefix}/d/keypoints").as_str().try_into().unwrap();
+    let _old = node
+        .service_builder(&name)
+        .publish_subscribe::<u64>()
+        .enable_safe_overflow(true)
+        .subscriber_max_buffer_size(64)
+        .history_size(1)
+        .max_publishers(2)
+        .max_subscribers(16)
+        .create()
+        .unwrap();
+    let err = refused(&["--camera", "d", "--prefix", &prefix, "--keypoints"]);
+    assert!(
+        err.contains(&format!("cannot subscribe to {prefix}/d/keypoints")),
+        "{err}"
+    );
+}
+
+/// Run the Python subscriber with `args`, which must fail with a one-line error: that line.
+fn refused(args: &[&str]) -> String {
+    let out = python().args(args).args(["--timeout-s", "5"]).output().unwrap();
+    assert!(!out.status.success(), "{args:?} was accepted");
+    let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
+    assert_eq!(err.lines().count(), 1, "one line, no traceback: {err}");
+    err
+}
