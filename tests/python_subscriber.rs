@@ -9,7 +9,7 @@ use std::process::{Command, Stdio};
 
 use iceoryx2::prelude::ZeroCopySend;
 use mosaicd::publish::messages::{
-    BoxMsg, DetectionsMsg, GradientsHeader, KeypointMsg, KeypointsMsg, StatsMsg,
+    BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointMsg, KeypointsMsg, StatsMsg,
 };
 
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
@@ -45,6 +45,7 @@ fn python_structures_match_the_rust_messages() {
         rust_layout::<DetectionsMsg>(),
         rust_layout::<KeypointMsg>(),
         rust_layout::<KeypointsMsg>(),
+        rust_layout::<DescriptorsMsg>(),
         rust_layout::<StatsMsg>(),
         rust_layout::<GradientsHeader>(),
     ];
@@ -103,7 +104,14 @@ fn a_python_process_reads_what_the_daemon_publishes() {
     .unwrap();
 
     let mut sub = python()
-        .args(["--camera", camera, "--prefix", &prefix, "--keypoints"])
+        .args([
+            "--camera",
+            camera,
+            "--prefix",
+            &prefix,
+            "--keypoints",
+            "--descriptors",
+        ])
         .args(["--until-final", "--timeout-s", "60"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -147,11 +155,15 @@ fn a_python_process_reads_what_the_daemon_publishes() {
     let msgs = json_lines(&String::from_utf8_lossy(&sout.stdout));
     let of =
         |topic: &str| -> Vec<&serde_json::Value> { msgs.iter().filter(|m| m["topic"] == topic).collect() };
-    let (dets, kps) = (of("detections"), of("keypoints"));
-    assert_eq!((dets.len(), kps.len()), (6, 6), "one of each per frame");
+    let (dets, kps, descs) = (of("detections"), of("keypoints"), of("descriptors"));
+    assert_eq!(
+        (dets.len(), kps.len(), descs.len()),
+        (6, 6, 6),
+        "one of each per frame"
+    );
 
     let mut boxes = 0;
-    for ((d, k), f) in dets.iter().zip(&kps).zip(&frames) {
+    for (((d, k), ds), f) in dets.iter().zip(&kps).zip(&descs).zip(&frames) {
         for key in [
             "index",
             "sequence",
@@ -184,8 +196,9 @@ fn a_python_process_reads_what_the_daemon_publishes() {
                 assert!(same_f32(&g[key], &w[key]), "keypoint {key}: {g} vs {w}");
             }
         }
-        assert_eq!(k["descriptor_len"], 128);
-        assert_eq!(k["descriptors"], f["descriptors"], "descriptors (base64)");
+        assert_eq!(ds["index"], f["index"]);
+        assert_eq!(ds["descriptor_count"].as_u64(), Some(want.len() as u64));
+        assert_eq!(ds["descriptors"], f["descriptors"], "descriptors (base64)");
     }
     // OpenCV's weights fire on 2 of these 6 crops (no upsampling); the comparison needs some.
     assert!(boxes >= 1, "no box to compare");
@@ -211,7 +224,7 @@ fn an_incompatible_service_is_a_clear_error() {
         "{err}"
     );
 
-    // A keypoints service carrying another payload type (as a v1 daemon's would).
+    // A keypoints service carrying another payload type (as another daemon version's would).
     let name: iceoryx2::prelude::ServiceName = format!("{prefix}/d/keypoints").as_str().try_into().unwrap();
     let _old = node
         .service_builder(&name)

@@ -26,8 +26,10 @@ Used as a module::
         msg = sample.payload().contents
         boxes = msg.boxes[: min(msg.box_count, MAX_BOXES)]
 
-Descriptors (``compute.keypoint_descriptors = true``) come as ``bytes(msg.descriptors[i])``, and
-``numpy.frombuffer(msg.descriptors, numpy.uint8).reshape(MAX_KEYPOINTS, 128)`` views them all.
+Descriptors (``compute.keypoint_descriptors = true``) come on their own service as
+:class:`DescriptorsMsg`, in the order of the keypoints message with the same ``index``:
+``bytes(msg.descriptors[i])``, or ``numpy.frombuffer(msg.descriptors, numpy.uint8).reshape(MAX_KEYPOINTS,
+128)[:msg.descriptor_count]`` for all of them.
 ``--layout`` prints each structure's size and alignment (the Rust tests compare them with the
 daemon's).
 """
@@ -117,7 +119,7 @@ class KeypointMsg(ctypes.Structure):
 
 
 class KeypointsMsg(ctypes.Structure):
-    """Mosaic SIFT keypoints of one frame, strongest first, with descriptors when computed."""
+    """Mosaic SIFT keypoints of one frame, strongest first (``<prefix>/<camera>/keypoints``)."""
 
     _fields_ = [
         ("index", ctypes.c_uint64),
@@ -128,15 +130,30 @@ class KeypointsMsg(ctypes.Structure):
         ("frame_height", ctypes.c_uint32),
         ("keypoint_count", ctypes.c_uint32),
         ("overflow", ctypes.c_uint32),
-        ("descriptor_len", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
         ("keypoints", KeypointMsg * MAX_KEYPOINTS),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "mosaicd.KeypointsMsg.v1"
+
+
+class DescriptorsMsg(ctypes.Structure):
+    """SIFT descriptors of one frame's keypoints (``<prefix>/<camera>/descriptors``), in the order
+    of the keypoints message with the same ``index``, published just before it."""
+
+    _fields_ = [
+        ("index", ctypes.c_uint64),
+        ("sequence", ctypes.c_uint64),
+        ("capture_timestamp_ns", ctypes.c_uint64),
+        ("descriptor_count", ctypes.c_uint32),
+        ("overflow", ctypes.c_uint32),
         ("descriptors", (ctypes.c_uint8 * DESCRIPTOR_BYTES) * MAX_KEYPOINTS),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "mosaicd.KeypointsMsg.v2"
+        return "mosaicd.DescriptorsMsg.v1"
 
 
 class StatsMsg(ctypes.Structure):
@@ -186,7 +203,7 @@ class GradientsHeader(ctypes.Structure):
 
 
 #: Every message structure, for ``--layout``.
-STRUCTS = [BoxMsg, DetectionsMsg, KeypointMsg, KeypointsMsg, StatsMsg, GradientsHeader]
+STRUCTS = [BoxMsg, DetectionsMsg, KeypointMsg, KeypointsMsg, DescriptorsMsg, StatsMsg, GradientsHeader]
 
 
 def service_name(prefix: str, camera: str, topic: str) -> str:
@@ -258,18 +275,28 @@ def detections_json(m: DetectionsMsg) -> dict:
     }
 
 
-def descriptors(m: KeypointsMsg) -> list[bytes] | None:
-    """The valid keypoints' descriptors (128 bytes each, same order), or ``None``."""
-    if m.descriptor_len == 0:
-        return None
-    n = min(m.keypoint_count, MAX_KEYPOINTS)
+def descriptors(m: DescriptorsMsg) -> list[bytes]:
+    """The valid descriptors (128 bytes each, in the keypoints' order)."""
+    n = min(m.descriptor_count, MAX_KEYPOINTS)
     return [bytes(m.descriptors[i]) for i in range(n)]
 
 
+def descriptors_json(m: DescriptorsMsg) -> dict:
+    """A descriptors message as ``mosaicd listen --descriptors`` prints it (base64)."""
+    return {
+        "topic": "descriptors",
+        "index": m.index,
+        "sequence": m.sequence,
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "descriptor_count": m.descriptor_count,
+        "overflow": m.overflow,
+        "descriptors": [base64.b64encode(x).decode("ascii") for x in descriptors(m)],
+    }
+
+
 def keypoints_json(m: KeypointsMsg) -> dict:
-    """A keypoints message as ``mosaicd listen`` prints it (descriptors in base64)."""
+    """A keypoints message as ``mosaicd listen`` prints it."""
     n = min(m.keypoint_count, MAX_KEYPOINTS)
-    d = descriptors(m)
     return {
         "topic": "keypoints",
         "index": m.index,
@@ -281,8 +308,6 @@ def keypoints_json(m: KeypointsMsg) -> dict:
         "keypoint_count": m.keypoint_count,
         "overflow": m.overflow,
         "keypoints": [{k: getattr(p, k) for k, _ in KeypointMsg._fields_} for p in m.keypoints[:n]],
-        "descriptor_len": m.descriptor_len,
-        "descriptors": None if d is None else [base64.b64encode(x).decode("ascii") for x in d],
     }
 
 
@@ -307,6 +332,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")
     p.add_argument("--timeout-s", type=float, help="exit with an error after this many seconds")
     p.add_argument("--keypoints", action="store_true", help="also print the keypoints service")
+    p.add_argument("--descriptors", action="store_true", help="also print the descriptors service (base64)")
     p.add_argument("--gradients", action="store_true", help="also print the gradients service")
     p.add_argument("--layout", action="store_true", help="print the structures' sizes and exit")
     a = p.parse_args(argv)
@@ -345,6 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     det = subscribe("detections", DetectionsMsg)
     st = subscribe("stats", StatsMsg)
     kp = subscribe("keypoints", KeypointsMsg) if a.keypoints else None
+    desc = subscribe("descriptors", DescriptorsMsg) if a.descriptors else None
     grad = subscribe("gradients", None) if a.gradients else None
     print(f"mosaicd_subscriber: subscribed to {a.prefix}/{a.camera}/{{detections,stats}}", file=sys.stderr, flush=True)
 
@@ -361,6 +388,8 @@ def main(argv: list[str] | None = None) -> int:
         # lines together, as `mosaicd listen` does.
         while kp is not None and (s := kp.receive()) is not None:
             emit(keypoints_json(s.payload().contents))
+        while desc is not None and (s := desc.receive()) is not None:
+            emit(descriptors_json(s.payload().contents))
         while (s := det.receive()) is not None:
             emit(detections_json(s.payload().contents))
             received += 1

@@ -87,7 +87,12 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
         Box::new(src),
         pool,
         Arc::new(ReplayClock::default()),
-        vec![IceoryxSink::factory(camera, &publish, stage.spec().keypoints)],
+        vec![IceoryxSink::factory(
+            camera,
+            &publish,
+            stage.spec().keypoints,
+            stage.spec().keypoint_descriptors,
+        )],
         frames,
     )?;
     let r = p.join();

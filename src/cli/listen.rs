@@ -2,7 +2,8 @@
 //! lines (one object per sample, with a `"topic"` key).
 //!
 //! It opens (or creates, if it starts first) the camera's `detections` and `stats` services — and
-//! `gradients` with `--gradients`, `keypoints` with `--keypoints` — with the same settings as the
+//! `gradients` with `--gradients`, `keypoints` with `--keypoints`, `descriptors` with
+//! `--descriptors` — with the same settings as the
 //! daemon. It stops after `--count`
 //! detections, after the daemon's final stats with `--until-final`, after `--timeout-s`, or on
 //! SIGINT/SIGTERM.
@@ -12,9 +13,10 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use mosaicd::publish::messages::{DetectionsMsg, KeypointsMsg};
+use mosaicd::publish::messages::{DescriptorsMsg, DetectionsMsg, KeypointsMsg};
 use mosaicd::publish::service::{
-    create_node, detections_service, gradients_service, keypoints_service, stats_service, subscriber,
+    create_node, descriptors_service, detections_service, gradients_service, keypoints_service,
+    stats_service, subscriber,
 };
 
 /// Poll period of the subscriber loop.
@@ -47,6 +49,10 @@ pub struct ListenArgs {
     /// Also print the keypoints service (daemon with `compute.keypoints = true`).
     #[arg(long)]
     keypoints: bool,
+    /// Also print the descriptors service (daemon with `compute.keypoint_descriptors = true`;
+    /// base64, one per keypoint of the keypoints message with the same index).
+    #[arg(long)]
+    descriptors: bool,
 }
 
 fn keypoints_json(m: &KeypointsMsg) -> serde_json::Value {
@@ -61,8 +67,18 @@ fn keypoints_json(m: &KeypointsMsg) -> serde_json::Value {
         "keypoint_count": m.keypoint_count,
         "overflow": m.overflow,
         "keypoints": m.keypoints(),
-        "descriptor_len": m.descriptor_len,
-        "descriptors": m.descriptors().map(mosaicd::pipeline::sinks::descriptors_json),
+    })
+}
+
+fn descriptors_json(m: &DescriptorsMsg) -> serde_json::Value {
+    json!({
+        "topic": "descriptors",
+        "index": m.index,
+        "sequence": m.sequence,
+        "capture_timestamp_ns": m.capture_timestamp_ns,
+        "descriptor_count": m.descriptor_count,
+        "overflow": m.overflow,
+        "descriptors": mosaicd::pipeline::sinks::descriptors_json(m.descriptors()),
     })
 }
 
@@ -108,6 +124,12 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
     } else {
         None
     };
+    let desc_sub = if args.descriptors {
+        let svc = descriptors_service(&node, &args.prefix, &args.camera, args.buffer)?;
+        Some(subscriber(&svc, args.buffer, "descriptors")?)
+    } else {
+        None
+    };
     eprintln!(
         "mosaicd listen: subscribed to {}/{}/{{detections,stats}}",
         args.prefix, args.camera
@@ -123,6 +145,11 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
         if let Some(sub) = &kp_sub {
             while let Some(s) = sub.receive()? {
                 writeln!(out, "{}", keypoints_json(&s))?;
+            }
+        }
+        if let Some(sub) = &desc_sub {
+            while let Some(s) = sub.receive()? {
+                writeln!(out, "{}", descriptors_json(&s))?;
             }
         }
         while let Some(s) = det_sub.receive()? {

@@ -213,7 +213,8 @@ impl McapSink {
             &r.output.detections,
         )?;
         if let Some(k) = &r.output.keypoints {
-            self.recorder.write_keypoints(r.meta.timestamp_ns, k)?;
+            // The SIFT message first: its one refusal (descriptors that do not pair with the
+            // keypoints, which the stage never produces) then leaves no keypoint channel written.
             self.recorder.write_sift(
                 r.meta.sequence,
                 r.meta.timestamp_ns,
@@ -222,6 +223,7 @@ impl McapSink {
                 k,
                 r.output.descriptors.as_deref(),
             )?;
+            self.recorder.write_keypoints(r.meta.timestamp_ns, k)?;
         }
         Ok(())
     }

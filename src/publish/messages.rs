@@ -10,6 +10,7 @@
 //! | `<prefix>/<camera>/gradients` | `[u8]` with user header [`GradientsHeader`] | magnitude (u16 LE) then orientation bin (u8) |
 //! | `<prefix>/<camera>/stats` | [`StatsMsg`] | one every stats interval and a final one (`is_final = 1`) |
 //! | `<prefix>/<camera>/keypoints` | [`KeypointsMsg`] | with `compute.keypoints = true`: up to [`MAX_KEYPOINTS`] mosaic SIFT keypoints, strongest first |
+//! | `<prefix>/<camera>/descriptors` | [`DescriptorsMsg`] | with `compute.keypoint_descriptors = true`: their 128-byte SIFT descriptors, same order, published right after the keypoints |
 //!
 //! ```
 //! use mosaicd::publish::messages::{DetectionsMsg, BoxMsg, MAX_BOXES};
@@ -135,9 +136,10 @@ impl DetectionsMsg {
     }
 }
 
-/// Capacity of [`KeypointsMsg::keypoints`]. The stage sorts keypoints by decreasing |response|, so
-/// the strongest are kept; the rest are counted in [`KeypointsMsg::overflow`]. A 1080p frame gives
-/// about 350 mosaic SIFT keypoints.
+/// Capacity of [`KeypointsMsg::keypoints`] (and [`DescriptorsMsg::descriptors`]). The stage sorts
+/// keypoints by decreasing |response|, so the strongest are kept; the rest are counted in
+/// [`KeypointsMsg::overflow`]. A 1080p frame gives about 350 mosaic SIFT keypoints, about 460 with
+/// doubled planes (`compute.keypoints_double`); busier scenes give more.
 pub const MAX_KEYPOINTS: usize = 512;
 
 /// One keypoint: full-resolution mosaic pixel coordinates, scale and orientation.
@@ -169,17 +171,10 @@ impl From<&Keypoint> for KeypointMsg {
     }
 }
 
-/// Bytes of one SIFT descriptor in [`KeypointsMsg::descriptors`].
-pub const DESCRIPTOR_BYTES: usize = crate::features::sift::DESCRIPTOR_LEN;
-
-/// Mosaic SIFT keypoints of one frame (`<prefix>/<camera>/keypoints`), with their descriptors when
-/// the daemon computes them (`compute.keypoint_descriptors`).
-///
-/// v2 added `descriptor_len` and `descriptors` (a v1 subscriber is refused by the type name
-/// rather than misreading the layout).
+/// Mosaic SIFT keypoints of one frame (`<prefix>/<camera>/keypoints`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, ZeroCopySend)]
-#[type_name("mosaicd.KeypointsMsg.v2")]
+#[type_name("mosaicd.KeypointsMsg.v1")]
 pub struct KeypointsMsg {
     /// The pipeline's dense frame index (the same as the frame's [`DetectionsMsg::index`]).
     pub index: u64,
@@ -197,16 +192,8 @@ pub struct KeypointsMsg {
     pub keypoint_count: u32,
     /// Keypoints that did not fit ([`MAX_KEYPOINTS`]).
     pub overflow: u32,
-    /// Bytes per descriptor: [`DESCRIPTOR_BYTES`] when `descriptors` holds one per valid
-    /// keypoint, 0 when the daemon computes none.
-    pub descriptor_len: u32,
-    /// Reserved (keeps `keypoints` 8-byte aligned); 0.
-    pub reserved: u32,
     /// The keypoints, `keypoint_count` valid, strongest first.
     pub keypoints: [KeypointMsg; MAX_KEYPOINTS],
-    /// `descriptors[i]` is the SIFT descriptor of `keypoints[i]` (OpenCV's 128 stored bytes) when
-    /// `descriptor_len` is nonzero; zeros otherwise.
-    pub descriptors: [[u8; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
 }
 
 impl Default for KeypointsMsg {
@@ -220,19 +207,14 @@ impl Default for KeypointsMsg {
             frame_height: 0,
             keypoint_count: 0,
             overflow: 0,
-            descriptor_len: 0,
-            reserved: 0,
             keypoints: [KeypointMsg::default(); MAX_KEYPOINTS],
-            descriptors: [[0; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
         }
     }
 }
 
 impl KeypointsMsg {
-    /// Copy keypoints in, counting those beyond [`MAX_KEYPOINTS`] in `overflow`, with their
-    /// descriptors when given (`descriptors[i]` belongs to `keypoints[i]`; extra entries on
-    /// either side are ignored, missing ones are zeros).
-    pub fn set_keypoints(&mut self, keypoints: &[Keypoint], descriptors: Option<&[[u8; DESCRIPTOR_BYTES]]>) {
+    /// Copy keypoints in, counting those beyond [`MAX_KEYPOINTS`] in `overflow`.
+    pub fn set_keypoints(&mut self, keypoints: &[Keypoint]) {
         let n = keypoints.len().min(MAX_KEYPOINTS);
         for (d, k) in self.keypoints.iter_mut().zip(&keypoints[..n]) {
             *d = KeypointMsg::from(k);
@@ -240,30 +222,69 @@ impl KeypointsMsg {
         self.keypoints[n..].fill(KeypointMsg::default());
         self.keypoint_count = n as u32;
         self.overflow = (keypoints.len() - n) as u32;
-        let m = match descriptors {
-            Some(d) => {
-                let m = d.len().min(n);
-                self.descriptors[..m].copy_from_slice(&d[..m]);
-                self.descriptor_len = DESCRIPTOR_BYTES as u32;
-                m
-            }
-            None => {
-                self.descriptor_len = 0;
-                0
-            }
-        };
-        self.descriptors[m..].fill([0; DESCRIPTOR_BYTES]);
     }
 
     /// The valid keypoints.
     pub fn keypoints(&self) -> &[KeypointMsg] {
         &self.keypoints[..(self.keypoint_count as usize).min(MAX_KEYPOINTS)]
     }
+}
 
-    /// The valid keypoints' descriptors (same order), or `None` when the message carries none.
-    pub fn descriptors(&self) -> Option<&[[u8; DESCRIPTOR_BYTES]]> {
-        (self.descriptor_len != 0)
-            .then(|| &self.descriptors[..(self.keypoint_count as usize).min(MAX_KEYPOINTS)])
+/// Bytes of one SIFT descriptor (OpenCV's 128 stored values).
+pub const DESCRIPTOR_BYTES: usize = crate::features::sift::DESCRIPTOR_LEN;
+
+/// The SIFT descriptors of one frame's keypoints (`<prefix>/<camera>/descriptors`, only with
+/// `compute.keypoint_descriptors = true`): `descriptors[i]` belongs to `keypoints[i]` of the
+/// [`KeypointsMsg`] with the same `index`, which is published just before it.
+///
+/// A service of its own, so that the 64 KiB of descriptors per sample are in shared memory only
+/// where they are asked for: iceoryx2 reserves every sample slot a service can hold at once
+/// (about `16 · (publish.subscriber_buffer + 2)` per publisher).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[type_name("mosaicd.DescriptorsMsg.v1")]
+pub struct DescriptorsMsg {
+    /// The pipeline's frame index (the keypoints message's `index`).
+    pub index: u64,
+    /// The source's sequence number.
+    pub sequence: u64,
+    /// Source timestamp, ns.
+    pub capture_timestamp_ns: u64,
+    /// Number of valid entries in `descriptors` (the keypoints message's `keypoint_count`).
+    pub descriptor_count: u32,
+    /// Descriptors that did not fit ([`MAX_KEYPOINTS`]).
+    pub overflow: u32,
+    /// The descriptors, `descriptor_count` valid, in the keypoints' order.
+    pub descriptors: [[u8; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
+}
+
+impl Default for DescriptorsMsg {
+    fn default() -> Self {
+        Self {
+            index: 0,
+            sequence: 0,
+            capture_timestamp_ns: 0,
+            descriptor_count: 0,
+            overflow: 0,
+            descriptors: [[0; DESCRIPTOR_BYTES]; MAX_KEYPOINTS],
+        }
+    }
+}
+
+impl DescriptorsMsg {
+    /// Copy descriptors in (the first [`MAX_KEYPOINTS`], as the keypoints message keeps the first
+    /// keypoints), counting the rest in `overflow` and zeroing the unused tail.
+    pub fn set_descriptors(&mut self, descriptors: &[[u8; DESCRIPTOR_BYTES]]) {
+        let n = descriptors.len().min(MAX_KEYPOINTS);
+        self.descriptors[..n].copy_from_slice(&descriptors[..n]);
+        self.descriptors[n..].fill([0; DESCRIPTOR_BYTES]);
+        self.descriptor_count = n as u32;
+        self.overflow = (descriptors.len() - n) as u32;
+    }
+
+    /// The valid descriptors.
+    pub fn descriptors(&self) -> &[[u8; DESCRIPTOR_BYTES]] {
+        &self.descriptors[..(self.descriptor_count as usize).min(MAX_KEYPOINTS)]
     }
 }
 
@@ -356,48 +377,41 @@ mod tests {
     fn keypoints_beyond_capacity_are_counted_not_written() {
         let ks: Vec<Keypoint> = (0..MAX_KEYPOINTS + 7).map(kp).collect();
         let mut m = KeypointsMsg::default();
-        m.set_keypoints(&ks, None);
+        m.set_keypoints(&ks);
         assert_eq!(m.keypoint_count as usize, MAX_KEYPOINTS);
         assert_eq!(m.overflow, 7);
         assert_eq!(m.keypoints()[3], KeypointMsg::from(&ks[3]));
-        assert_eq!(m.descriptors(), None);
         // A shorter list afterwards clears the tail and the overflow.
-        m.set_keypoints(&ks[..2], None);
+        m.set_keypoints(&ks[..2]);
         assert_eq!(m.keypoints().len(), 2);
         assert_eq!(m.overflow, 0);
         assert_eq!(m.keypoints[2], KeypointMsg::default());
     }
 
     #[test]
-    fn descriptors_travel_with_their_keypoints_and_are_cleared_after() {
-        let ks: Vec<Keypoint> = (0..MAX_KEYPOINTS + 3).map(kp).collect();
-        let ds: Vec<[u8; DESCRIPTOR_BYTES]> = (0..ks.len())
+    fn descriptors_keep_the_keypoints_order_and_clear_what_they_do_not_use() {
+        let ds: Vec<[u8; DESCRIPTOR_BYTES]> = (0..MAX_KEYPOINTS + 3)
             .map(|i| [(i % 251) as u8; DESCRIPTOR_BYTES])
             .collect();
-        let mut m = KeypointsMsg::default();
-        m.set_keypoints(&ks, Some(&ds));
-        assert_eq!(m.descriptor_len as usize, DESCRIPTOR_BYTES);
-        let d = m.descriptors().unwrap();
-        assert_eq!(d.len(), MAX_KEYPOINTS);
-        assert_eq!(d[200], ds[200]);
-        assert_eq!(d[MAX_KEYPOINTS - 1], ds[MAX_KEYPOINTS - 1]);
-        // Fewer keypoints next frame: the stale descriptors behind them are zeroed.
-        m.set_keypoints(&ks[..2], Some(&ds[5..7]));
-        assert_eq!(m.descriptors().unwrap(), &ds[5..7]);
+        let mut m = DescriptorsMsg::default();
+        m.set_descriptors(&ds);
+        assert_eq!((m.descriptor_count as usize, m.overflow), (MAX_KEYPOINTS, 3));
+        assert_eq!(m.descriptors(), &ds[..MAX_KEYPOINTS]);
+        // Fewer next frame: the stale descriptors behind them are zeroed.
+        m.set_descriptors(&ds[5..7]);
+        assert_eq!(m.descriptors(), &ds[5..7]);
+        assert_eq!(m.overflow, 0);
         assert_eq!(m.descriptors[2], [0; DESCRIPTOR_BYTES]);
-        // Then a frame without descriptors carries none, and no stale bytes.
-        m.set_keypoints(&ks[..2], None);
-        assert_eq!((m.descriptor_len, m.descriptors()), (0, None));
-        assert_eq!(m.descriptors[0], [0; DESCRIPTOR_BYTES]);
     }
 
     #[test]
     fn keypoints_message_fits_a_shared_memory_sample() {
-        // 512 keypoints x (20 bytes + a 128-byte descriptor) + header: about 74 KiB per sample.
+        // 512 keypoints x 20 bytes + header: about 10 KiB per sample; descriptors 64 KiB.
         assert_eq!(std::mem::size_of::<KeypointMsg>(), 20);
+        assert!(std::mem::size_of::<KeypointsMsg>() <= 48 + 20 * MAX_KEYPOINTS);
         assert_eq!(
-            std::mem::size_of::<KeypointsMsg>(),
-            56 + (20 + DESCRIPTOR_BYTES) * MAX_KEYPOINTS
+            std::mem::size_of::<DescriptorsMsg>(),
+            32 + DESCRIPTOR_BYTES * MAX_KEYPOINTS
         );
     }
 }

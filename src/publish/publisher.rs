@@ -8,10 +8,10 @@
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
 
-use super::messages::{BoxMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
+use super::messages::{BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 use super::service::{
-    create_node, detections_service, gradients_publisher, gradients_service, keypoints_service, publisher,
-    stats_service,
+    create_node, descriptors_service, detections_service, gradients_publisher, gradients_service,
+    keypoints_service, publisher, stats_service,
 };
 use crate::config::PublishConfig;
 use crate::pipeline::engine::{FrameResult, Sink, SinkError, SinkFactory};
@@ -27,16 +27,18 @@ pub struct IceoryxSink {
     stats: Publisher<ipc::Service, StatsMsg, ()>,
     gradients: Option<GradientsPort>,
     keypoints: Option<Publisher<ipc::Service, KeypointsMsg, ()>>,
+    descriptors: Option<Publisher<ipc::Service, DescriptorsMsg, ()>>,
     _node: Node<ipc::Service>,
 }
 
 impl IceoryxSink {
     /// A factory for the pipeline. `keypoints`: also publish the keypoints service
-    /// (`compute.keypoints`).
-    pub fn factory(camera: &str, cfg: &PublishConfig, keypoints: bool) -> SinkFactory {
+    /// (`compute.keypoints`); `descriptors`: and the descriptors service
+    /// (`compute.keypoint_descriptors`).
+    pub fn factory(camera: &str, cfg: &PublishConfig, keypoints: bool, descriptors: bool) -> SinkFactory {
         let (camera, cfg) = (camera.to_string(), cfg.clone());
         Box::new(move || {
-            Self::new(&camera, &cfg, keypoints)
+            Self::new(&camera, &cfg, keypoints, descriptors)
                 .map(|s| Box::new(s) as Box<dyn Sink>)
                 .map_err(|e| SinkError::Start {
                     sink: format!("iceoryx2 {}/{camera}", cfg.service_prefix),
@@ -45,11 +47,13 @@ impl IceoryxSink {
         })
     }
 
-    /// Create the node, services and publishers (`keypoints`: the keypoints service too).
+    /// Create the node, services and publishers (`keypoints`: the keypoints service too;
+    /// `descriptors`: the descriptors service too).
     pub fn new(
         camera: &str,
         cfg: &PublishConfig,
         keypoints: bool,
+        descriptors: bool,
     ) -> Result<Self, super::service::PublishError> {
         let node = create_node(&format!("mosaicd-{camera}"), true)?;
         let p = &cfg.service_prefix;
@@ -69,12 +73,19 @@ impl IceoryxSink {
         } else {
             None
         };
+        let descriptors = if descriptors {
+            let svc = descriptors_service(&node, p, camera, cfg.subscriber_buffer)?;
+            Some(publisher(&svc, "descriptors")?)
+        } else {
+            None
+        };
         Ok(Self {
             camera: camera.into(),
             detections,
             stats,
             gradients,
             keypoints,
+            descriptors,
             _node: node,
         })
     }
@@ -99,7 +110,20 @@ pub fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
         frame_height: r.height as u32,
         ..KeypointsMsg::default()
     };
-    m.set_keypoints(kps, r.output.descriptors.as_deref());
+    m.set_keypoints(kps);
+    Some(m)
+}
+
+/// The descriptors message of a result (`None` when the stage computed no descriptors).
+pub fn descriptors_msg(r: &FrameResult) -> Option<DescriptorsMsg> {
+    let d = r.output.descriptors.as_ref()?;
+    let mut m = DescriptorsMsg {
+        index: r.index,
+        sequence: r.meta.sequence,
+        capture_timestamp_ns: r.meta.timestamp_ns,
+        ..DescriptorsMsg::default()
+    };
+    m.set_descriptors(d);
     Some(m)
 }
 
@@ -128,13 +152,21 @@ impl Sink for IceoryxSink {
     }
 
     fn frame(&mut self, r: &FrameResult) -> Result<(), SinkError> {
-        // Keypoints first: a subscriber that has a frame's detections has its keypoints too.
+        // Keypoints and descriptors first: a subscriber that has a frame's detections has its
+        // keypoints too.
         if let (Some(pubr), Some(msg)) = (self.keypoints.as_ref(), keypoints_msg(r)) {
             let sample = pubr.loan_uninit().map_err(|e| self.werr("keypoints loan", e))?;
             sample
                 .write_payload(msg)
                 .send()
                 .map_err(|e| self.werr("keypoints send", e))?;
+        }
+        if let (Some(pubr), Some(msg)) = (self.descriptors.as_ref(), descriptors_msg(r)) {
+            let sample = pubr.loan_uninit().map_err(|e| self.werr("descriptors loan", e))?;
+            sample
+                .write_payload(msg)
+                .send()
+                .map_err(|e| self.werr("descriptors send", e))?;
         }
         let msg = detections_msg(r);
         let sample = self

@@ -14,7 +14,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 
-use super::messages::{DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
+use super::messages::{DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 
 /// Publishers per service (one daemon, plus room for a restarted one while the old is cleaned).
 const MAX_PUBLISHERS: usize = 2;
@@ -132,6 +132,16 @@ pub fn keypoints_service(
     buffer: usize,
 ) -> Result<PortFactory<ipc::Service, KeypointsMsg, ()>, PublishError> {
     fixed_service(node, prefix, camera, "keypoints", buffer)
+}
+
+/// The descriptors service (SIFT descriptors of the keypoints, `compute.keypoint_descriptors`).
+pub fn descriptors_service(
+    node: &Node<ipc::Service>,
+    prefix: &str,
+    camera: &str,
+    buffer: usize,
+) -> Result<PortFactory<ipc::Service, DescriptorsMsg, ()>, PublishError> {
+    fixed_service(node, prefix, camera, "descriptors", buffer)
 }
 
 /// The gradients service (dynamic `[u8]` slices with a header).

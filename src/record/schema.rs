@@ -10,7 +10,7 @@
 //! | `/<camera>/detections` | `mosaicd.Detections` | `jsonschema` | `json` | boxes in full-frame coordinates |
 //! | `/<camera>/stats` | `mosaicd.Stats` | `jsonschema` | `json` | free-form pipeline statistics |
 //! | `/<camera>/keypoints` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | with `compute.keypoints`: mosaic SIFT keypoints as one POINTS annotation, preview coordinates |
-//! | `/<camera>/sift` | `mosaicd.SiftFeatures` | `jsonschema` | `json` | with `compute.keypoints`: the keypoints in full-frame coordinates (size, angle, response, octave), strongest first, and with `compute.keypoint_descriptors` their 128-byte descriptors (base64) |
+//! | `/<camera>/sift` | `mosaicd.SiftFeatures` | `jsonschema` | `json` | with `compute.keypoints`: the keypoints in full-frame coordinates (x, y, size, angle, response, octave, layer), strongest first, and with `compute.keypoint_descriptors` their 128-byte descriptors (base64) |
 //!
 //! ## `mosaicd.RawFrame` (message encoding `mosaicd.rawframe.v1`)
 //!
