@@ -117,18 +117,7 @@ fn a_python_process_reads_what_the_daemon_publishes() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("python3 runs");
-    {
-        use std::io::{BufRead, BufReader};
-        let mut err = BufReader::new(sub.stderr.take().unwrap());
-        let mut line = String::new();
-        while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
-            line.clear();
-        }
-        assert!(
-            line.contains("subscribed"),
-            "the Python subscriber did not start (run `make setup`): {line}"
-        );
-    }
+    wait_for_subscribed(&mut sub);
 
     let results = dir.path().join("results.jsonl");
     let out = Command::new(BIN)
@@ -250,4 +239,91 @@ fn refused(args: &[&str]) -> String {
     let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
     assert_eq!(err.lines().count(), 1, "one line, no traceback: {err}");
     err
+}
+
+/// The descriptors are usable as they arrive: `clients/python/match_frames.py` matches each frame's
+/// keypoints with the previous frame's through OpenCV's `BFMatcher` (ratio 0.8, mutual) while the
+/// daemon replays the committed synthetic pan (a 160x120 window moving from (0, 0) to (95, 71) of
+/// its scene over 12 frames, odd offsets included, so the CFA phase changes between frames), and
+/// the median displacement of the matches follows the window: the scene moves by minus the
+/// window's step.
+#[test]
+fn python_matches_of_the_descriptors_track_the_recorded_pan() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = format!("pym{}", std::process::id());
+    let cfg = dir.path().join("m.toml");
+    let rec = Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/synthetic_pan.mcap");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 100\n\
+             [publish]\nservice_prefix = \"{prefix}\"\n[record]\nenabled = false\n\
+             [compute]\ndetect = false\nkeypoints = true\nkeypoint_descriptors = true\n\
+             [[camera]]\nname = \"pan\"\nsource = \"mcap\"\npath = {:?}\n",
+            rec.display().to_string()
+        ),
+    )
+    .unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("clients/python/match_frames.py");
+    let mut sub = Command::new("python3")
+        .arg(script)
+        .args([
+            "--camera",
+            "pan",
+            "--prefix",
+            &prefix,
+            "--until-final",
+            "--timeout-s",
+            "60",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    wait_for_subscribed(&mut sub);
+    let out = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&cfg)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let sout = sub.wait_with_output().unwrap();
+    assert!(sout.status.success(), "{}", String::from_utf8_lossy(&sout.stderr));
+    let pairs = json_lines(&String::from_utf8_lossy(&sout.stdout));
+    assert_eq!(pairs.len(), 11, "one line per consecutive pair of the 12 frames");
+    let (step_x, step_y) = (-95.0 / 11.0, -71.0 / 11.0);
+    let (mut sum_x, mut sum_y) = (0.0, 0.0);
+    for (i, p) in pairs.iter().enumerate() {
+        assert_eq!(
+            (p["from"].as_u64(), p["to"].as_u64()),
+            (Some(i as u64), Some(i as u64 + 1))
+        );
+        assert!(p["matches"].as_u64().unwrap() >= 2, "{p}");
+        let (dx, dy) = (p["dx"].as_f64().unwrap(), p["dy"].as_f64().unwrap());
+        // The window moves by whole pixels (8 or 9 across, 6 or 7 down), so each pair is within
+        // a pixel of the mean step, plus the keypoints' own error.
+        assert!((dx - step_x).abs() < 2.5 && (dy - step_y).abs() < 2.5, "{p}");
+        sum_x += dx;
+        sum_y += dy;
+    }
+    // Over the whole pan (measured: -91.8, -67.6).
+    assert!(
+        (sum_x + 95.0).abs() < 6.0 && (sum_y + 71.0).abs() < 6.0,
+        "{sum_x} {sum_y}"
+    );
+}
+
+/// Wait until a subscriber process says on stderr that it has subscribed.
+fn wait_for_subscribed(sub: &mut std::process::Child) {
+    use std::io::{BufRead, BufReader};
+    let mut err = BufReader::new(sub.stderr.take().unwrap());
+    let mut line = String::new();
+    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+        line.clear();
+    }
+    assert!(
+        line.contains("subscribed"),
+        "the Python subscriber did not start (run `make setup`): {line}"
+    );
 }
