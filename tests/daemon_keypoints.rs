@@ -61,19 +61,7 @@ fn config_with(
 /// `mosaicd run --config CFG --results DIR/results.jsonl`, which must succeed; the results path.
 fn run_daemon(cfg: &Path, dir: &Path) -> PathBuf {
     let results = dir.join("results.jsonl");
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(cfg)
-        .arg("--results")
-        .arg(&results)
-        .env("RUST_LOG", "warn")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "daemon failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::run_daemon_ok(BIN, cfg, Some(&results));
     results
 }
 

@@ -12,6 +12,8 @@ use mosaicd::publish::messages::{
     BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointMsg, KeypointsMsg, StatsMsg,
 };
 
+mod common;
+
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 
 fn script() -> PathBuf {
@@ -120,15 +122,7 @@ fn a_python_process_reads_what_the_daemon_publishes() {
     wait_for_subscribed(&mut sub);
 
     let results = dir.path().join("results.jsonl");
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .arg("--results")
-        .arg(&results)
-        .env("RUST_LOG", "warn")
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    common::run_daemon_ok(BIN, &cfg, Some(&results));
     let sout = sub.wait_with_output().unwrap();
     assert!(
         sout.status.success(),
@@ -281,13 +275,7 @@ fn python_matches_of_the_descriptors_track_the_recorded_pan() {
         .spawn()
         .expect("python3 runs");
     wait_for_subscribed(&mut sub);
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .env("RUST_LOG", "warn")
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    common::run_daemon_ok(BIN, &cfg, None);
     let sout = sub.wait_with_output().unwrap();
     assert!(sout.status.success(), "{}", String::from_utf8_lossy(&sout.stderr));
     let pairs = json_lines(&String::from_utf8_lossy(&sout.stdout));

@@ -67,3 +67,24 @@ pub fn spawn_listener(bin: &str, args: &[&str]) -> std::process::Child {
     assert!(line.contains("subscribed"), "listener did not start: {line}");
     listener
 }
+
+/// Run `mosaicd run --config CFG` (with `--results RESULTS` when given) to completion; it must
+/// succeed. Its output.
+pub fn run_daemon_ok(
+    bin: &str,
+    cfg: &std::path::Path,
+    results: Option<&std::path::Path>,
+) -> std::process::Output {
+    let mut c = std::process::Command::new(bin);
+    c.args(["run", "--config"]).arg(cfg).env("RUST_LOG", "warn");
+    if let Some(r) = results {
+        c.arg("--results").arg(r);
+    }
+    let out = c.output().unwrap();
+    assert!(
+        out.status.success(),
+        "daemon failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
