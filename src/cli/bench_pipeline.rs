@@ -54,6 +54,13 @@ pub struct BenchPipelineArgs {
     /// Also compute mosaic SIFT keypoints (`compute.keypoints`).
     #[arg(long)]
     keypoints: bool,
+    /// With `--keypoints`: their descriptors too, published on the descriptors service
+    /// (`compute.keypoint_descriptors`).
+    #[arg(long, requires = "keypoints")]
+    descriptors: bool,
+    /// With `--keypoints`: double the colour planes first (`compute.keypoints_double`).
+    #[arg(long, requires = "keypoints")]
+    keypoints_double: bool,
     /// Skip the stalled-subscriber run.
     #[arg(long)]
     no_stalled: bool,
@@ -109,6 +116,21 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
     ))
 }
 
+/// The keypoint stage's setting, as the summary line says it.
+fn keypoint_mode(a: &BenchPipelineArgs) -> String {
+    if !a.keypoints {
+        return "off".into();
+    }
+    let mut s = String::from("on");
+    if a.descriptors {
+        s.push_str(" with descriptors");
+    }
+    if a.keypoints_double {
+        s.push_str(", doubled planes");
+    }
+    s
+}
+
 /// Run `mosaicd bench pipeline`.
 pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let mut cfg = Config::default();
@@ -117,12 +139,14 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let svm = ScorePrecision::from(a.svm);
     cfg.compute.svm = svm.name().into();
     cfg.compute.keypoints = a.keypoints;
+    cfg.compute.keypoint_descriptors = a.descriptors;
+    cfg.compute.keypoints_double = a.keypoints_double;
     let stage = Stage::new(stage_spec(&cfg)?, load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
         "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, if a.keypoints { "on" } else { "off" }, a.threads, a.max_in_flight, a.frames, fps, p50, p99
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames, fps, p50, p99
     );
     let mut stalled = None;
     if !a.no_stalled {
@@ -149,7 +173,8 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
     println!(
         "{}",
-        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
+        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints,
+               "descriptors": a.descriptors, "keypoints_double": a.keypoints_double, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit})
     );
