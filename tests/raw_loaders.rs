@@ -280,3 +280,42 @@ fn kodak_png_resampled_to_every_pattern() {
         }
     }
 }
+
+/// BMP is read as an RGB image, sampled into a mosaic: a USC photograph (an 8-bit palette of
+/// greys, which the decoder expands to equal R, G and B) becomes a mosaic of its own grey values
+/// for any pattern, and an RGB BMP gives the same mosaic as the same picture in PNG. A file that is
+/// neither an image nor a camera raw rawloader knows is refused saying what is supported.
+#[test]
+fn bmp_inputs_load_as_images_and_unknown_files_say_what_is_supported() {
+    let usc = require("pedestrian/usc/USCPedestrianSetA/9Cup10.bmp");
+    let grey = image::open(&usc).unwrap().to_luma8();
+    let want: Vec<u16> = grey.as_raw().iter().map(|&v| u16::from(v)).collect();
+    for cfa in [Cfa::Rggb, Cfa::Gbrg] {
+        let opts = InputOptions {
+            cfa: Some(cfa),
+            ..InputOptions::default()
+        };
+        let l = load_input(&usc, &opts).unwrap();
+        let f = l.frame;
+        assert_eq!((f.width(), f.height(), f.cfa()), (424, 117, cfa));
+        assert!(l.rgb.is_some());
+        assert_eq!(f.to_u16_vec(), want);
+    }
+
+    let dir = tempfile::tempdir().unwrap();
+    let png = require("kodak/kodim12.png");
+    let bmp = dir.path().join("kodim12.bmp");
+    image::open(&png).unwrap().to_rgb8().save(&bmp).unwrap();
+    let from_bmp = load_input(&bmp, &InputOptions::default()).unwrap();
+    let from_png = load_input(&png, &InputOptions::default()).unwrap();
+    assert_eq!(from_bmp.frame.to_u16_vec(), from_png.frame.to_u16_vec());
+    assert_eq!(from_bmp.frame.cfa(), Cfa::Rggb);
+
+    let junk = dir.path().join("frame.dat");
+    std::fs::write(&junk, [7u8; 4096]).unwrap();
+    let e = load_input(&junk, &InputOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a supported input") && e.contains("bmp"), "{e}");
+    assert!(!e.contains("raw.pixls.us"), "{e}");
+}

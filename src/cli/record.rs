@@ -270,7 +270,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase())
             .unwrap_or_default();
-        let rgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg") && a.opts.sidecar.is_none();
+        let rgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") && a.opts.sidecar.is_none();
         let format = match &a.opts.sidecar {
             Some(s) => Some(Sidecar::read(s)?),
             None => None,

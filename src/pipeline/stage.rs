@@ -21,7 +21,9 @@
 //!   `compute.keypoint_descriptors` each keypoint also gets its 128-byte descriptor
 //!   ([`crate::features::sift::features_from_frame`]), kept in the keypoints' order; with
 //!   `compute.keypoints_double` the colour planes are doubled first (finer keypoints, about 4x the
-//!   cost). A frame smaller than SIFT's minimum size gives empty lists (not an error).
+//!   cost). A frame smaller than SIFT's minimum size gives empty lists (not an error); an
+//!   odd-sized frame (a file source can deliver one) gives the keypoints of its even part from
+//!   (0, 0), in the frame's coordinates, instead of failing the whole frame.
 //! * **mean_magnitude**: `Σ mag · 2^s / (white − max black) / (w·h)`, a cheap liveness signal in
 //!   normalised units. The sum is an exact integer, so it is identical for any thread count.
 //!
@@ -46,6 +48,7 @@ use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagB
 use crate::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
 use crate::features::sift::{
     features_from_frame, keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec, DESCRIPTOR_LEN,
+    MIN_SIZE as SIFT_MIN_SIZE,
 };
 use crate::image::{Image, ImageViewMut};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
@@ -261,12 +264,25 @@ impl Stage {
             }
             None => Vec::new(),
         };
+        // Mosaic SIFT needs whole 2x2 tiles: an odd-sized frame (a file source may deliver one)
+        // gives the keypoints of its even part, from (0, 0), so the coordinates stay the frame's.
+        let (ew, eh) = (w & !1, h & !1);
+        let even = if (ew, eh) != (w, h) && self.sift.is_some() && ew.min(eh) >= SIFT_MIN_SIZE {
+            Some(frame.crop(0, 0, ew, eh).expect("an even part inside the frame"))
+        } else {
+            None
+        };
+        let sift_frame = even.as_ref().unwrap_or(frame);
         let (keypoints, descriptors) = match &self.sift {
+            // Too small for SIFT once even (or at all): no keypoints, as for any tiny frame.
+            Some(_) if ew.min(eh) < SIFT_MIN_SIZE => {
+                (Some(Vec::new()), self.spec.keypoint_descriptors.then(Vec::new))
+            }
             Some(spec) if self.spec.keypoint_descriptors => {
-                let (k, d) = features_sorted(frame, spec)?;
+                let (k, d) = features_sorted(sift_frame, spec)?;
                 (Some(k), Some(d))
             }
-            Some(spec) => (Some(keypoints_sorted(frame, spec)?), None),
+            Some(spec) => (Some(keypoints_sorted(sift_frame, spec)?), None),
             None => (None, None),
         };
         Ok(StageOutput {
@@ -577,6 +593,31 @@ mod tests {
         assert!(undoubled.iter().all(|p| p.octave >= 0));
         let spec = SiftOptions::mosaic().build().unwrap().with_double_image(true);
         assert_library_keypoints(&k, &f, &spec);
+    }
+
+    #[test]
+    fn odd_frames_give_the_keypoints_of_their_even_part() {
+        let f = blobs(161, 129);
+        let even = f.crop(0, 0, 160, 128).unwrap();
+        let mut maps = GradientMaps::default();
+        for stage in [keypoint_stage(), descriptor_stage(false)] {
+            let odd = stage.compute(&f, &mut maps).unwrap();
+            let want = stage.compute(&even, &mut maps).unwrap();
+            assert!(!odd.keypoints.as_ref().unwrap().is_empty());
+            assert_eq!(
+                (odd.keypoints, odd.descriptors),
+                (want.keypoints, want.descriptors)
+            );
+        }
+        // Odd and too small once even: empty, not an error.
+        let tiny = blobs(17, 33);
+        let out = descriptor_stage(false).compute(&tiny, &mut maps).unwrap();
+        assert_eq!(
+            (out.keypoints, out.descriptors),
+            (Some(Vec::new()), Some(Vec::new()))
+        );
+        let out = keypoint_stage().compute(&tiny, &mut maps).unwrap();
+        assert_eq!((out.keypoints, out.descriptors), (Some(Vec::new()), None));
     }
 
     #[test]

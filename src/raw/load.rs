@@ -554,8 +554,23 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     if let Some(info) = kodak_radc::identify(&bytes) {
         return load_kodak_radc(path, &bytes, &info);
     }
-    let raw = rawloader::decode(&mut std::io::Cursor::new(&bytes))
-        .map_err(|e| format_err(path, format!("rawloader: {e}")))?;
+    let raw = rawloader::decode(&mut std::io::Cursor::new(&bytes)).map_err(|e| {
+        let e = e.to_string();
+        let first = e.lines().next().unwrap_or_default().trim().to_string();
+        if first.contains("find a decoder") {
+            // rawloader's own text goes on to ask for samples on its web site: not for our users.
+            format_err(
+                path,
+                format!(
+                    "not a supported input: no camera raw decoder knows this file (rawloader: {first}), \
+                     and its extension is none of png, pgm, jpg, jpeg, bmp (images), raw, bin \
+                     (headerless, with --width/--height or a sidecar)"
+                ),
+            )
+        } else {
+            format_err(path, format!("rawloader: {e}"))
+        }
+    })?;
     let data = match raw.data {
         rawloader::RawImageData::Integer(ref d) => d,
         rawloader::RawImageData::Float(_) => {
@@ -765,8 +780,8 @@ pub fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
 ///
 /// - width and height given, or extension `raw`/`bin` → headerless ([`load_headerless`]);
 /// - `.pgm` → PGM mosaic; `.png` 1-channel → PNG mosaic (pattern from `opts.cfa`, required);
-/// - `.png` RGB(A) 8-bit, `.jpg`/`.jpeg` → RGB image resampled into `opts.cfa` (default RGGB),
-///   keeping the RGB image;
+/// - `.png` RGB(A) 8-bit, `.jpg`/`.jpeg`, `.bmp` → RGB image resampled into `opts.cfa` (default
+///   RGGB), keeping the RGB image (a grey BMP decodes to equal R, G and B);
 /// - anything else → camera raw through rawloader.
 pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
     let ext = ext_of(path);
@@ -810,7 +825,9 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
             }
             (false, _) => rgb_input(path, opts),
         },
-        "jpg" | "jpeg" => rgb_input(path, opts),
+        // BMP: the decoder expands 8-bit (palette) files to RGB, so a grey BMP (the USC sets)
+        // samples into a mosaic of its own grey values, whatever the pattern.
+        "jpg" | "jpeg" | "bmp" => rgb_input(path, opts),
         _ => Ok(LoadedInput {
             frame: load_camera_raw(path)?,
             rgb: None,
