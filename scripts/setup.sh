@@ -28,9 +28,9 @@ if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy, rawpy; assert c
   echo "setup: installing Python oracles (tests/oracle/requirements.txt)" >&2
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/oracle/requirements.txt
 fi
-# The Python subscriber (clients/python): the iceoryx2 wheel matching the daemon's crate version.
-if ! python3 -c 'import iceoryx2, importlib.metadata as m; assert m.version("iceoryx2") == "0.10.0"' >/dev/null 2>&1; then
-  echo "setup: installing the Python subscriber's iceoryx2 (clients/python/requirements.txt)" >&2
+# The Python clients (clients/python): the iceoryx2 wheel matching the daemon's crate version, mcap.
+if ! python3 -c 'import mcap, zstandard, iceoryx2, importlib.metadata as m; assert m.version("iceoryx2") == "0.10.0"' >/dev/null 2>&1; then
+  echo "setup: installing the Python clients' packages (clients/python/requirements.txt)" >&2
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r clients/python/requirements.txt
 fi
 echo "setup: ok" >&2

@@ -1,0 +1,145 @@
+#!/usr/bin/env python3
+"""Read a mosaicd MCAP recording in Python: raw Bayer frames at full bit depth, and the JSON channels.
+
+A recording (``mosaicd record``, or the daemon with ``[record] enabled = true``) holds per camera
+``/<camera>/raw`` (``mosaicd.RawFrame``: the frame, lossless), a Foxglove preview, detections,
+keypoints, SIFT features and stats (docs/recording.md). Foxglove Studio shows the JSON channels;
+this module gives Python the raw frames as numpy arrays with their metadata, using the ``mcap``
+package from PyPI::
+
+    from read_recording import raw_frames
+    for header, mosaic in raw_frames("recordings/synthetic_pan.mcap"):
+        print(header["sequence"], header["cfa"], header["bit_depth"], mosaic.shape, mosaic.dtype)
+
+``header`` is the frame's JSON header (``sequence``, ``timestamp_ns``, ``width``, ``height``,
+``cfa``, ``bit_depth``, ``black`` per 2x2 tile position ``(y & 1) * 2 + (x & 1)``, ``white``,
+``wb_gains``, ...); ``mosaic`` is ``height x width``, ``uint8`` or ``uint16`` (values as stored,
+LSB-aligned). A truncated recording (a crash mid-write) yields every complete message before the
+cut and then stops with :class:`TruncatedRecording`, which says how many were read; a corrupt
+frame message raises :class:`ValueError` naming it.
+
+As a script: one JSON line per raw frame (its header and pixel statistics), ``--topic T`` prints
+the JSON messages of a channel instead, ``--npy DIR`` also writes each frame as
+``DIR/<sequence>.npy``::
+
+    python3 clients/python/read_recording.py recordings/synthetic_pan.mcap
+    python3 clients/python/read_recording.py out/demo.mcap --topic /demo/detections
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import struct
+import sys
+from typing import Any, Iterator
+
+import numpy as np
+from mcap.exceptions import McapError
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
+
+#: Message encoding of the raw-frame channel.
+RAW_FRAME_ENCODING = "mosaicd.rawframe.v1"
+_MAGIC = b"MRF1"
+
+
+class TruncatedRecording(Exception):
+    """The file ends inside a record: everything before the cut was read."""
+
+    def __init__(self, path: str, messages: int, why: str):
+        super().__init__(f"{path}: the recording is cut short after {messages} complete messages ({why})")
+        self.messages = messages
+
+
+def decode_raw_frame(data: bytes, where: str = "message") -> tuple[dict, np.ndarray]:
+    """One ``mosaicd.RawFrame`` v1 message: its JSON header and the pixels (height x width)."""
+    if len(data) < 8 or data[:4] != _MAGIC:
+        raise ValueError(f"{where}: not a mosaicd.RawFrame v1 message (magic {data[:4]!r})")
+    (n,) = struct.unpack_from("<I", data, 4)
+    if 8 + n > len(data):
+        raise ValueError(f"{where}: header length {n} runs past the message ({len(data)} bytes)")
+    try:
+        header = json.loads(data[8 : 8 + n])
+        w, h, bits = int(header["width"]), int(header["height"]), int(header["container_bits"])
+    except (ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{where}: bad frame header: {e}") from None
+    if bits not in (8, 16):
+        raise ValueError(f"{where}: container_bits {bits} is neither 8 nor 16")
+    dtype = np.dtype(np.uint8) if bits == 8 else np.dtype("<u2")
+    pixels = data[8 + n :]
+    if len(pixels) != w * h * dtype.itemsize:
+        raise ValueError(
+            f"{where}: {len(pixels)} pixel bytes for a {w}x{h} frame of {bits}-bit samples "
+            f"(expected {w * h * dtype.itemsize})"
+        )
+    mosaic = np.frombuffer(pixels, dtype=dtype).reshape(h, w)
+    return header, mosaic.astype(np.uint16) if bits == 16 else mosaic
+
+
+def messages(path: str) -> Iterator[tuple[Channel, Schema | None, Message]]:
+    """Every message of the recording in file order, with its channel and schema; read as a stream,
+    so a recording without its summary (cut short) is read up to the cut."""
+    channels: dict[int, Channel] = {}
+    schemas: dict[int, Schema] = {}
+    count = 0
+    with open(path, "rb") as f:
+        try:
+            for r in StreamReader(f, skip_magic=False).records:
+                if isinstance(r, Schema):
+                    schemas[r.id] = r
+                elif isinstance(r, Channel):
+                    channels[r.id] = r
+                elif isinstance(r, Message):
+                    ch = channels[r.channel_id]
+                    count += 1
+                    yield ch, schemas.get(ch.schema_id), r
+        except (McapError, EOFError, struct.error) as e:
+            raise TruncatedRecording(path, count, f"{type(e).__name__}: {e}") from None
+
+
+def raw_frames(path: str, topic: str | None = None) -> Iterator[tuple[dict, np.ndarray]]:
+    """The raw frames (``mosaicd.rawframe.v1`` channels, or only ``topic``) as (header, mosaic)."""
+    for ch, _, m in messages(path):
+        if ch.message_encoding == RAW_FRAME_ENCODING and (topic is None or ch.topic == topic):
+            yield decode_raw_frame(m.data, f"{path}: {ch.topic} message {m.sequence}")
+
+
+def json_messages(path: str, topic: str) -> Iterator[tuple[int, Any]]:
+    """(log time ns, decoded JSON) of each message on a JSON channel."""
+    for ch, _, m in messages(path):
+        if ch.topic == topic:
+            if ch.message_encoding != "json":
+                raise ValueError(f"{path}: {topic} is {ch.message_encoding!r}, not JSON")
+            yield m.log_time, json.loads(m.data)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("recording")
+    p.add_argument("--topic", help="print this JSON channel's messages instead of the raw frames")
+    p.add_argument("--npy", help="also write each raw frame as DIR/<sequence>.npy")
+    a = p.parse_args(argv)
+    try:
+        if a.topic:
+            for t, v in json_messages(a.recording, a.topic):
+                print(json.dumps({"log_time": t, "message": v}))
+            return 0
+        if a.npy:
+            os.makedirs(a.npy, exist_ok=True)
+        for header, mosaic in raw_frames(a.recording):
+            print(json.dumps({**header, "min": int(mosaic.min()), "max": int(mosaic.max()), "mean": float(mosaic.mean())}))
+            if a.npy:
+                np.save(os.path.join(a.npy, f"{header['sequence']}.npy"), mosaic)
+    except TruncatedRecording as e:
+        print(f"read_recording: {e}", file=sys.stderr)
+        return 3
+    except (OSError, ValueError) as e:
+        print(f"read_recording: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

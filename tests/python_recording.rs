@@ -1,0 +1,155 @@
+//! `clients/python/read_recording.py` (the `mcap` package from PyPI) reads our recordings: the raw
+//! frames it returns are, pixel for pixel and field for field, the frames our own reader decodes;
+//! a recording cut short yields the frames before the cut and then a clear error; a corrupt frame
+//! message is a `ValueError` naming what is wrong. Needs the packages of
+//! `clients/python/requirements.txt` (`make setup`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use mosaicd::npy::NpyArray;
+use mosaicd::raw::RawFrame;
+use mosaicd::record::read::for_each_message;
+use mosaicd::record::schema::{decode_raw_frame, RAW_FRAME_ENCODING};
+
+fn client_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("clients/python")
+}
+
+fn recording() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("recordings/synthetic_pan.mcap")
+}
+
+fn read_recording(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    Command::new("python3")
+        .arg(client_dir().join("read_recording.py"))
+        .args(args)
+        .output()
+        .expect("python3 runs")
+}
+
+/// The raw frames of `path` as our reader decodes them.
+fn rust_frames(path: &Path) -> Vec<RawFrame> {
+    let mut out = Vec::new();
+    for_each_message(path, |m| {
+        if m.channel.message_encoding == RAW_FRAME_ENCODING {
+            out.push(decode_raw_frame(&m.data).unwrap());
+        }
+        Ok(())
+    })
+    .unwrap();
+    out
+}
+
+/// Python's JSON line of a frame matches the frame.
+fn assert_same_header(line: &serde_json::Value, f: &RawFrame) {
+    assert_eq!(line["sequence"].as_u64(), Some(f.meta.sequence));
+    assert_eq!(line["timestamp_ns"].as_u64(), Some(f.meta.timestamp_ns));
+    assert_eq!(
+        (line["width"].as_u64(), line["height"].as_u64()),
+        (Some(f.width() as u64), Some(f.height() as u64))
+    );
+    assert_eq!(line["cfa"].as_str(), Some(f.cfa().to_string().as_str()));
+    assert_eq!(line["bit_depth"].as_u64(), Some(u64::from(f.bit_depth())));
+    assert_eq!(line["white"].as_u64(), Some(u64::from(f.levels().white)));
+    let black: Vec<u64> = f.levels().black.iter().map(|&b| u64::from(b)).collect();
+    assert_eq!(line["black"], serde_json::json!(black));
+    let px = f.to_u16_vec();
+    assert_eq!(line["max"].as_u64(), px.iter().max().map(|&v| u64::from(v)));
+}
+
+#[test]
+fn python_reads_the_raw_frames_our_reader_decodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("npy");
+    let out = read_recording(&[recording().as_os_str(), "--npy".as_ref(), npy.as_os_str()]);
+    assert!(
+        out.status.success(),
+        "read_recording failed (run `make setup`): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let frames = rust_frames(&recording());
+    assert_eq!((lines.len(), frames.len()), (12, 12));
+    for (line, f) in lines.iter().zip(&frames) {
+        assert_same_header(line, f);
+        let a = NpyArray::read(npy.join(format!("{}.npy", f.meta.sequence))).unwrap();
+        assert_eq!(a.shape, vec![f.height(), f.width()]);
+        let want: Vec<f64> = f.to_u16_vec().into_iter().map(f64::from).collect();
+        assert_eq!(a.data, want, "frame {}", f.meta.sequence);
+    }
+}
+
+#[test]
+fn a_cut_recording_gives_the_frames_before_the_cut_and_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let cut = dir.path().join("cut.mcap");
+    let bytes = std::fs::read(recording()).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() * 3 / 8]).unwrap();
+    let out = read_recording(&[cut.as_os_str()]);
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cut short after") && err.contains("complete messages"),
+        "{err}"
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let frames = rust_frames(&recording());
+    assert!(
+        !lines.is_empty() && lines.len() < frames.len(),
+        "{} frames",
+        lines.len()
+    );
+    for (line, f) in lines.iter().zip(&frames) {
+        assert_same_header(line, f);
+    }
+}
+
+#[test]
+fn a_corrupt_frame_message_is_a_value_error_naming_it() {
+    let script = r#"
+import sys
+sys.path.insert(0, sys.argv[1])
+from read_recording import decode_raw_frame
+import json, struct
+head = json.dumps({"width": 4, "height": 2, "container_bits": 16}).encode()
+good = b"MRF1" + struct.pack("<I", len(head)) + head + bytes(16)
+h, m = decode_raw_frame(good)
+assert m.shape == (2, 4), m.shape
+for bad in [b"RIFF" + good[4:], good[:-2], b"MRF1" + struct.pack("<I", 999) + head,
+            b"MRF1" + struct.pack("<I", 2) + b"{]" + bytes(16)]:
+    try:
+        decode_raw_frame(bad, "frame 7")
+    except ValueError as e:
+        assert "frame 7" in str(e), e
+        print(e)
+    else:
+        raise SystemExit(f"accepted {bad[:12]!r}")
+"#;
+    let out = Command::new("python3")
+        .args(["-c", script])
+        .arg(client_dir())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for says in [
+        "not a mosaicd.RawFrame",
+        "pixel bytes",
+        "runs past",
+        "bad frame header",
+    ] {
+        assert!(text.contains(says), "{says}: {text}");
+    }
+}
