@@ -31,7 +31,7 @@ fn parse_black(s: &str) -> Result<[u16; 4], String> {
 /// Input file and how to interpret it.
 #[derive(clap::Args, Debug, Clone)]
 pub struct InputArgs {
-    /// Input: headerless raw (.raw/.bin or with --width/--height), grey PNG/PGM mosaic, RGB PNG/JPEG
+    /// Input: headerless raw (.raw/.bin or with --width/--height), grey PNG/PGM mosaic, RGB PNG/JPEG/BMP
     /// (resampled to --cfa), or a camera raw file (anything else: rawloader, or our Kodak RADC decoder).
     pub input: PathBuf,
     /// Width in pixels of a headerless raw file.
