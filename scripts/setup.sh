@@ -29,8 +29,10 @@ if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy, rawpy; assert c
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/oracle/requirements.txt
 fi
 # The Python clients (clients/python): the iceoryx2 wheel matching the daemon's crate version, mcap.
-if ! python3 -c 'import mcap, zstandard, iceoryx2, importlib.metadata as m; assert m.version("iceoryx2") == "0.10.0"' >/dev/null 2>&1; then
+clients_ok='import mcap, zstandard, iceoryx2, importlib.metadata as m; assert m.version("iceoryx2") == "0.10.0"; assert (1, 2) <= tuple(int(x) for x in m.version("mcap").split(".")[:2]) < (2, 0)'
+if ! python3 -c "$clients_ok" >/dev/null 2>&1; then
   echo "setup: installing the Python clients' packages (clients/python/requirements.txt)" >&2
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r clients/python/requirements.txt
+  python3 -c "$clients_ok" || { echo "setup: the Python clients' packages still do not import" >&2; exit 1; }
 fi
 echo "setup: ok" >&2

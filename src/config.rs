@@ -283,7 +283,7 @@ pub struct ComputeConfig {
     /// gradient) and publish and record it beside the keypoint.
     pub keypoint_descriptors: bool,
     /// With `keypoints`: double the colour planes first (the mosaic's analogue of OpenCV's
-    /// `firstOctave = -1`): finer keypoints, at about 4x the cost of the stage.
+    /// `firstOctave = -1`): finer keypoints, at 4-5x the cost of the stage.
     pub keypoints_double: bool,
 }
 

@@ -153,3 +153,44 @@ for bad in [b"RIFF" + good[4:], good[:-2], b"MRF1" + struct.pack("<I", 999) + he
         assert!(text.contains(says), "{says}: {text}");
     }
 }
+
+/// A recording with damaged bytes fails its CRC check and a file that is not MCAP at all is
+/// refused: both exit 2 with one line naming the file, never data read past the damage.
+#[test]
+fn damaged_and_foreign_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = std::fs::read(recording()).unwrap();
+    let at = bytes.len() / 2;
+    for b in &mut bytes[at..at + 16] {
+        *b ^= 0xff;
+    }
+    let damaged = dir.path().join("damaged.mcap");
+    std::fs::write(&damaged, &bytes).unwrap();
+    let readme = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    for (file, says) in [(&damaged, "crc validation failed"), (&readme, "invalid magic")] {
+        let out = read_recording(&[file.as_os_str()]);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&*file.display().to_string()) && err.contains(says),
+            "{err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    }
+    // What the damaged file did yield is the frames before the damaged chunk, unchanged.
+    let out = read_recording(&[damaged.as_os_str()]);
+    let frames = rust_frames(&recording());
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(lines.len() < frames.len());
+    for (line, f) in lines.iter().zip(&frames) {
+        assert_same_header(line, f);
+    }
+}

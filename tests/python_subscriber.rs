@@ -2,7 +2,8 @@
 //! `iceoryx2` wheel) against the real daemon: its structures have the Rust messages' sizes,
 //! alignments and iceoryx2 type names, and a Python process subscribed to a running daemon reads
 //! every frame's boxes, keypoints and descriptors exactly as the daemon wrote them to its results
-//! file. Needs python3 with the packages of `tests/oracle/requirements.txt` (`make setup`).
+//! file. Needs python3 with the packages of `clients/python/requirements.txt` and, for the
+//! matching, OpenCV from `tests/oracle/requirements.txt` (`make setup`).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -26,11 +27,20 @@ fn python() -> Command {
     c
 }
 
-/// Size, alignment and iceoryx2 type name of a message type.
-fn rust_layout<T: ZeroCopySend>() -> (String, usize, usize) {
+/// Size, alignment, iceoryx2 type name and field offsets of a message type.
+fn rust_layout<T: ZeroCopySend>(
+    fields: Vec<(&'static str, usize)>,
+) -> (String, usize, usize, Vec<(&'static str, usize)>) {
     // SAFETY: `type_name` only returns the name given in `#[type_name]`.
     let name = unsafe { <T as ZeroCopySend>::type_name() }.to_string();
-    (name, std::mem::size_of::<T>(), std::mem::align_of::<T>())
+    (name, std::mem::size_of::<T>(), std::mem::align_of::<T>(), fields)
+}
+
+/// `(field, offset)` of each named field of a type.
+macro_rules! offsets {
+    ($t:ty; $($f:ident),+ $(,)?) => {
+        vec![$((stringify!($f), std::mem::offset_of!($t, $f))),+]
+    };
 }
 
 #[test]
@@ -43,16 +53,23 @@ fn python_structures_match_the_rust_messages() {
     );
     let py: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rust = [
-        rust_layout::<BoxMsg>(),
-        rust_layout::<DetectionsMsg>(),
-        rust_layout::<KeypointMsg>(),
-        rust_layout::<KeypointsMsg>(),
-        rust_layout::<DescriptorsMsg>(),
-        rust_layout::<StatsMsg>(),
-        rust_layout::<GradientsHeader>(),
+        rust_layout::<BoxMsg>(offsets!(BoxMsg; x, y, width, height, score)),
+        rust_layout::<DetectionsMsg>(offsets!(DetectionsMsg; index, sequence, sensor_sequence,
+            capture_timestamp_ns, publish_timestamp_ns, latency_ns, frame_width, frame_height,
+            box_count, overflow, mean_magnitude, reserved, boxes)),
+        rust_layout::<KeypointMsg>(offsets!(KeypointMsg; x, y, size, angle, response)),
+        rust_layout::<KeypointsMsg>(offsets!(KeypointsMsg; index, sequence, capture_timestamp_ns,
+            publish_timestamp_ns, frame_width, frame_height, keypoint_count, overflow, keypoints)),
+        rust_layout::<DescriptorsMsg>(offsets!(DescriptorsMsg; index, sequence, capture_timestamp_ns,
+            descriptor_count, overflow, descriptors)),
+        rust_layout::<StatsMsg>(offsets!(StatsMsg; timestamp_ns, captured, processed,
+            dropped_queue_full, dropped_driver, failed_source, failed_compute, failed_sink,
+            sink_frames_lost, detections, box_overflow, fps, latency_p50_us, latency_p99_us, is_final)),
+        rust_layout::<GradientsHeader>(offsets!(GradientsHeader; index, capture_timestamp_ns, width,
+            height, decimation, orientation_bins, mag_shift, reserved)),
     ];
     assert_eq!(py.as_object().unwrap().len(), rust.len(), "{py}");
-    for (name, size, align) in rust {
+    for (name, size, align, fields) in rust {
         let p = &py[&name];
         assert!(p.is_object(), "no Python structure named {name}: {py}");
         assert_eq!(
@@ -60,6 +77,13 @@ fn python_structures_match_the_rust_messages() {
             (Some(size as u64), Some(align as u64)),
             "{name}"
         );
+        // Every field at the same offset, and no field more or less (a swap of two fields of one
+        // size keeps the size but not the offsets).
+        let pf = p["fields"].as_object().unwrap();
+        assert_eq!(pf.len(), fields.len(), "{name}: {pf:?}");
+        for (f, off) in fields {
+            assert_eq!(pf.get(f).and_then(|v| v.as_u64()), Some(off as u64), "{name}.{f}");
+        }
     }
 }
 
@@ -105,29 +129,19 @@ fn a_python_process_reads_what_the_daemon_publishes() {
     )
     .unwrap();
 
-    let mut sub = python()
-        .args([
+    let results = dir.path().join("results.jsonl");
+    let msgs = with_python_subscriber(
+        "mosaicd_subscriber.py",
+        &[
             "--camera",
             camera,
             "--prefix",
             &prefix,
             "--keypoints",
             "--descriptors",
-        ])
-        .args(["--until-final", "--timeout-s", "60"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("python3 runs");
-    wait_for_subscribed(&mut sub);
-
-    let results = dir.path().join("results.jsonl");
-    common::run_daemon_ok(BIN, &cfg, Some(&results));
-    let sout = sub.wait_with_output().unwrap();
-    assert!(
-        sout.status.success(),
-        "Python subscriber: {}",
-        String::from_utf8_lossy(&sout.stderr)
+        ],
+        &cfg,
+        Some(&results),
     );
 
     let frames: Vec<serde_json::Value> = json_lines(&std::fs::read_to_string(&results).unwrap())
@@ -135,7 +149,6 @@ fn a_python_process_reads_what_the_daemon_publishes() {
         .filter(|r| r["type"] == "frame")
         .collect();
     assert_eq!(frames.len(), 6);
-    let msgs = json_lines(&String::from_utf8_lossy(&sout.stdout));
     let of =
         |topic: &str| -> Vec<&serde_json::Value> { msgs.iter().filter(|m| m["topic"] == topic).collect() };
     let (dets, kps, descs) = (of("detections"), of("keypoints"), of("descriptors"));
@@ -258,27 +271,12 @@ fn python_matches_of_the_descriptors_track_the_recorded_pan() {
         ),
     )
     .unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("clients/python/match_frames.py");
-    let mut sub = Command::new("python3")
-        .arg(script)
-        .args([
-            "--camera",
-            "pan",
-            "--prefix",
-            &prefix,
-            "--until-final",
-            "--timeout-s",
-            "60",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("python3 runs");
-    wait_for_subscribed(&mut sub);
-    common::run_daemon_ok(BIN, &cfg, None);
-    let sout = sub.wait_with_output().unwrap();
-    assert!(sout.status.success(), "{}", String::from_utf8_lossy(&sout.stderr));
-    let pairs = json_lines(&String::from_utf8_lossy(&sout.stdout));
+    let pairs = with_python_subscriber(
+        "match_frames.py",
+        &["--camera", "pan", "--prefix", &prefix],
+        &cfg,
+        None,
+    );
     assert_eq!(pairs.len(), 11, "one line per consecutive pair of the 12 frames");
     let (step_x, step_y) = (-95.0 / 11.0, -71.0 / 11.0);
     let (mut sum_x, mut sum_y) = (0.0, 0.0);
@@ -302,16 +300,108 @@ fn python_matches_of_the_descriptors_track_the_recorded_pan() {
     );
 }
 
-/// Wait until a subscriber process says on stderr that it has subscribed.
-fn wait_for_subscribed(sub: &mut std::process::Child) {
-    use std::io::{BufRead, BufReader};
+/// Run `script` (in clients/python) with `args` plus `--until-final --timeout-s 60` as a
+/// subscriber, start the daemon on `cfg` (results to `results` when given) once it has subscribed,
+/// and return the subscriber's stdout lines; both must succeed.
+fn with_python_subscriber(
+    script: &str,
+    args: &[&str],
+    cfg: &Path,
+    results: Option<&Path>,
+) -> Vec<serde_json::Value> {
+    let mut sub = Command::new("python3")
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("clients/python")
+                .join(script),
+        )
+        .args(args)
+        .args(["--until-final", "--timeout-s", "60"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    let sub_err = wait_for_subscribed(&mut sub);
+    common::run_daemon_ok(BIN, cfg, results);
+    let sout = sub.wait_with_output().unwrap();
+    let err = sub_err.join().unwrap();
+    assert!(sout.status.success(), "{script}: {err}");
+    json_lines(&String::from_utf8_lossy(&sout.stdout))
+}
+
+/// Wait until a subscriber process says on stderr that it has subscribed; the rest of its stderr
+/// is collected by a thread, whose handle gives it back once the process has ended.
+fn wait_for_subscribed(sub: &mut std::process::Child) -> std::thread::JoinHandle<String> {
+    use std::io::{BufRead, BufReader, Read};
     let mut err = BufReader::new(sub.stderr.take().unwrap());
     let mut line = String::new();
+    let mut seen = String::new();
     while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+        seen.push_str(&line);
         line.clear();
     }
     assert!(
         line.contains("subscribed"),
-        "the Python subscriber did not start (run `make setup`): {line}"
+        "the Python subscriber did not start (run `make setup`): {seen}{line}"
     );
+    std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = err.read_to_string(&mut rest);
+        rest
+    })
+}
+
+/// The gradients service (dynamic `u8` slices with a `GradientsHeader`) read from Python: a paced
+/// live synthetic camera (so the subscriber maps the publisher's data segment while it exists, as
+/// `tests/daemon_processes.rs` does for `mosaicd listen`), 96x64 decimated by 4.
+#[test]
+fn python_reads_the_gradient_slices() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = format!("pyg{}", std::process::id());
+    let cfg = dir.path().join("g.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 2\nstats_interval_ms = 200\n\
+             [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 256\ngradients = true\n\
+             [compute]\ndetect = false\n[record]\nenabled = false\n\
+             [[camera]]\nname = \"g\"\nsource = \"synthetic\"\nwidth = 96\nheight = 64\n\
+             frames = 20\nlive = true\nfps = 100.0\n"
+        ),
+    )
+    .unwrap();
+    let msgs = with_python_subscriber(
+        "mosaicd_subscriber.py",
+        &[
+            "--camera",
+            "g",
+            "--prefix",
+            &prefix,
+            "--buffer",
+            "256",
+            "--gradients",
+        ],
+        &cfg,
+        None,
+    );
+    let grads: Vec<&serde_json::Value> = msgs.iter().filter(|m| m["topic"] == "gradients").collect();
+    let dets = msgs.iter().filter(|m| m["topic"] == "detections").count();
+    // One gradients sample per detections message, except at most the first (segment mapping).
+    assert!(
+        dets > 0 && grads.len() + 1 >= dets && grads.len() <= dets,
+        "{} gradients, {dets} detections",
+        grads.len()
+    );
+    for g in &grads {
+        assert_eq!(
+            (g["width"].as_u64(), g["height"].as_u64()),
+            (Some(24), Some(16)),
+            "{g}"
+        );
+        assert_eq!(
+            (g["payload_bytes"].as_u64(), g["orientation_bins"].as_u64()),
+            (Some(24 * 16 * 3), Some(9))
+        );
+        assert_eq!(g["decimation"], 4);
+    }
 }

@@ -19,6 +19,7 @@ import json
 import os
 import sys
 import time
+from typing import Any
 
 import cv2
 import iceoryx2 as iox2
@@ -79,8 +80,13 @@ def main(argv: list[str] | None = None) -> int:
     )
 
     def subscribe(topic: str, payload: type):
-        svc = open_service(node, a.prefix, a.camera, topic, payload, a.buffer)
-        return svc.subscriber_builder().buffer_size(a.buffer).create()
+        try:
+            svc = open_service(node, a.prefix, a.camera, topic, payload, a.buffer)
+            return svc.subscriber_builder().buffer_size(a.buffer).create()
+        except Exception as e:  # iceoryx2 raises its own exception types per builder
+            raise SystemExit(
+                f"match_frames: cannot subscribe to {a.prefix}/{a.camera}/{topic}: {type(e).__name__}: {e}"
+            ) from None
 
     kp, desc, st = (
         subscribe("keypoints", KeypointsMsg),
@@ -89,22 +95,38 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(f"match_frames: subscribed to {a.prefix}/{a.camera}/{{keypoints,descriptors}}", file=sys.stderr, flush=True)
 
-    # Frames whose keypoints or descriptors arrived without the other yet, by index.
-    keypoints: dict[int, KeypointsMsg] = {}
-    descriptors: dict[int, DescriptorsMsg] = {}
+    # Frames whose keypoints or descriptors arrived without the other yet, by index. Each service
+    # delivers in order, so: a message whose partner was lost (safe overflow drops a slow
+    # subscriber's oldest samples, each service on its own) is dropped once a later frame is
+    # joined, and an index at or below the last one of its service means a new daemon run, whose
+    # messages replace what that service had pending. So these stay small.
+    pending: dict[str, dict[int, Any]] = {"keypoints": {}, "descriptors": {}}
+    last = {"keypoints": -1, "descriptors": -1}
     previous = None  # (index, xy, descriptors)
     start = time.monotonic()
+
+    def put(topic: str, m: Any) -> None:
+        store = pending[topic]
+        if m.index <= last[topic]:
+            for j in [j for j in store if j >= m.index]:
+                del store[j]
+        last[topic] = m.index
+        store[m.index] = m
 
     def drain() -> None:
         nonlocal previous
         while (s := kp.receive()) is not None:
-            m = KeypointsMsg.from_buffer_copy(s.payload().contents)
-            keypoints[m.index] = m
+            put("keypoints", KeypointsMsg.from_buffer_copy(s.payload().contents))
         while (s := desc.receive()) is not None:
-            m = DescriptorsMsg.from_buffer_copy(s.payload().contents)
-            descriptors[m.index] = m
-        for i in sorted(set(keypoints) & set(descriptors)):
-            xy, d = features(keypoints.pop(i), descriptors.pop(i))
+            put("descriptors", DescriptorsMsg.from_buffer_copy(s.payload().contents))
+        ks, ds = pending["keypoints"], pending["descriptors"]
+        for i in sorted(set(ks) & set(ds)):
+            for store in (ks, ds):
+                for stale in [j for j in store if j < i]:
+                    del store[stale]
+            xy, d = features(ks.pop(i), ds.pop(i))
+            if previous is not None and previous[0] >= i:
+                previous = None  # a new run: nothing to match this frame with
             if previous is not None:
                 j, xy0, d0 = previous
                 pairs = match(d0, d)

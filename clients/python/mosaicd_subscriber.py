@@ -30,8 +30,8 @@ Descriptors (``compute.keypoint_descriptors = true``) come on their own service 
 :class:`DescriptorsMsg`, in the order of the keypoints message with the same ``index``:
 ``bytes(msg.descriptors[i])``, or ``numpy.frombuffer(msg.descriptors, numpy.uint8).reshape(MAX_KEYPOINTS,
 128)[:msg.descriptor_count]`` for all of them.
-``--layout`` prints each structure's size and alignment (the Rust tests compare them with the
-daemon's).
+``--layout`` prints each structure's size, alignment and field offsets (the Rust tests compare
+them with the daemon's).
 """
 
 from __future__ import annotations
@@ -319,8 +319,15 @@ def stats_json(m: StatsMsg) -> dict:
 
 
 def layout() -> dict:
-    """Size and alignment of every message structure, by iceoryx2 type name."""
-    return {s.type_name(): {"size": ctypes.sizeof(s), "align": ctypes.alignment(s)} for s in STRUCTS}
+    """Size, alignment and field offsets of every message structure, by iceoryx2 type name."""
+    return {
+        s.type_name(): {
+            "size": ctypes.sizeof(s),
+            "align": ctypes.alignment(s),
+            "fields": {name: getattr(s, name).offset for name, _ in s._fields_},
+        }
+        for s in STRUCTS
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -334,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--keypoints", action="store_true", help="also print the keypoints service")
     p.add_argument("--descriptors", action="store_true", help="also print the descriptors service (base64)")
     p.add_argument("--gradients", action="store_true", help="also print the gradients service")
-    p.add_argument("--layout", action="store_true", help="print the structures' sizes and exit")
+    p.add_argument("--layout", action="store_true", help="print the structures' sizes and field offsets, and exit")
     a = p.parse_args(argv)
     if a.layout:
         print(json.dumps(layout(), sort_keys=True))

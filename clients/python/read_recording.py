@@ -14,9 +14,10 @@ package from PyPI::
 ``header`` is the frame's JSON header (``sequence``, ``timestamp_ns``, ``width``, ``height``,
 ``cfa``, ``bit_depth``, ``black`` per 2x2 tile position ``(y & 1) * 2 + (x & 1)``, ``white``,
 ``wb_gains``, ...); ``mosaic`` is ``height x width``, ``uint8`` or ``uint16`` (values as stored,
-LSB-aligned). A truncated recording (a crash mid-write) yields every complete message before the
-cut and then stops with :class:`TruncatedRecording`, which says how many were read; a corrupt
-frame message raises :class:`ValueError` naming it.
+LSB-aligned). Records are checked against their CRCs. A truncated recording (a crash mid-write)
+yields every complete message before the cut and then stops with :class:`TruncatedRecording`,
+which says how many were read; a file that is not MCAP, a record whose CRC does not match and a
+corrupt frame message raise :class:`ValueError` naming what is wrong.
 
 As a script: one JSON line per raw frame (its header and pixel statistics), ``--topic T`` prints
 the JSON messages of a channel instead, ``--npy DIR`` also writes each frame as
@@ -36,9 +37,9 @@ import sys
 from typing import Any, Iterator
 
 import numpy as np
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.stream_reader import CRCValidationError, StreamReader
 
 #: Message encoding of the raw-frame channel.
 RAW_FRAME_ENCODING = "mosaicd.rawframe.v1"
@@ -79,24 +80,28 @@ def decode_raw_frame(data: bytes, where: str = "message") -> tuple[dict, np.ndar
 
 
 def messages(path: str) -> Iterator[tuple[Channel, Schema | None, Message]]:
-    """Every message of the recording in file order, with its channel and schema; read as a stream,
-    so a recording without its summary (cut short) is read up to the cut."""
+    """Every message of the recording in file order, with its channel and schema; read as a stream
+    with CRC checks, so a recording without its summary (cut short) is read up to the cut."""
     channels: dict[int, Channel] = {}
     schemas: dict[int, Schema] = {}
     count = 0
     with open(path, "rb") as f:
         try:
-            for r in StreamReader(f, skip_magic=False).records:
+            for r in StreamReader(f, skip_magic=False, validate_crcs=True).records:
                 if isinstance(r, Schema):
                     schemas[r.id] = r
                 elif isinstance(r, Channel):
                     channels[r.id] = r
                 elif isinstance(r, Message):
-                    ch = channels[r.channel_id]
+                    ch = channels.get(r.channel_id)
+                    if ch is None:
+                        raise ValueError(f"{path}: message {count} on channel {r.channel_id}, which was never declared")
                     count += 1
                     yield ch, schemas.get(ch.schema_id), r
-        except (McapError, EOFError, struct.error) as e:
+        except (EndOfFile, EOFError) as e:
             raise TruncatedRecording(path, count, f"{type(e).__name__}: {e}") from None
+        except (McapError, CRCValidationError, struct.error) as e:
+            raise ValueError(f"{path}: not a readable MCAP recording after {count} messages: {type(e).__name__}: {e}") from None
 
 
 def raw_frames(path: str, topic: str | None = None) -> Iterator[tuple[dict, np.ndarray]]:

@@ -140,7 +140,7 @@ fn image_and_spec(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f
             let rgb = loaded
                 .rgb
                 .as_ref()
-                .context("--as grey needs an RGB input (PNG/JPEG); use --as mosaic for raw data")?;
+                .context("--as grey needs an RGB input (PNG/JPEG/BMP); use --as mosaic for raw data")?;
             let g = Image::from_fn(rgb.width(), rgb.height(), |x, y| {
                 let [r, g, b] = rgb.get(x, y);
                 (0.299 * r as f32 + 0.587 * g as f32 + 0.114 * b as f32).round() / 255.0

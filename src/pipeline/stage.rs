@@ -20,10 +20,11 @@
 //!   the order — and which keypoints fit a message — is the same for any thread count. With
 //!   `compute.keypoint_descriptors` each keypoint also gets its 128-byte descriptor
 //!   ([`crate::features::sift::features_from_frame`]), kept in the keypoints' order; with
-//!   `compute.keypoints_double` the colour planes are doubled first (finer keypoints, about 4x the
-//!   cost). A frame smaller than SIFT's minimum size gives empty lists (not an error); an
-//!   odd-sized frame (a file source can deliver one) gives the keypoints of its even part from
-//!   (0, 0), in the frame's coordinates, instead of failing the whole frame.
+//!   `compute.keypoints_double` the colour planes are doubled first (finer keypoints, 4-5x the
+//!   cost). A frame smaller than SIFT's minimum size gives empty lists (not an error).
+//! * **Odd-sized frames** (a file source can deliver one): detection and keypoints run on the
+//!   frame's even part from (0, 0), in the frame's coordinates, instead of failing the frame;
+//!   the gradients cover the whole frame.
 //! * **mean_magnitude**: `Σ mag · 2^s / (white − max black) / (w·h)`, a cheap liveness signal in
 //!   normalised units. The sum is an exact integer, so it is identical for any thread count.
 //!
@@ -234,27 +235,38 @@ impl Stage {
             .sum();
         let range = (frame.levels().white as f64 - frame.levels().max_black() as f64).max(1.0);
         let mean = sum as f64 * f64::from(1u32 << maps.mag_shift) / range / (w * h) as f64;
+        // Detection and SIFT need whole 2x2 tiles: an odd-sized frame (a file source may deliver
+        // one) gives the detections and keypoints of its even part, from (0, 0), so coordinates
+        // stay the frame's. The gradients above cover the whole frame.
+        let (ew, eh) = (w & !1, h & !1);
+        let wanted = self.detector.is_some() || self.sift.is_some();
+        let even = if (ew, eh) != (w, h) && wanted && ew >= 2 && eh >= 2 {
+            Some(frame.crop(0, 0, ew, eh).expect("an even part inside the frame"))
+        } else {
+            None
+        };
+        let part = even.as_ref().unwrap_or(frame);
         let detections = match &self.detector {
             Some(det) => {
                 let (ww, wh) = (det.hog_spec().win_width(), det.hog_spec().win_height());
-                if w < ww || h < wh {
+                if ew < ww || eh < wh {
                     Vec::new()
                 } else {
                     match det.model().mosaic_tone {
                         MosaicTone::Linear => {
-                            mosaic_from_raw_into(frame, self.spec.strip_rows, &mut maps.mosaic)
+                            mosaic_from_raw_into(part, self.spec.strip_rows, &mut maps.mosaic)
                         }
                         tone => {
-                            let gains = tone.gains_for(frame, self.spec.wb_gains)?;
-                            self.tone_tables_for(frame, tone, gains).apply_into(
-                                frame,
+                            let gains = tone.gains_for(part, self.spec.wb_gains)?;
+                            self.tone_tables_for(part, tone, gains).apply_into(
+                                part,
                                 self.spec.strip_rows,
                                 &mut maps.mosaic,
                             );
                         }
                     }
                     let img = std::mem::take(&mut maps.mosaic);
-                    let image = Image::from_vec(w, h, img)?;
+                    let image = Image::from_vec(ew, eh, img)?;
                     let r = det.detect(&crate::features::hog::HogInput::Mosaic(image.view()));
                     maps.mosaic = image.into_vec();
                     let (mut d, _) = r?;
@@ -264,15 +276,7 @@ impl Stage {
             }
             None => Vec::new(),
         };
-        // Mosaic SIFT needs whole 2x2 tiles: an odd-sized frame (a file source may deliver one)
-        // gives the keypoints of its even part, from (0, 0), so the coordinates stay the frame's.
-        let (ew, eh) = (w & !1, h & !1);
-        let even = if (ew, eh) != (w, h) && self.sift.is_some() && ew.min(eh) >= SIFT_MIN_SIZE {
-            Some(frame.crop(0, 0, ew, eh).expect("an even part inside the frame"))
-        } else {
-            None
-        };
-        let sift_frame = even.as_ref().unwrap_or(frame);
+        let sift_frame = part;
         let (keypoints, descriptors) = match &self.sift {
             // Too small for SIFT once even (or at all): no keypoints, as for any tiny frame.
             Some(_) if ew.min(eh) < SIFT_MIN_SIZE => {
@@ -596,7 +600,8 @@ mod tests {
     }
 
     #[test]
-    fn odd_frames_give_the_keypoints_of_their_even_part() {
+    fn odd_frames_give_the_detections_and_keypoints_of_their_even_part() {
+        use crate::detect::{DetectorOptions, Domain, LinearModel, NmsMethod};
         let f = blobs(161, 129);
         let even = f.crop(0, 0, 160, 128).unwrap();
         let mut maps = GradientMaps::default();
@@ -609,8 +614,30 @@ mod tests {
                 (want.keypoints, want.descriptors)
             );
         }
-        // Odd and too small once even: empty, not an error.
-        let tiny = blobs(17, 33);
+        // Detection (a window fits the even part) and keypoints together.
+        let v: Vec<f32> = (0..3781).map(|i| (i as f32 * 0.37).sin() * 0.05).collect();
+        let m = LinearModel::from_opencv_vector(&v, Domain::Mosaic, "test").unwrap();
+        let o = DetectorOptions {
+            hit_threshold: -1e6,
+            nms: NmsMethod::None,
+            ..DetectorOptions::default()
+        };
+        let det = Arc::new(crate::detect::Detector::new(m, &o).unwrap());
+        let spec = StageSpec {
+            keypoints: true,
+            strip_rows: 4,
+            ..StageSpec::default()
+        };
+        let stage = Stage::new(spec, Some(det)).unwrap();
+        let odd = stage.compute(&f, &mut maps).unwrap();
+        let want = stage.compute(&even, &mut maps).unwrap();
+        assert!(!odd.detections.is_empty() && !odd.keypoints.as_ref().unwrap().is_empty());
+        assert_eq!(
+            (&odd.detections, &odd.keypoints),
+            (&want.detections, &want.keypoints)
+        );
+        // Odd and too small for SIFT once even (15 -> 14): empty, not an error.
+        let tiny = blobs(15, 33);
         let out = descriptor_stage(false).compute(&tiny, &mut maps).unwrap();
         assert_eq!(
             (out.keypoints, out.descriptors),

@@ -138,8 +138,8 @@ impl DetectionsMsg {
 
 /// Capacity of [`KeypointsMsg::keypoints`] (and [`DescriptorsMsg::descriptors`]). The stage sorts
 /// keypoints by decreasing |response|, so the strongest are kept; the rest are counted in
-/// [`KeypointsMsg::overflow`]. A 1080p frame gives about 350 mosaic SIFT keypoints, about 460 with
-/// doubled planes (`compute.keypoints_double`); busier scenes give more.
+/// [`KeypointsMsg::overflow`]. The 1080p bench frame gives 343 mosaic SIFT keypoints, 461 with doubled
+/// planes (`compute.keypoints_double`); busier scenes give more.
 pub const MAX_KEYPOINTS: usize = 512;
 
 /// One keypoint: full-resolution mosaic pixel coordinates, scale and orientation.

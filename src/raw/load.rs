@@ -568,7 +568,8 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
                 ),
             )
         } else {
-            format_err(path, format!("rawloader: {e}"))
+            // Only the first line: the rest of rawloader's messages asks for samples on its site.
+            format_err(path, format!("rawloader: {first}"))
         }
     })?;
     let data = match raw.data {
