@@ -43,7 +43,7 @@ import json
 import os
 import sys
 import time
-from typing import Any, Iterable
+from typing import Any
 
 import iceoryx2 as iox2
 
@@ -243,16 +243,9 @@ def open_gradients_service(node: Any, prefix: str, camera: str, buffer: int) -> 
     return _with_daemon_settings(builder, buffer).open_or_create()
 
 
-def _struct_items(s: ctypes.Structure, skip: Iterable[str] = ()) -> dict:
-    out = {}
-    for name, _ in s._fields_:
-        if name not in skip:
-            out[name] = getattr(s, name)
-    return out
-
-
-def box_json(b: BoxMsg) -> dict:
-    return {k: getattr(b, k) for k, _ in BoxMsg._fields_}
+def _fields(s: ctypes.Structure) -> dict:
+    """Every field of a structure of scalars, by name."""
+    return {name: getattr(s, name) for name, _ in s._fields_}
 
 
 def detections_json(m: DetectionsMsg) -> dict:
@@ -271,7 +264,7 @@ def detections_json(m: DetectionsMsg) -> dict:
         "box_count": m.box_count,
         "overflow": m.overflow,
         "mean_magnitude": m.mean_magnitude,
-        "boxes": [box_json(b) for b in m.boxes[:n]],
+        "boxes": [_fields(b) for b in m.boxes[:n]],
     }
 
 
@@ -307,13 +300,13 @@ def keypoints_json(m: KeypointsMsg) -> dict:
         "frame_height": m.frame_height,
         "keypoint_count": m.keypoint_count,
         "overflow": m.overflow,
-        "keypoints": [{k: getattr(p, k) for k, _ in KeypointMsg._fields_} for p in m.keypoints[:n]],
+        "keypoints": [_fields(p) for p in m.keypoints[:n]],
     }
 
 
 def stats_json(m: StatsMsg) -> dict:
     """A stats message as ``mosaicd listen`` prints it."""
-    v = _struct_items(m)
+    v = _fields(m)
     v["topic"] = "stats"
     return v
 
@@ -410,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
             break  # SIGINT / SIGTERM
         drain_detections()
         while grad is not None and (s := grad.receive()) is not None:
-            v = _struct_items(s.user_header().contents)
+            v = _fields(s.user_header().contents)
             v["topic"] = "gradients"
             v["payload_bytes"] = s.payload().len()
             emit(v)

@@ -112,7 +112,7 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
                 &cam.name,
                 &cfg.publish,
                 cfg.compute.keypoints,
-                cfg.compute.keypoints && cfg.compute.keypoint_descriptors,
+                cfg.compute.keypoint_descriptors,
             ));
         }
         if cfg.record.enabled {

@@ -108,7 +108,8 @@ pub fn run(args: SiftArgs) -> anyhow::Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()?;
-    let (img, domain, spec) = image_and_spec(&args, &args.input)?;
+    let (img, domain) = sift_image(&args, &args.input)?;
+    let spec = sift_spec(&args, domain)?;
     let t0 = std::time::Instant::now();
     let f = pool.install(|| detect_and_compute(img.view(), &spec))?;
     let seconds = t0.elapsed().as_secs_f64();
@@ -124,15 +125,15 @@ pub fn run(args: SiftArgs) -> anyhow::Result<()> {
     if let Some(other) = &args.match_with {
         let mut input = args.input.clone();
         input.input = other.clone();
-        let (img2, _, _) = image_and_spec(&args, &input)?;
+        let (img2, _) = sift_image(&args, &input)?;
         let f2 = pool.install(|| detect_and_compute(img2.view(), &spec))?;
         match_two(&args, (&img, &f), (&img2, &f2))?;
     }
     write_outputs(&args, &img, domain, &f, seconds)
 }
 
-/// The image SIFT runs on for `input` (per `args.domain`), its domain and the SIFT spec.
-fn image_and_spec(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f32>, Domain, SiftSpec)> {
+/// The image SIFT runs on for `input` (per `args.domain`) and its domain.
+fn sift_image(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f32>, Domain)> {
     let loaded = input.load()?;
     let (img, domain) = match args.domain {
         SiftDomainArg::Mosaic => (normalised_mosaic_from_frame(&loaded.frame), Domain::Mosaic),
@@ -148,6 +149,11 @@ fn image_and_spec(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f
             (g, Domain::Grey)
         }
     };
+    Ok((img, domain))
+}
+
+/// The SIFT spec of `args` for `domain`.
+fn sift_spec(args: &SiftArgs, domain: Domain) -> anyhow::Result<SiftSpec> {
     let mut opts = match domain {
         Domain::Mosaic => SiftOptions::mosaic(),
         Domain::Grey => SiftOptions::grey(),
@@ -161,7 +167,7 @@ fn image_and_spec(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f
     if let Some(c) = args.centred_octaves {
         opts.centred_octaves = c;
     }
-    Ok((img, domain, opts.build()?))
+    Ok(opts.build()?)
 }
 
 fn write_outputs(
@@ -335,14 +341,8 @@ fn match_picture(
     let w = ia.width() + ib.width();
     let h = ia.height().max(ib.height());
     let mut canvas = image::RgbImage::new(w as u32, h as u32);
-    for (img, ox) in [(ia, 0), (ib, ia.width())] {
-        for y in 0..img.height() {
-            for x in 0..img.width() {
-                let v = (img.get(x, y).clamp(0.0, 1.0).sqrt() * 255.0) as u8;
-                canvas.put_pixel((x + ox) as u32, y as u32, image::Rgb([v, v, v]));
-            }
-        }
-    }
+    paint_sqrt(&mut canvas, ia, 0);
+    paint_sqrt(&mut canvas, ib, ia.width());
     super::eval_sift::draw_keypoints(&mut canvas, a.1, 0);
     super::eval_sift::draw_keypoints(&mut canvas, b.1, ia.width());
     for m in &r.matches {
@@ -368,12 +368,20 @@ fn write_parent(p: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Paint `img` (values on [0, 1]) into `canvas` at column `ox` with a square-root tone curve.
+fn paint_sqrt(canvas: &mut image::RgbImage, img: &Image<f32>, ox: usize) {
+    for y in 0..img.height() {
+        for x in 0..img.width() {
+            let v = (img.get(x, y).clamp(0.0, 1.0).sqrt() * 255.0) as u8;
+            canvas.put_pixel((x + ox) as u32, y as u32, image::Rgb([v, v, v]));
+        }
+    }
+}
+
 /// The image on [0, 1] shown with a square-root tone curve, keypoints drawn on top.
 fn picture(img: &Image<f32>, f: &SiftFeatures) -> image::RgbImage {
-    let mut canvas = image::RgbImage::from_fn(img.width() as u32, img.height() as u32, |x, y| {
-        let v = (img.get(x as usize, y as usize).clamp(0.0, 1.0).sqrt() * 255.0) as u8;
-        image::Rgb([v, v, v])
-    });
+    let mut canvas = image::RgbImage::new(img.width() as u32, img.height() as u32);
+    paint_sqrt(&mut canvas, img, 0);
     let c = image::Rgb([255, 220, 0]);
     for k in &f.keypoints {
         let r = (k.size as f64 * 0.5).max(1.5);

@@ -50,9 +50,7 @@ pub fn frame_json(r: &FrameResult) -> serde_json::Value {
 /// SIFT descriptors as a JSON array of base64 strings (128 bytes each, standard padded base64:
 /// the encoding Foxglove's JSON schemas use for bytes), one per keypoint.
 pub fn descriptors_json(d: &[[u8; crate::features::sift::DESCRIPTOR_LEN]]) -> serde_json::Value {
-    d.iter()
-        .map(|x| serde_json::Value::String(crate::record::schema::base64_encode(x)))
-        .collect()
+    json!(crate::record::schema::descriptors_base64(d))
 }
 
 /// The JSON record of a stats message.

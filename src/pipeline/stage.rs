@@ -49,7 +49,6 @@ use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagB
 use crate::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
 use crate::features::sift::{
     features_from_frame, keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec, DESCRIPTOR_LEN,
-    MIN_SIZE as SIFT_MIN_SIZE,
 };
 use crate::image::{Image, ImageViewMut};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
@@ -276,17 +275,14 @@ impl Stage {
             }
             None => Vec::new(),
         };
-        let sift_frame = part;
+        // A part below SIFT's minimum size (an odd 1-pixel-wide frame has no even part and is
+        // below it too) gives empty lists: SIFT reports TooSmall before OddSize.
         let (keypoints, descriptors) = match &self.sift {
-            // Too small for SIFT once even (or at all): no keypoints, as for any tiny frame.
-            Some(_) if ew.min(eh) < SIFT_MIN_SIZE => {
-                (Some(Vec::new()), self.spec.keypoint_descriptors.then(Vec::new))
-            }
             Some(spec) if self.spec.keypoint_descriptors => {
-                let (k, d) = features_sorted(sift_frame, spec)?;
+                let (k, d) = features_sorted(part, spec)?;
                 (Some(k), Some(d))
             }
-            Some(spec) => (Some(keypoints_sorted(sift_frame, spec)?), None),
+            Some(spec) => (Some(keypoints_sorted(part, spec)?), None),
             None => (None, None),
         };
         Ok(StageOutput {

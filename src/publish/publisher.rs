@@ -96,6 +96,23 @@ impl IceoryxSink {
             message: e.to_string(),
         }
     }
+
+    /// Loan a sample from `pubr`, write `msg` into it and send it; errors name `what`.
+    fn send<T: std::fmt::Debug + ZeroCopySend>(
+        &self,
+        pubr: &Publisher<ipc::Service, T, ()>,
+        msg: T,
+        what: &str,
+    ) -> Result<(), SinkError> {
+        let sample = pubr
+            .loan_uninit()
+            .map_err(|e| self.werr(&format!("{what} loan"), e))?;
+        sample
+            .write_payload(msg)
+            .send()
+            .map_err(|e| self.werr(&format!("{what} send"), e))?;
+        Ok(())
+    }
 }
 
 /// The keypoints message of a result (`None` when the stage computed no keypoints).
@@ -155,28 +172,12 @@ impl Sink for IceoryxSink {
         // Keypoints and descriptors first: a subscriber that has a frame's detections has its
         // keypoints too.
         if let (Some(pubr), Some(msg)) = (self.keypoints.as_ref(), keypoints_msg(r)) {
-            let sample = pubr.loan_uninit().map_err(|e| self.werr("keypoints loan", e))?;
-            sample
-                .write_payload(msg)
-                .send()
-                .map_err(|e| self.werr("keypoints send", e))?;
+            self.send(pubr, msg, "keypoints")?;
         }
         if let (Some(pubr), Some(msg)) = (self.descriptors.as_ref(), descriptors_msg(r)) {
-            let sample = pubr.loan_uninit().map_err(|e| self.werr("descriptors loan", e))?;
-            sample
-                .write_payload(msg)
-                .send()
-                .map_err(|e| self.werr("descriptors send", e))?;
+            self.send(pubr, msg, "descriptors")?;
         }
-        let msg = detections_msg(r);
-        let sample = self
-            .detections
-            .loan_uninit()
-            .map_err(|e| self.werr("detections loan", e))?;
-        sample
-            .write_payload(msg)
-            .send()
-            .map_err(|e| self.werr("detections send", e))?;
+        self.send(&self.detections, detections_msg(r), "detections")?;
         if let Some((pubr, dec, buf)) = self.gradients.as_mut() {
             let maps = r.maps.get();
             let (dw, dh) = (maps.width.div_ceil(*dec), maps.height.div_ceil(*dec));
@@ -216,12 +217,7 @@ impl Sink for IceoryxSink {
     }
 
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
-        let sample = self.stats.loan_uninit().map_err(|e| self.werr("stats loan", e))?;
-        sample
-            .write_payload(*s)
-            .send()
-            .map_err(|e| self.werr("stats send", e))?;
-        Ok(())
+        self.send(&self.stats, *s, "stats")
     }
 
     fn finish(&mut self) -> Result<(), SinkError> {

@@ -928,11 +928,7 @@ impl McapRecorder {
             frame_width,
             frame_height,
             keypoints: keypoints.to_vec(),
-            descriptors: descriptors
-                .unwrap_or_default()
-                .iter()
-                .map(|d| schema::base64_encode(d))
-                .collect(),
+            descriptors: schema::descriptors_base64(descriptors.unwrap_or_default()),
         };
         let json = serde_json::to_vec(&msg).expect("SIFT features serialise");
         self.write_message(6, ch, timestamp_ns, &json)

@@ -353,6 +353,11 @@ pub struct SiftFeaturesMessage {
     pub descriptors: Vec<String>,
 }
 
+/// Descriptors as standard padded base64 strings (Foxglove's JSON encoding of bytes), one each.
+pub fn descriptors_base64(d: &[[u8; crate::features::sift::DESCRIPTOR_LEN]]) -> Vec<String> {
+    d.iter().map(|x| base64_encode(x)).collect()
+}
+
 impl SiftFeaturesMessage {
     /// The decoded descriptors; `None` if one is not valid base64 of 128 bytes.
     pub fn decoded_descriptors(&self) -> Option<Vec<[u8; crate::features::sift::DESCRIPTOR_LEN]>> {
