@@ -20,6 +20,7 @@ pub mod eval;
 pub mod features;
 pub mod image;
 pub mod isp;
+pub mod kernels;
 pub mod metrics;
 pub mod npy;
 pub mod pipeline;
