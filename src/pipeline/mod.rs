@@ -9,14 +9,15 @@
 //! [`daemon`] wraps the pipelines in a tokio runtime for signals, timers, sd_notify and shutdown.
 //!
 //! Every frame is accounted for ([`stats::Stats`]): processed, dropped (queue full; driver gaps) or
-//! failed (source, compute, sink). Time is injected ([`clock::Clock`]): a replay stamps outputs
+//! failed (source, compute, sink). Time is injected ([`crate::clock::Clock`]): a replay stamps outputs
 //! with recorded timestamps, so its outputs are byte-identical for any thread count; wall-clock
 //! values (latency, fps) are kept apart and named as such. Buffers are pooled ([`pool::BufferPool`]):
 //! a steady stream allocates nothing per frame.
 //!
 //! ```
 //! use std::sync::Arc;
-//! use mosaicd::pipeline::{clock::ReplayClock, engine::{Pipeline, PipelineSpec}, pool::BufferPool,
+//! use mosaicd::clock::ReplayClock;
+//! use mosaicd::pipeline::{engine::{Pipeline, PipelineSpec}, pool::BufferPool,
 //!     sinks::CollectSink, stage::{Stage, StageSpec}, synthetic::{SyntheticSource, SyntheticSpec}};
 //! let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
 //! let frames = BufferPool::new(8);
@@ -32,7 +33,6 @@
 //! assert_eq!(records[4]["index"], 4);
 //! ```
 
-pub mod clock;
 pub mod daemon;
 pub mod engine;
 pub mod pool;

@@ -2,12 +2,12 @@
 
 use std::sync::Arc;
 
-use super::clock::ReplayClock;
 use super::engine::{Pipeline, PipelineSpec};
 use super::pool::BufferPool;
 use super::sinks::{strip_wall_clock, CollectSink};
 use super::stage::{Stage, StageSpec};
 use super::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::clock::ReplayClock;
 
 fn run(
     threads: usize,
@@ -183,7 +183,7 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
         },
         Box::new(src),
         pool,
-        Arc::new(super::clock::MonotonicClock),
+        Arc::new(crate::clock::MonotonicClock),
         vec![sink.factory("live")],
         frames,
     )
@@ -447,4 +447,92 @@ fn a_failed_buffer_is_not_also_counted_as_a_driver_drop() {
     assert_eq!((s.captured, s.processed), (6, 6), "{s:?}");
     assert_eq!(s.failed_source, 2, "{s:?}");
     assert_eq!(s.dropped_driver, 2, "13 and 14 only: {s:?}");
+}
+
+/// A sink that blocks in its first frame until released (a write that never returns).
+struct Stuck {
+    entered: crossbeam_channel::Sender<()>,
+    release: crossbeam_channel::Receiver<()>,
+}
+
+impl super::engine::Sink for Stuck {
+    fn name(&self) -> String {
+        "stuck".into()
+    }
+    fn frame(&mut self, _: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
+        let _ = self.entered.send(());
+        let _ = self.release.recv();
+        Ok(())
+    }
+    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+    fn finish(&mut self) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn an_aborted_drain_lets_the_other_sinks_finish_while_one_is_stuck() {
+    use std::time::{Duration, Instant};
+    let (entered_tx, entered) = crossbeam_channel::bounded(1);
+    let (release, release_rx) = crossbeam_channel::bounded::<()>(0);
+    let stuck: super::engine::SinkFactory = Box::new(move || {
+        Ok(Box::new(Stuck {
+            entered: entered_tx,
+            release: release_rx,
+        }) as Box<dyn super::engine::Sink>)
+    });
+    let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
+    let frames = BufferPool::new(16);
+    let n = 100_000;
+    let spec = SyntheticSpec {
+        width: 16,
+        height: 16,
+        frames: n,
+        ..Default::default()
+    };
+    let src = SyntheticSource::with_pool(spec, frames.clone());
+    let sink = CollectSink::default();
+    let p = Pipeline::start(
+        PipelineSpec {
+            camera: "t".into(),
+            queue_depth: 3,
+            max_in_flight: 2,
+            stage: Stage::new(StageSpec::default(), None).unwrap(),
+            keep_frames: false,
+        },
+        Box::new(src),
+        pool,
+        Arc::new(ReplayClock::default()),
+        vec![stuck, sink.factory("t")],
+        frames,
+    )
+    .unwrap();
+    entered.recv_timeout(Duration::from_secs(10)).unwrap();
+    // Let the stuck sink's queue fill and the pipeline behind it stop.
+    std::thread::sleep(Duration::from_millis(300));
+    p.stop();
+    let abort = p.abort_handle();
+    let join = std::thread::spawn(move || p.join());
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(!join.is_finished(), "a stuck sink holds the drain");
+    abort.abort();
+    // The collecting sink gets the final stats and finishes although the stuck one never returns.
+    let t0 = Instant::now();
+    let is_final = |r: &serde_json::Value| r["type"] == "final_stats";
+    while !sink.records.lock().unwrap().iter().any(is_final) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "the other sink never finished"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    release.send(()).unwrap();
+    let report = join.join().unwrap();
+    assert!(report.stats.processed < n, "the drain was cut short");
+    assert!(
+        report.stats.sink_frames_lost > 0,
+        "the stuck sink's queued frames are counted as lost"
+    );
 }
