@@ -32,6 +32,28 @@ fn config(dir: &Path, root: &Path, prefix: &str, camera: &str, frames: &str) -> 
     p
 }
 
+/// `mosaicd listen` on `root` for the camera, with `until` (when to stop), once subscribed.
+fn listen(root: &Path, prefix: &str, camera: &str, until: &[&str]) -> std::process::Child {
+    let root = root.to_str().unwrap();
+    let mut args = vec![
+        "--camera", camera, "--prefix", prefix, "--root", root, "--buffer", "256",
+    ];
+    args.extend_from_slice(until);
+    common::spawn_listener(BIN, &args)
+}
+
+/// `mosaicd run --config cfg`, which must fail; its stderr.
+fn refused(cfg: &Path) -> String {
+    let out = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(cfg)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{} started: {err}", cfg.display());
+    err
+}
+
 fn mode(p: &Path) -> u32 {
     std::fs::metadata(p).unwrap().permissions().mode() & 0o7777
 }
@@ -50,23 +72,7 @@ fn the_root_comes_from_the_config_not_the_working_directory_and_listen_follows_i
         format!("[global]\nroot-path = {:?}\nprefix = \"decoy_\"\n", decoy),
     )
     .unwrap();
-    let root_s = root.to_str().unwrap();
-    let listener = common::spawn_listener(
-        BIN,
-        &[
-            "--camera",
-            &camera,
-            "--prefix",
-            &prefix,
-            "--root",
-            root_s,
-            "--buffer",
-            "256",
-            "--until-final",
-            "--timeout-s",
-            "60",
-        ],
-    );
+    let listener = listen(&root, &prefix, &camera, &["--until-final", "--timeout-s", "60"]);
     let out = Command::new(BIN)
         .args(["run", "--config"])
         .arg(&cfg)
@@ -113,13 +119,7 @@ fn a_root_that_is_a_file_or_relative_is_refused_in_one_line() {
     std::fs::write(&file, "x").unwrap();
     let (prefix, camera) = (unique("fp"), unique("fc"));
     let cfg = config(dir.path(), &file, &prefix, &camera, "frames = 2");
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let err = refused(&cfg);
     assert!(
         err.contains("not-a-dir") && err.contains("is not a directory"),
         "{err}"
@@ -135,13 +135,8 @@ fn a_root_that_is_a_file_or_relative_is_refused_in_one_line() {
         "[publish]\nroot = \"iox\"\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n",
     )
     .unwrap();
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&rel)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("publish.root"), "{err}");
+    let err = refused(&rel);
+    assert!(err.contains("publish.root"), "{err}");
 }
 
 #[test]
@@ -160,13 +155,7 @@ fn a_root_another_user_created_is_refused_naming_path_and_owner() {
     assert_eq!(unsafe { libc::chown(c.as_ptr(), 65534, 65534) }, 0);
     let (prefix, camera) = (unique("op"), unique("oc"));
     let cfg = config(dir.path(), &root, &prefix, &camera, "frames = 2");
-    let out = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let err = refused(&cfg);
     let line = err
         .lines()
         .find(|l| l.contains("belongs to"))
@@ -197,24 +186,7 @@ fn only_the_daemon_publishes_a_second_publisher_is_refused() {
         .spawn()
         .unwrap();
     // Once a listener receives, the daemon's publishers exist.
-    let root_s = root.to_str().unwrap();
-    let listener = common::spawn_listener(
-        BIN,
-        &[
-            "--camera",
-            &camera,
-            "--prefix",
-            &prefix,
-            "--root",
-            root_s,
-            "--buffer",
-            "256",
-            "--count",
-            "3",
-            "--timeout-s",
-            "30",
-        ],
-    );
+    let listener = listen(&root, &prefix, &camera, &["--count", "3", "--timeout-s", "30"]);
     let lout = listener.wait_with_output().unwrap();
     assert!(lout.status.success(), "{}", String::from_utf8_lossy(&lout.stderr));
     let node = create_node(&unique("intruder"), false, &root).unwrap();

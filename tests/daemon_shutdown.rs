@@ -51,30 +51,53 @@ fn replay_config(dir: &Path, timeout_ms: u64) -> PathBuf {
     p
 }
 
-fn sigterm(child: &Child) {
+/// `mosaicd replay --realtime` of `input` into `out` (stderr piped).
+fn realtime_replay(dir: &Path, input: &Path, out: &Path) -> Child {
+    Command::new(BIN)
+        .args(["replay", "--realtime", "--out"])
+        .arg(out)
+        .arg("--config")
+        .arg(replay_config(dir, 5000))
+        .arg(input)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// After `wait` (the child must still be running then when `running`), SIGTERM the child and
+/// wait for it up to `limit` (killed, and the test fails, when it is still running): its status,
+/// the time it took to leave after the signal, and its stderr.
+fn sigterm_after(
+    child: &mut Child,
+    wait: Duration,
+    running: bool,
+    limit: Duration,
+) -> (ExitStatus, Duration, String) {
+    std::thread::sleep(wait);
+    if running {
+        assert!(child.try_wait().unwrap().is_none(), "ended before the signal");
+    }
+    let term = Instant::now();
     // SAFETY: plain kill(2) on our own child's pid.
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
-}
-
-/// Wait for `child` up to `limit`; kill it and fail when it is still running.
-fn wait_within(child: &mut Child, limit: Duration, what: &str) -> ExitStatus {
-    let start = Instant::now();
-    while start.elapsed() < limit {
+    let status = loop {
         if let Some(s) = child.try_wait().unwrap() {
-            return s;
+            break s;
+        }
+        if term.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("still running {limit:?} after SIGTERM");
         }
         std::thread::sleep(Duration::from_millis(10));
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("{what}: still running {limit:?} after it should have left");
-}
-
-fn stderr_of(child: &mut Child) -> String {
-    let mut s = String::new();
+    };
+    let left = term.elapsed();
+    let mut err = String::new();
     use std::io::Read;
-    child.stderr.take().unwrap().read_to_string(&mut s).unwrap();
-    s
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (status, left, err)
 }
 
 /// The file is a finished MCAP (footer and closing magic) whose raw frames all read back.
@@ -98,23 +121,10 @@ fn a_realtime_replay_over_a_centuries_long_gap_ends_promptly_with_a_finished_rec
     let input = recording(dir.path(), &[0, u64::MAX, 5]);
     let out = dir.path().join("out.mcap");
     let t0 = Instant::now();
-    let mut child = Command::new(BIN)
-        .args(["replay", "--realtime", "--out"])
-        .arg(&out)
-        .arg("--config")
-        .arg(replay_config(dir.path(), 5000))
-        .arg(&input)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = realtime_replay(dir.path(), &input, &out);
     // The reproduction: SIGTERM a second in (the replay may have ended by itself: the jump
     // is not slept through).
-    std::thread::sleep(Duration::from_secs(1));
-    sigterm(&child);
-    let status = wait_within(&mut child, Duration::from_secs(10), "replay");
-    let err = stderr_of(&mut child);
+    let (status, _, err) = sigterm_after(&mut child, Duration::from_secs(1), false, Duration::from_secs(10));
     assert!(t0.elapsed() < Duration::from_secs(8), "took {:?}", t0.elapsed());
     assert!(status.success(), "{status}: {err}");
     assert!(err.contains("timestamps jump"), "the jump is logged: {err}");
@@ -152,31 +162,18 @@ fn sigterm_during_a_paced_wait_ends_it_at_once() {
     let input = recording(dir.path(), &[0, 9_000_000_000]);
     let out = dir.path().join("out.mcap");
     let t0 = Instant::now();
-    let mut child = Command::new(BIN)
-        .args(["replay", "--realtime", "--out"])
-        .arg(&out)
-        .arg("--config")
-        .arg(replay_config(dir.path(), 5000))
-        .arg(&input)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(Duration::from_millis(1500));
-    assert!(
-        child.try_wait().unwrap().is_none(),
-        "the replay should be waiting"
+    let mut child = realtime_replay(dir.path(), &input, &out);
+    // the replay is waiting for the second frame
+    let (status, left, err) = sigterm_after(
+        &mut child,
+        Duration::from_millis(1500),
+        true,
+        Duration::from_secs(5),
     );
-    let term = Instant::now();
-    sigterm(&child);
-    let status = wait_within(&mut child, Duration::from_secs(5), "replay");
-    let err = stderr_of(&mut child);
     assert!(status.success(), "{status}: {err}");
     assert!(
-        term.elapsed() < Duration::from_secs(3) && t0.elapsed() < Duration::from_secs(8),
-        "left {:?} after SIGTERM, {:?} after start",
-        term.elapsed(),
+        left < Duration::from_secs(3) && t0.elapsed() < Duration::from_secs(8),
+        "left {left:?} after SIGTERM, {:?} after start",
         t0.elapsed()
     );
     assert!(assert_finished_mcap(&out) > 0);
@@ -218,17 +215,9 @@ fn sigterm_with_a_sink_stuck_in_a_write_leaves_within_the_timeout_and_finishes_t
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Long enough for the pipe (64 KiB) and the sink's queue to fill.
-    std::thread::sleep(Duration::from_secs(3));
-    assert!(
-        child.try_wait().unwrap().is_none(),
-        "the daemon should be stuck, not done"
-    );
-    let term = Instant::now();
-    sigterm(&child);
-    let status = wait_within(&mut child, Duration::from_secs(10), "daemon");
-    let left = term.elapsed();
-    let err = stderr_of(&mut child);
+    // Long enough for the pipe (64 KiB) and the sink's queue to fill; the daemon is stuck.
+    let (status, left, err) =
+        sigterm_after(&mut child, Duration::from_secs(3), true, Duration::from_secs(10));
     assert!(
         left < Duration::from_millis(timeout_ms + 1500),
         "left {left:?} after SIGTERM with a {timeout_ms} ms timeout"

@@ -332,16 +332,18 @@ fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
     );
 }
 
-/// A sink that panics on frame `at`.
-struct PanicAt(u64);
+/// A sink named `name` whose `frame` is `f` (stats and finish do nothing).
+struct FnSink<F>(&'static str, F);
 
-impl super::engine::Sink for PanicAt {
+impl<F> super::engine::Sink for FnSink<F>
+where
+    F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError>,
+{
     fn name(&self) -> String {
-        "panic-at".into()
+        self.0.into()
     }
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
-        assert!(r.index != self.0, "a bug in a sink (frame {})", r.index);
-        Ok(())
+        (self.1)(r)
     }
     fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
@@ -349,6 +351,14 @@ impl super::engine::Sink for PanicAt {
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
+}
+
+/// A factory of [`FnSink`].
+fn fn_sink<F>(name: &'static str, f: F) -> super::engine::SinkFactory
+where
+    F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError> + Send + 'static,
+{
+    Box::new(move || Ok(Box::new(FnSink(name, f)) as Box<dyn super::engine::Sink>))
 }
 
 #[test]
@@ -359,8 +369,10 @@ fn a_sink_that_panics_stops_like_a_failed_one_and_its_frames_are_counted() {
         frames: 12,
         ..Default::default()
     };
-    let panicking: super::engine::SinkFactory =
-        Box::new(|| Ok(Box::new(PanicAt(3)) as Box<dyn super::engine::Sink>));
+    let panicking = fn_sink("panic-at", |r| {
+        assert!(r.index != 3, "a bug in a sink (frame {})", r.index);
+        Ok(())
+    });
     let (report, records) = run_with(2, 2, spec, vec![panicking]);
     assert_eq!(report.stats.processed, 12);
     assert_eq!(report.stats.failed_sink, 1);
@@ -449,39 +461,16 @@ fn a_failed_buffer_is_not_also_counted_as_a_driver_drop() {
     assert_eq!(s.dropped_driver, 2, "13 and 14 only: {s:?}");
 }
 
-/// A sink that blocks in its first frame until released (a write that never returns).
-struct Stuck {
-    entered: crossbeam_channel::Sender<()>,
-    release: crossbeam_channel::Receiver<()>,
-}
-
-impl super::engine::Sink for Stuck {
-    fn name(&self) -> String {
-        "stuck".into()
-    }
-    fn frame(&mut self, _: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
-        let _ = self.entered.send(());
-        let _ = self.release.recv();
-        Ok(())
-    }
-    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
-        Ok(())
-    }
-    fn finish(&mut self) -> Result<(), super::engine::SinkError> {
-        Ok(())
-    }
-}
-
 #[test]
 fn an_aborted_drain_lets_the_other_sinks_finish_while_one_is_stuck() {
     use std::time::{Duration, Instant};
     let (entered_tx, entered) = crossbeam_channel::bounded(1);
     let (release, release_rx) = crossbeam_channel::bounded::<()>(0);
-    let stuck: super::engine::SinkFactory = Box::new(move || {
-        Ok(Box::new(Stuck {
-            entered: entered_tx,
-            release: release_rx,
-        }) as Box<dyn super::engine::Sink>)
+    // A sink that blocks in its first frame until released (a write that never returns).
+    let stuck = fn_sink("stuck", move |_| {
+        let _ = entered_tx.try_send(());
+        let _ = release_rx.recv();
+        Ok(())
     });
     let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
     let frames = BufferPool::new(16);
