@@ -209,3 +209,64 @@ fn only_the_daemon_publishes_a_second_publisher_is_refused() {
     }
     assert!(daemon.wait().unwrap().success());
 }
+
+#[test]
+fn another_user_can_neither_subscribe_nor_publish() {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 {
+        eprintln!("skipped: running a process as another user (nobody) needs root");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // Only the root's own mode keeps "nobody" out, not the test's private temporary directory.
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+    let root = dir.path().join("iox");
+    let (prefix, camera) = (unique("np"), unique("nc"));
+    let cfg = config(dir.path(), &root, &prefix, &camera, "live = true\nfps = 50");
+    std::fs::set_permissions(&cfg, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let mut daemon = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&cfg)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let lout = listen(&root, &prefix, &camera, &["--count", "3", "--timeout-s", "30"])
+        .wait_with_output()
+        .unwrap();
+    assert!(lout.status.success(), "the daemon's user subscribes");
+    let root_s = root.to_str().unwrap();
+    let as_nobody = |args: &[&str]| {
+        let out = Command::new(BIN)
+            .args(args)
+            .uid(65534)
+            .gid(65534)
+            .env("RUST_LOG", "warn")
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "nobody was let in: {args:?}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let args = [
+        "listen",
+        "--camera",
+        &camera,
+        "--prefix",
+        &prefix,
+        "--root",
+        root_s,
+        "--count",
+        "1",
+        "--timeout-s",
+        "5",
+    ];
+    let err = as_nobody(&args);
+    assert!(err.contains("subscribers run as the daemon's user"), "{err}");
+    let err = as_nobody(&["run", "--config", cfg.to_str().unwrap()]);
+    assert!(err.contains("belongs to root (uid 0)"), "{err}");
+    // SAFETY: plain kill(2) on our own child's pid.
+    unsafe { libc::kill(daemon.id() as i32, libc::SIGTERM) };
+    assert!(daemon.wait().unwrap().success());
+}

@@ -276,7 +276,21 @@ pub fn create_node(name: &str, daemon: bool, root: &Path) -> Result<Node<ipc::Se
         .config(&config)
         .signal_handling_mode(mode)
         .create::<ipc::Service>()
-        .map_err(|e| err(format!("create node under {}", root.display()), e))?;
+        .map_err(|e| {
+            // A subscriber of another user fails inside iceoryx2 (its files are its owner's only).
+            let hint = match std::fs::metadata(root) {
+                Ok(m) if m.uid() != euid() => format!(
+                    " ({} belongs to {}: subscribers run as the daemon's user)",
+                    root.display(),
+                    user_label(m.uid())
+                ),
+                _ => String::new(),
+            };
+            err(
+                format!("create node under {}", root.display()),
+                format!("{e}{hint}"),
+            )
+        })?;
     narrow_mgmt_segment();
     let cleaned = node.try_cleanup_dead_nodes();
     if cleaned.cleanups > 0 || cleaned.failed_cleanups > 0 {
