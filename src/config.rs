@@ -261,8 +261,10 @@ pub struct ComputeConfig {
     /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
     /// exact level per octave).
     pub approx_levels: usize,
-    /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6) or `"i8"` (8-bit blocks and weights,
-    /// exact integer sums with AVX-512 VNNI: SVM stage ≈2.7x faster, scores within ≈0.04 of f32).
+    /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6), `"i8"` (8-bit blocks and weights,
+    /// exact integer sums, scores within ≈0.04 of f32: faster than f32 only with AVX-512 VNNI or
+    /// AVX-VNNI, and warned about at start-up elsewhere) or `"auto"` (`"i8"` where it is faster,
+    /// `"f32"` elsewhere: [`ScorePrecision::auto_for`]).
     pub svm: String,
     /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
     /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or
@@ -523,12 +525,12 @@ impl ComputeConfig {
         Ok(g)
     }
 
-    /// `svm` parsed.
+    /// `svm` parsed (`"auto"` resolved for this CPU's kernel path).
     pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
         self.svm.parse().map_err(|_| ConfigError::OutOfRange {
             key: "compute.svm".into(),
             value: format!("{:?}", self.svm),
-            allowed: "one of \"f32\", \"i8\"".into(),
+            allowed: "one of \"f32\", \"i8\", \"auto\"".into(),
         })
     }
 }
@@ -970,17 +972,19 @@ mod tests {
     }
 
     #[test]
-    fn svm_precision_is_f32_or_i8() {
+    fn svm_precision_is_f32_i8_or_auto() {
         let c = Config::from_toml_str(MIN).unwrap();
         assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::F32);
         let c = Config::from_toml_str(&format!("[compute]\nsvm = \"i8\"\n{MIN}")).unwrap();
         assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::I8);
+        let c = Config::from_toml_str(&format!("[compute]\nsvm = \"auto\"\n{MIN}")).unwrap();
+        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::auto());
         let msg = Config::from_toml_str(&format!("[compute]\nsvm = \"int8\"\n{MIN}"))
             .unwrap_err()
             .to_string();
         assert_eq!(
             msg,
-            "config key `compute.svm` = \"int8\" is out of range: allowed one of \"f32\", \"i8\""
+            "config key `compute.svm` = \"int8\" is out of range: allowed one of \"f32\", \"i8\", \"auto\""
         );
     }
 

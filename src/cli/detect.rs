@@ -85,9 +85,10 @@ pub struct DetectorArgs {
     /// level per octave at step 1.05).
     #[arg(long, default_value_t = 1)]
     pub approx: usize,
-    /// SVM arithmetic: `f32` (OpenCV's scores within 1e-6) or `i8` (8-bit blocks and weights,
-    /// exact integer sums with AVX-512 VNNI: SVM stage ≈2.7x faster, scores within ≈0.04 of f32;
-    /// without AVX-512 VNNI it runs a slow scalar kernel).
+    /// SVM arithmetic: `f32` (OpenCV's scores within 1e-6), `i8` (8-bit blocks and weights, exact
+    /// integer sums: faster than f32 with AVX-512 VNNI or AVX-VNNI, scores within ≈0.04 of f32;
+    /// slower elsewhere, warned about at start-up) or `auto` (`i8` where it is faster, else
+    /// `f32`; docs/detection.md, "8-bit SVM").
     #[arg(long, value_enum, default_value_t = SvmArg::F32)]
     pub svm: SvmArg,
     /// Derivative of mosaic features, overriding the model's: `same-site` (`(I(x+2) −
@@ -115,6 +116,8 @@ pub enum SvmArg {
     F32,
     /// u8 blocks, i8 weights, exact i32 sums.
     I8,
+    /// `i8` on the CPUs where it is measured faster, `f32` elsewhere.
+    Auto,
 }
 
 impl From<SvmArg> for ScorePrecision {
@@ -122,6 +125,7 @@ impl From<SvmArg> for ScorePrecision {
         match s {
             SvmArg::F32 => ScorePrecision::F32,
             SvmArg::I8 => ScorePrecision::I8,
+            SvmArg::Auto => ScorePrecision::auto(),
         }
     }
 }

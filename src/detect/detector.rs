@@ -130,7 +130,9 @@ pub struct DetectorOptions {
     /// (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
     pub approx_levels: usize,
     /// Arithmetic of the SVM stage: f32 (OpenCV's scores within ≈1e-6) or the 8-bit integer path
-    /// (AVX-512 VNNI; scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]).
+    /// (scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]; faster than f32 with
+    /// AVX-512 VNNI or AVX-VNNI, see [`ScorePrecision::auto_for`]). A precision slower than the
+    /// other on this CPU is warned about when the detector is built.
     pub svm: ScorePrecision,
 }
 
@@ -550,7 +552,8 @@ impl Detector {
     /// Validate the model and options.
     pub fn new(model: LinearModel, opts: &DetectorOptions) -> Result<Self, DetectError> {
         let hog = model.hog_spec("detector model")?;
-        let score_weights = ScoreWeights::new(&hog, &model.weights, model.bias);
+        let score_weights = ScoreWeights::new(&hog, &model.weights, model.bias)?;
+        opts.svm.warn_if_slow();
         let score_weights_i8 = match opts.svm {
             ScorePrecision::F32 => None,
             ScorePrecision::I8 => Some(ScoreWeightsI8::new(&score_weights)?),

@@ -2,6 +2,7 @@
 //! training.
 
 pub mod detector;
+mod kernels;
 pub mod model;
 pub mod nms;
 pub mod pyramid;

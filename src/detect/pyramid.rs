@@ -31,7 +31,9 @@
 
 use rayon::prelude::*;
 
+use super::kernels::prefetch_row;
 use crate::image::{Image, ImageView};
+use crate::kernels::Isa;
 
 /// Output rows per parallel strip.
 const STRIP_ROWS: usize = 16;
@@ -115,16 +117,12 @@ fn resize_planes(
     dh: usize,
     dst: &mut [f32],
     row_op: &RowOp,
+    isa: Isa,
 ) {
     let tc = column_taps(sw, dw, step);
     let ty = taps(sh, dh);
     let w = dw * step;
-    let avx2 = have_avx2();
-    let perms = if have_avx512() {
-        perm_taps(&tc, src.width())
-    } else {
-        Vec::new()
-    };
+    let perms = PermTaps::new(isa, &tc, src.width());
     dst.par_chunks_mut(w * STRIP_ROWS)
         .enumerate()
         .for_each(|(s, chunk)| {
@@ -152,7 +150,7 @@ fn resize_planes(
                 };
                 for (slot, r) in [(&mut *sa, ra), (&mut *sb, rb)] {
                     if slot.0 != r {
-                        horizontal(src.row(r), &tc, &perms, &mut slot.1, avx2);
+                        horizontal(src.row(r), &tc, &perms, &mut slot.1, isa);
                         slot.0 = r;
                     }
                 }
@@ -174,23 +172,10 @@ fn resize_planes(
                 } else {
                     (&slots[1], &slots[0])
                 };
-                vertical(&sa.1, &sb.1, fy, row, avx2);
+                vertical(&sa.1, &sb.1, fy, row, isa);
                 row_op(row);
             }
         });
-}
-
-/// Prefetch every cache line of `row` into L2 (no effect on results).
-fn prefetch_row(row: &[f32]) {
-    #[cfg(target_arch = "x86_64")]
-    for k in (0..row.len()).step_by(16) {
-        // SAFETY: prefetching a valid address has no side effects.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T1 }>(row.as_ptr().add(k).cast())
-        };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = row;
 }
 
 /// Most 32-value source windows a [`Perm16`] may span (128 values: scale ≲ 3.9 for a mosaic,
@@ -202,12 +187,38 @@ const MAX_PAIRS: u32 = 4;
 /// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
 /// tap (no gathers).
 #[derive(Debug, Clone, Copy)]
-struct Perm16 {
-    base: u32,
-    pairs: u32,
-    p: [u32; 16],
-    q: [u32; 16],
-    fx: [f32; 16],
+pub(crate) struct Perm16 {
+    /// First source value of the window.
+    pub(crate) base: u32,
+    /// Register pairs (of 32 values) the window spans.
+    pub(crate) pairs: u32,
+    /// Offsets of the left taps from `base` (< `32·pairs`).
+    pub(crate) p: [u32; 16],
+    /// Offsets of the right taps from `base`.
+    pub(crate) q: [u32; 16],
+    /// Weights of the right taps.
+    pub(crate) fx: [f32; 16],
+}
+
+/// The [`Perm16`]s of one resize and the source row length they were built for (the AVX-512
+/// horizontal pass checks it against every row, once per call); empty off the AVX-512 path.
+#[derive(Debug, Clone, Default)]
+struct PermTaps {
+    row_len: usize,
+    perms: Vec<Option<Perm16>>,
+}
+
+impl PermTaps {
+    /// [`perm_taps`] on the AVX-512 path, nothing elsewhere.
+    fn new(isa: Isa, tc: &[(u32, u32, f32)], row_len: usize) -> Self {
+        match isa {
+            Isa::Avx512 if isa.is_available() => Self {
+                row_len,
+                perms: perm_taps(tc, row_len),
+            },
+            _ => Self::default(),
+        }
+    }
 }
 
 /// [`Perm16`] of every 16 outputs of `tc` (source rows of `row_len` values), `None` where the taps
@@ -240,147 +251,62 @@ fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
         .collect()
 }
 
-/// The 16 source values at the offsets `idx` (< `32·pairs`) from `src`: one `vpermt2ps` per pair
-/// of registers, each lane kept from the pair its offset falls in.
-///
-/// # Safety
-/// The CPU must support AVX-512F and `src` must be readable for `32·pairs` values.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn pick16(src: *const f32, pairs: u32, idx: std::arch::x86_64::__m512i) -> std::arch::x86_64::__m512 {
-    use std::arch::x86_64::*;
-    // SAFETY: the caller guarantees 32·pairs readable values; vpermt2ps uses the low 5 index bits.
-    unsafe {
-        let mut v = _mm512_permutex2var_ps(_mm512_loadu_ps(src), idx, _mm512_loadu_ps(src.add(16)));
-        for k in 1..pairs as usize {
-            let t = _mm512_permutex2var_ps(
-                _mm512_loadu_ps(src.add(32 * k)),
-                idx,
-                _mm512_loadu_ps(src.add(32 * k + 16)),
+/// `out[x] = a[p] + (a[q] − a[p])·fx` for the column taps `(p, q, fx)` on kernel path `isa`
+/// (every path gives the same bits; the AVX-512 one permutes with `perms` where it has them).
+fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &PermTaps, out: &mut [f32], isa: Isa) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if !perms.perms.is_empty() && isa.is_available() => {
+            // The bound every Perm16 relies on: built for rows of row_len values, a holds them.
+            assert!(
+                perms.row_len <= a.len(),
+                "permute taps built for rows of {} values, row has {}",
+                perms.row_len,
+                a.len()
             );
-            let m = _mm512_cmpge_epu32_mask(idx, _mm512_set1_epi32(32 * k as i32));
-            v = _mm512_mask_blend_ps(m, v, t);
+            // SAFETY: the path is available (AVX-512F, AVX2, FMA); perm_taps made each Perm16 with
+            // base + 32·pairs ≤ row_len ≤ a.len() and offsets < 32·pairs.
+            unsafe { super::kernels::avx512::horizontal(a, tc, &perms.perms, out) }
         }
-        v
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the path is available: AVX2 and FMA (the AVX-512 path includes both). The
+        // kernel indexes with bounds checks.
+        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe { super::kernels::avx2::horizontal(a, tc, out) },
+        // NEON has no gather: the taps are arbitrary columns, so the portable loop (whose
+        // arithmetic the compiler already emits as NEON) is the NEON path.
+        _ => horizontal_row(a, tc, out),
     }
 }
 
-/// [`horizontal_row`] with AVX-512 permutes for the outputs that have a [`Perm16`] (same
-/// arithmetic, no fused operations: the same bits).
-///
-/// # Safety
-/// The CPU must support AVX-512F, and `perms` must come from [`perm_taps`]`(tc, n)` with
-/// `n ≤ a.len()`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn horizontal_avx512(a: &[f32], tc: &[(u32, u32, f32)], perms: &[Option<Perm16>], out: &mut [f32]) {
-    use std::arch::x86_64::*;
-    for (i, (o, pm)) in out.chunks_mut(16).zip(perms).enumerate() {
-        match pm {
-            Some(pm) if o.len() == 16 => {
-                let base = pm.base as usize;
-                debug_assert!(base + 32 * pm.pairs as usize <= a.len());
-                // SAFETY: perm_taps only made this Perm16 when base + 32·pairs ≤ the row length,
-                // which the caller guarantees is ≤ a.len(); indices are < 32·pairs; `o` holds 16.
-                unsafe {
-                    let src = a.as_ptr().add(base);
-                    let vp = pick16(src, pm.pairs, _mm512_loadu_si512(pm.p.as_ptr().cast()));
-                    let vq = pick16(src, pm.pairs, _mm512_loadu_si512(pm.q.as_ptr().cast()));
-                    let fx = _mm512_loadu_ps(pm.fx.as_ptr());
-                    let r = _mm512_add_ps(vp, _mm512_mul_ps(_mm512_sub_ps(vq, vp), fx));
-                    _mm512_storeu_ps(o.as_mut_ptr(), r);
-                }
-            }
-            _ => horizontal_row(a, &tc[i * 16..], o),
-        }
+/// `out[x] = r0[x] + (r1[x] − r0[x])·fy` on kernel path `isa` (the same bits on every path).
+fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], isa: Isa) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the path is available: AVX2 and FMA. The kernel indexes with bounds checks.
+        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe { super::kernels::avx2::vertical(r0, r1, fy, out) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 CPU; the kernel stays within the shortest slice.
+        Isa::Neon => unsafe { super::kernels::neon::vertical(r0, r1, fy, out) },
+        _ => vertical_row(r0, r1, fy, out),
     }
-}
-
-fn have_avx512() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// `out[x] = a[p] + (a[q] − a[p])·fx` for the column taps `(p, q, fx)`; with the AVX-512 build
-/// when `perms` is not empty ([`perm_taps`] of `tc` for rows no longer than `a`, built only when
-/// AVX-512F was detected).
-fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &[Option<Perm16>], out: &mut [f32], avx2: bool) {
-    #[cfg(target_arch = "x86_64")]
-    if !perms.is_empty() && have_avx512() {
-        // SAFETY: AVX-512F was detected just now; callers pass perms built for rows of a's length.
-        unsafe { horizontal_avx512(a, tc, perms, out) };
-        return;
-    }
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: callers pass `avx2` = true only when AVX2 and FMA were detected (`have_avx2`).
-        unsafe { horizontal_avx2(a, tc, out) };
-        return;
-    }
-    let _ = avx2;
-    horizontal_row(a, tc, out)
-}
-
-/// `out[x] = r0[x] + (r1[x] − r0[x])·fy`.
-fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], avx2: bool) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: as in `horizontal`.
-        unsafe { vertical_avx2(r0, r1, fy, out) };
-        return;
-    }
-    let _ = avx2;
-    vertical_row(r0, r1, fy, out)
 }
 
 /// An operation applied in place to every output row while it is still in cache (e.g. HOG's gamma,
 /// [`crate::features::hog::gamma_in_place`]).
 pub type RowOp = dyn Fn(&mut [f32]) + Sync;
 
-fn have_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// [`horizontal_row`] compiled for AVX2 + FMA (same bits).
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn horizontal_avx2(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
-    horizontal_row(a, tc, out)
-}
-
-/// [`vertical_row`] compiled for AVX2 + FMA (8 lanes wide; same bits).
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn vertical_avx2(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
-    vertical_row(r0, r1, fy, out)
-}
-
+/// The scalar horizontal pass (the reference of every path).
 #[inline(always)]
-fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
+pub(crate) fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
     for (o, &(p, q, fx)) in out.iter_mut().zip(tc) {
         let (p, q) = (p as usize, q as usize);
         *o = a[p] + (a[q] - a[p]) * fx;
     }
 }
 
+/// The scalar vertical pass (the reference of every path).
 #[inline(always)]
-fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
     for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
         *o = v0 + (v1 - v0) * fy;
     }
@@ -416,6 +342,19 @@ pub fn resize_then(
     dst: &mut Image<f32>,
     row_op: &RowOp,
 ) -> Result<(), PyramidError> {
+    resize_then_with(src, new_w, new_h, mosaic, dst, row_op, crate::kernels::isa())
+}
+
+/// [`resize_then`] on kernel path `isa` (every path gives the same bits).
+fn resize_then_with(
+    src: ImageView<'_, f32>,
+    new_w: usize,
+    new_h: usize,
+    mosaic: bool,
+    dst: &mut Image<f32>,
+    row_op: &RowOp,
+    isa: Isa,
+) -> Result<(), PyramidError> {
     let (w, h) = (src.width(), src.height());
     let step = if mosaic { 2 } else { 1 };
     let (src_w, src_h, dst_w, dst_h) = (w, h, new_w, new_h);
@@ -437,7 +376,7 @@ pub fn resize_then(
     }
     dst.reshape(new_w, new_h);
     let (sw, sh, dw, dh) = (w / step, h / step, new_w / step, new_h / step);
-    resize_planes(src, step, sw, sh, dw, dh, dst.as_mut_slice(), row_op);
+    resize_planes(src, step, sw, sh, dw, dh, dst.as_mut_slice(), row_op, isa);
     Ok(())
 }
 
@@ -512,23 +451,55 @@ mod tests {
     }
 
     #[test]
-    fn every_row_kernel_equals_the_generic_one_bit_for_bit() {
+    fn kernel_paths_row_passes_equal_the_scalar_ones_bit_for_bit() {
+        // 37 outputs: whole vectors of every path and a tail.
         let a: Vec<f32> = (0..50).map(|i| (i * 7 % 13) as f32 * 1.3).collect();
         let b: Vec<f32> = (0..37).map(|i| (i * 5 % 11) as f32 * 2.1).collect();
         let tc = column_taps(50, 37, 1);
+        let none = PermTaps::default();
         let (mut h, mut v) = (vec![0.0; 37], vec![0.0; 37]);
-        horizontal(&a, &tc, &[], &mut h, false);
-        vertical(&h, &b, 0.37, &mut v, false);
-        if have_avx2() {
+        horizontal_row(&a, &tc, &mut h);
+        vertical_row(&h, &b, 0.37, &mut v);
+        for isa in Isa::available() {
             let (mut h2, mut v2) = (vec![0.0; 37], vec![0.0; 37]);
-            horizontal(&a, &tc, &[], &mut h2, true);
-            vertical(&h2, &b, 0.37, &mut v2, true);
-            assert_eq!((h2, v2), (h, v));
+            horizontal(&a, &tc, &none, &mut h2, isa);
+            vertical(&h2, &b, 0.37, &mut v2, isa);
+            assert_eq!(bits(&h2), bits(&h), "{isa}");
+            assert_eq!(bits(&v2), bits(&v), "{isa}");
+        }
+    }
+
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn kernel_paths_resize_whole_images_bit_for_bit() {
+        // Plain and mosaic resizes of a ramp with texture, every path against the scalar one.
+        let src = Image::<f32>::from_fn(402, 230, |x, y| ((x * 37 + y * 91 + x * y) % 251) as f32 * 0.7);
+        for (w, h, mosaic) in [(301, 173, false), (100, 57, false), (300, 172, true), (120, 70, true)] {
+            let step = if mosaic { 2 } else { 1 };
+            let tc = column_taps(402 / step, w / step, step);
+            let ty = taps(230 / step, h / step);
+            let mut want = vec![0.0f32; w * h];
+            let mut rows = (vec![0.0f32; w], vec![0.0f32; w]);
+            for (y, out) in want.chunks_mut(w).enumerate() {
+                let (iy, fy) = ty[y / step];
+                let iy1 = (iy + 1).min(230 / step - 1);
+                horizontal_row(src.row(y % step + iy * step), &tc, &mut rows.0);
+                horizontal_row(src.row(y % step + iy1 * step), &tc, &mut rows.1);
+                vertical_row(&rows.0, &rows.1, fy, out);
+            }
+            for isa in Isa::available() {
+                let mut got = Image::new(0, 0);
+                resize_then_with(src.view(), w, h, mosaic, &mut got, &|_| {}, isa).unwrap();
+                assert_eq!(bits(got.as_slice()), bits(&want), "{isa} {w}x{h} mosaic {mosaic}");
+            }
         }
     }
 
     #[test]
-    fn permute_horizontal_pass_equals_the_generic_one_bit_for_bit() {
+    fn kernel_paths_permute_horizontal_pass_equals_the_scalar_one_bit_for_bit() {
         let a: Vec<f32> = (0..400).map(|i| ((i * 37 % 101) as f32).sqrt() * 3.7).collect();
         // Plain and mosaic taps at scales 1.05 … 8.5 (one to four register pairs; above ≈3.9
         // for a mosaic and ≈7.9 for a plane the chunks fall back).
@@ -549,20 +520,36 @@ mod tests {
         for (sw, dw, step) in cases {
             let tc = column_taps(sw, dw, step);
             let mut want = vec![0.0; dw * step];
-            horizontal(&a, &tc, &[], &mut want, false);
+            horizontal_row(&a, &tc, &mut want);
             let perms = perm_taps(&tc, a.len());
             if sw < dw * 3 {
                 assert!(perms.iter().filter(|p| p.is_some()).count() > perms.len() / 2);
             }
-            if have_avx512() {
+            for isa in Isa::available() {
+                let pt = PermTaps::new(isa, &tc, a.len());
+                assert_eq!(pt.perms.is_empty(), isa != Isa::Avx512);
                 let mut got = vec![0.0; dw * step];
-                horizontal(&a, &tc, &perms, &mut got, true);
-                assert!(
-                    got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits()),
-                    "{sw} {dw} {step}"
-                );
+                horizontal(&a, &tc, &pt, &mut got, isa);
+                assert_eq!(bits(&got), bits(&want), "{isa} {sw} {dw} {step}");
             }
         }
+    }
+
+    #[test]
+    fn a_row_shorter_than_the_permute_taps_is_refused() {
+        // The AVX-512 pass's bound is a real check (a release build too), not a debug assertion.
+        let tc = column_taps(400, 300, 1);
+        let pt = PermTaps {
+            row_len: 400,
+            perms: perm_taps(&tc, 400),
+        };
+        let r = std::panic::catch_unwind(|| {
+            let mut out = vec![0.0; 300];
+            horizontal(&[0.0; 399], &tc, &pt, &mut out, Isa::Avx512);
+        });
+        // Only the AVX-512 path reads through the taps; others fall back to checked indexing,
+        // which this row satisfies (its taps end at 399).
+        assert_eq!(r.is_err(), Isa::Avx512.is_available());
     }
 
     #[test]

@@ -13,8 +13,15 @@
 //! and a window score is a sum of 105 entries of `P`:
 //! `s(wx, wy) = b + Σ_{by} Σ_{bx} P_{wy+by}[bx·bh+by][wx+bx]`. The second step is a plain
 //! element-wise add of rows of `P` (vectorised over `wx`). The multiply count is the same as the
-//! direct method (one product per block and block position) but it runs register-blocked, 8 (AVX2)
-//! or 16 (AVX-512) blocks per vector, with no horizontal sums.
+//! direct method (one product per block and block position) but it runs register-blocked, 8 (AVX2,
+//! NEON as two vectors of 4) or 16 (AVX-512) blocks per vector, with no horizontal sums.
+//!
+//! # Kernels
+//!
+//! The products run on the kernel path of the process ([`crate::kernels::isa`]; scalar, AVX2,
+//! AVX-512 or NEON), whose intrinsics live in `detect/kernels/{avx2,avx512,neon}.rs`; this module
+//! keeps the scalar references and checks, once per call, every length a kernel's loads and
+//! stores rely on (a failed check panics instead of reading out of bounds).
 //!
 //! # Exactness
 //!
@@ -26,8 +33,8 @@
 //!
 //! # 8-bit path ([`ScorePrecision::I8`])
 //!
-//! An optional integer path for CPUs with AVX-512 VNNI (`vpdpbusd`: 16 lanes, each adding four
-//! u8·i8 products to an i32). Block values `v ∈ [0, 1]` (L2-Hys) become bytes
+//! An optional integer path, fast where the CPU has a u8·i8 dot product (`vpdpbusd`: AVX-512
+//! VNNI on zmm, AVX-VNNI on ymm). Block values `v ∈ [0, 1]` (L2-Hys) become bytes
 //! `q_v = round(255·v)` ([`quantise_block_value`]: clamped to `0..=255`, ties to even), the weights
 //! become `q_w = round(s·w)`, `s = 127 / max|w|`, once per model ([`ScoreWeightsI8`]; an all-zero
 //! model keeps `s = 1` and scores its bias). Then
@@ -41,14 +48,25 @@
 //!
 //! Layout: each block row is quantised to bytes and transposed as dwords, `btq[g·nbxp + x]` = the
 //! bytes of values `4g..4g+4` of block `x` (9 dwords for 36 values; a block length that is not a
-//! multiple of 4 is zero-padded), and the weights as dwords `wq[g·nkp + k]`. The VNNI kernel keeps
-//! the f32 kernel's 21-accumulator tiles, `acc[j] = vpdpbusd(acc[j], btq[g][x..x+16],
-//! broadcast(wq[g][k0+j]))`: a quarter of its instructions (9 instead of 36 per block position).
+//! multiple of 4 is zero-padded), and the weights as dwords `wq[g·nkp + k]`. The VNNI kernels
+//! keep the f32 kernels' tiles, `acc[j] = vpdpbusd(acc[j], btq[g][x..x+16], broadcast(wq[g][k0+j]))`:
+//! a quarter of their instructions (9 instead of 36 per block position). The other kernels:
+//! - **AVX2 without VNNI** reads u16 pairs (`btq[h·nbxp + x]` = values `2h, 2h+1` of block `x`,
+//!   weights as i16 pairs) with `vpmaddwd`: exact, but as many instructions as the f32 FMAs.
+//!   `vpmaddubsw` would halve them but adds u8·i8 pairs in a saturating i16, and
+//!   `2·180·127 > 32 767` is reachable (two values of 1/√2 in one L2-Hys block): see
+//!   `detect/kernels/avx2.rs`.
+//! - **NEON** shifts the bytes to i8 (`v − 128`) and adds `128·Σ_i q_w[i][k]` back per position:
+//!   `sdot` where the CPU has the dot product, else `smull`/`sadalp` (`detect/kernels/neon.rs`).
 //!
-//! **Determinism.** Integer addition is associative, so the scalar reference and the VNNI kernel,
+//! **Which is faster.** `auto` ([`ScorePrecision::auto_for`]) picks this path only with a
+//! `vpdpbusd` kernel, where it was measured faster than f32 (docs/detection.md, "8-bit SVM");
+//! choosing it elsewhere is warned about when a detector is built
+//! ([`ScorePrecision::slow_reason`]).
+//!
+//! **Determinism.** Integer addition is associative, so the scalar reference and every kernel,
 //! any strip split and any thread count give the same bits (tested), whatever order the sums run
-//! in. Without AVX-512 F/BW/VNNI the path runs the scalar kernel: the same bits, but slower than
-//! the f32 path — choose f32 there.
+//! in.
 //!
 //! **Error.** With `q_v = 255·v + e_v` and `q_w = s·w + e_w`, `|e| ≤ ½`, a score differs from the
 //! exact one by `Σ (v·e_w/s + w·e_v/255 + e_v·e_w/(255·s))`, so
@@ -70,7 +88,7 @@
 //! let img = Image::<u8>::from_fn(80, 144, |x, y| ((x * 7 + y * 3) % 256) as u8);
 //! let grid = block_grid_from_input(&spec, &HogInput::GreyU8(img.view())).unwrap();
 //! let w = vec![0.01f32; spec.descriptor_len()];
-//! let sw = ScoreWeights::new(&spec, &w, -0.5);
+//! let sw = ScoreWeights::new(&spec, &w, -0.5).unwrap();
 //! let mut scores = vec![0.0; 3 * 3];
 //! window_scores(&sw, &grid, Exec::Serial, &mut scores);
 //! let d = grid.window_descriptor(&spec, 2, 1).unwrap();
@@ -87,20 +105,18 @@
 
 use std::ops::AddAssign;
 use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
+use super::kernels::{TILE_K_AVX512, TILE_K_NARROW};
 use crate::features::hog::{BlockGrid, Exec, HogSpec};
+use crate::kernels::{features, Isa};
 
 /// Window rows per parallel task (1080p level 0 has 120; each task recomputes 14 block rows).
 const SCORE_STRIP_ROWS: usize = 64;
 /// Block columns are zero-padded to a multiple of this (the widest kernel's vector).
 const PAD_COLUMNS: usize = 16;
-/// Block positions (columns of the weight matrix) per register tile of the AVX2 kernel: 12
-/// accumulators + 1 block vector + 1 broadcast fit the 16 ymm registers.
-const TILE_K_AVX2: usize = 12;
-/// Block positions per register tile of the AVX-512 kernel (21 accumulators of 32 zmm; 105 = 5·21).
-const TILE_K_AVX512: usize = 21;
 
 /// The model re-laid out for the GEMM: `wt[i·nkp + k]` = weight of value `i` of block position `k`,
 /// zero-padded to `nkp` positions (whole tiles for every kernel).
@@ -118,22 +134,54 @@ pub struct ScoreWeights {
     nkp: usize,
 }
 
+/// `n` rounded up to a multiple of `m`, `None` on overflow.
+fn round_up(n: usize, m: usize) -> Option<usize> {
+    n.div_ceil(m).checked_mul(m)
+}
+
+/// The weight matrix of a window of `bw x bh` blocks of `bl` values: block positions `nk`, their
+/// count padded to whole tiles of every kernel `nkp` (a kernel's last tile may run past `nk`; its
+/// results are not stored), and the matrix length `bl·nkp`, in checked arithmetic.
+fn gemm_sizes(bw: usize, bh: usize, bl: usize) -> Result<(usize, usize, usize), ScoreError> {
+    let refuse = || ScoreError::Geometry {
+        blocks_x: bw,
+        blocks_y: bh,
+        block_len: bl,
+    };
+    let nk = bw.checked_mul(bh).ok_or_else(refuse)?;
+    let nkp = round_up(nk, TILE_K_NARROW)
+        .zip(round_up(nk, TILE_K_AVX512))
+        .map(|(a, b)| a.max(b))
+        .ok_or_else(refuse)?;
+    let len = bl.checked_mul(nkp).ok_or_else(refuse)?;
+    Ok((nk, nkp, len))
+}
+
 impl ScoreWeights {
     /// From a weight vector in OpenCV descriptor order (`spec.descriptor_len()` values; a shorter
     /// vector is zero-extended, a longer one cut) and the bias.
-    pub fn new(spec: &HogSpec, weights: &[f32], bias: f32) -> Self {
+    ///
+    /// The geometry comes from the model file: sizes whose products overflow, or whose weight
+    /// matrix cannot be allocated, are refused ([`ScoreError::Geometry`]) before anything is
+    /// indexed.
+    pub fn new(spec: &HogSpec, weights: &[f32], bias: f32) -> Result<Self, ScoreError> {
         let (bw, bh) = spec.blocks_per_window();
         let bl = spec.block_len();
-        let nk = bw * bh;
-        // Every kernel's last tile may run past nk (its results are not stored) but stays in wt.
-        let nkp = (nk.div_ceil(TILE_K_AVX2) * TILE_K_AVX2).max(nk.div_ceil(TILE_K_AVX512) * TILE_K_AVX512);
-        let mut wt = vec![0.0f32; bl * nkp];
+        let (nk, nkp, len) = gemm_sizes(bw, bh, bl)?;
+        let mut wt = Vec::new();
+        wt.try_reserve_exact(len).map_err(|_| ScoreError::Geometry {
+            blocks_x: bw,
+            blocks_y: bh,
+            block_len: bl,
+        })?;
+        wt.resize(len, 0.0f32);
         for k in 0..nk {
             for i in 0..bl {
+                // k·bl + i < nk·bl ≤ nkp·bl = len: no overflow.
                 wt[i * nkp + k] = weights.get(k * bl + i).copied().unwrap_or(0.0);
             }
         }
-        Self {
+        Ok(Self {
             wt,
             bias,
             bl,
@@ -141,7 +189,7 @@ impl ScoreWeights {
             bh,
             nk,
             nkp,
-        }
+        })
     }
 }
 
@@ -151,10 +199,16 @@ pub enum ScorePrecision {
     /// f32 products (fused multiply-adds) and window sums: OpenCV's scores within ≈1e-6.
     #[default]
     F32,
-    /// Block values as u8, weights as i8, exact i32 products (AVX-512 VNNI) and window sums; scores
-    /// within [`ScoreWeightsI8::error_bound`] of the exact ones (module docs, "8-bit path").
+    /// Block values as u8, weights as i8, exact i32 products and window sums; scores within
+    /// [`ScoreWeightsI8::error_bound`] of the exact ones (module docs, "8-bit path").
     I8,
 }
+
+/// The settings `compute.svm` and `--svm` accept: the precisions' names and `auto`.
+pub const PRECISION_SETTINGS: [&str; 3] = ["f32", "i8", "auto"];
+
+/// Whether the start-up warning of [`ScorePrecision::warn_if_slow`] was given.
+static WARNED_SLOW: AtomicBool = AtomicBool::new(false);
 
 impl ScorePrecision {
     /// Every precision, in the order of [`Self::name`]'s list.
@@ -165,6 +219,60 @@ impl ScorePrecision {
         match self {
             Self::F32 => "f32",
             Self::I8 => "i8",
+        }
+    }
+
+    /// What `auto` means on this process's kernel path ([`crate::kernels::isa`]): see
+    /// [`Self::auto_for`].
+    pub fn auto() -> Self {
+        Self::auto_for(crate::kernels::isa())
+    }
+
+    /// The precision `auto` picks on kernel path `isa` of this CPU: [`Self::I8`] only where its
+    /// kernel was measured faster than f32 (docs/detection.md, "8-bit SVM"), [`Self::F32`]
+    /// everywhere else:
+    /// - AVX-512 with AVX-512 VNNI (`vpdpbusd` zmm): i8;
+    /// - AVX2 or AVX-512 with AVX-VNNI (`vpdpbusd` ymm): i8;
+    /// - AVX2 without either VNNI (the `vpmaddwd` kernel): f32;
+    /// - NEON: f32 (the `sdot` and `smull` kernels are tested for equality under emulation but
+    ///   their speed was not measured on aarch64 hardware);
+    /// - scalar: f32.
+    pub fn auto_for(isa: Isa) -> Self {
+        if I8Kernel::for_isa(isa).faster_than_f32() {
+            Self::I8
+        } else {
+            Self::F32
+        }
+    }
+
+    /// Why this precision is slower than the other one on kernel path `isa`, naming the CPU
+    /// feature that is missing; `None` when it is not known to be slower. Only
+    /// [`Self::I8`] can be: off the paths where `auto` picks it (see [`Self::auto_for`]), except
+    /// NEON with the dot-product extension, whose `sdot` kernel is unmeasured rather than slow.
+    pub fn slow_reason(self, isa: Isa) -> Option<String> {
+        if self != Self::I8 || Self::auto_for(isa) == Self::I8 {
+            return None;
+        }
+        let why = match isa {
+            Isa::Scalar => "kernel path scalar has no 8-bit SIMD kernel".to_string(),
+            Isa::Avx2 | Isa::Avx512 => format!(
+                "this CPU lacks avx512vnni and avxvnni, and the AVX2 8-bit kernel (vpmaddwd) is slower than the f32 one \
+                 on kernel path {isa}"
+            ),
+            Isa::Neon if features().dotprod => return None,
+            Isa::Neon => "this CPU lacks dotprod (the smull/sadalp kernel is no faster than f32)".to_string(),
+        };
+        Some(format!(
+            "svm = \"i8\" is slower than \"f32\" here: {why}; svm = \"auto\" picks the faster one"
+        ))
+    }
+
+    /// Logs [`Self::slow_reason`] for this process's kernel path at `warn`, once per process.
+    pub fn warn_if_slow(self) {
+        if let Some(why) = self.slow_reason(crate::kernels::isa()) {
+            if !WARNED_SLOW.swap(true, Ordering::Relaxed) {
+                tracing::warn!(kernels = %crate::kernels::isa(), cpu = %features().names(), "{why}");
+            }
         }
     }
 }
@@ -178,8 +286,8 @@ impl std::fmt::Display for ScorePrecision {
 /// Errors of the scoring setup.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ScoreError {
-    /// A precision name that is not one of [`ScorePrecision::ALL`]'s.
-    #[error("unknown SVM precision {0:?}: allowed f32, i8")]
+    /// A precision setting that is not one of [`PRECISION_SETTINGS`].
+    #[error("unknown SVM precision {0:?}: allowed f32, i8, auto")]
     UnknownPrecision(String),
     /// A descriptor too long for exact i32 window sums on the 8-bit path.
     #[error("the 8-bit SVM path takes descriptors of at most {max} values (exact i32 sums), not {len}")]
@@ -189,12 +297,26 @@ pub enum ScoreError {
         /// [`ScoreWeightsI8::MAX_DESCRIPTOR_LEN`].
         max: usize,
     },
+    /// A window geometry whose weight matrix overflows `usize` or cannot be allocated.
+    #[error("window geometry of {blocks_x}x{blocks_y} blocks of {block_len} values is too large for the SVM weights")]
+    Geometry {
+        /// Blocks per window across.
+        blocks_x: usize,
+        /// Blocks per window down.
+        blocks_y: usize,
+        /// Values per block.
+        block_len: usize,
+    },
 }
 
 impl FromStr for ScorePrecision {
     type Err = ScoreError;
-    /// `f32` or `i8` (ASCII case ignored).
+    /// `f32`, `i8`, or `auto` ([`ScorePrecision::auto`]: resolved on this CPU now); ASCII case
+    /// ignored.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(Self::auto());
+        }
         Self::ALL
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(s))
@@ -202,66 +324,133 @@ impl FromStr for ScorePrecision {
     }
 }
 
-/// Which block-product kernel runs (the instruction set; each [`ScorePrecision`] has its own
-/// kernel for each).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ProductKernel {
-    /// Scalar: [`f32::mul_add`] chains, or plain i32 arithmetic (the references).
-    Scalar,
-    /// AVX2 + FMA, 8 blocks per vector (f32 only).
-    Avx2,
-    /// AVX-512F, 16 blocks per vector (f32); AVX-512 VNNI `vpdpbusd` (i8, with AVX-512F and BW).
-    Avx512,
+/// The f32 block-product kernel of a path: every path has one ([`Isa::Scalar`] is the reference,
+/// [`f32::mul_add`] chains); a path this CPU cannot run falls back to it.
+fn f32_kernel(isa: Isa) -> Isa {
+    if isa.is_available() {
+        isa
+    } else {
+        Isa::Scalar
+    }
 }
 
-impl ProductKernel {
-    /// The fastest f32 kernel this CPU runs.
-    pub fn detect() -> Self {
-        Self::detect_for(ScorePrecision::F32)
-    }
+/// Which block layout an 8-bit kernel reads (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Layout {
+    /// Dword `g` of a block = values `4g..4g+4` as bytes; weights as four i8.
+    Bytes,
+    /// Dword `h` of a block = values `2h, 2h+1` as u16; weights as two i16.
+    Pairs,
+}
 
-    /// Every f32 kernel this CPU runs, slowest first (for tests that compare them).
-    pub fn available() -> Vec<Self> {
-        Self::available_for(ScorePrecision::F32)
-    }
+/// The 8-bit block-product kernels (each with the quantiser of its instruction set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum I8Kernel {
+    /// Plain i32 arithmetic: the reference.
+    Scalar,
+    /// AVX2 `vpmaddwd` on u16 pairs (no VNNI).
+    Avx2Pairs,
+    /// AVX-VNNI `vpdpbusd` on ymm.
+    AvxVnni,
+    /// AVX-512 VNNI `vpdpbusd` on zmm.
+    Avx512Vnni,
+    /// The AVX-VNNI kernel's body with the EVEX encoding (AVX-512 VNNI + VL): tests only.
+    #[cfg(test)]
+    Vnni256,
+    /// NEON `smull`/`sadalp`.
+    NeonSmull,
+    /// NEON `sdot` (dot-product extension).
+    NeonSdot,
+}
 
-    /// The fastest kernel of precision `p` this CPU runs.
-    pub fn detect_for(p: ScorePrecision) -> Self {
-        *Self::available_for(p).last().unwrap_or(&Self::Scalar)
-    }
-
-    /// Every kernel of precision `p` this CPU runs, slowest first.
-    pub fn available_for(p: ScorePrecision) -> Vec<Self> {
-        #[allow(unused_mut)]
-        let mut v = vec![Self::Scalar];
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::is_x86_feature_detected as has;
-            match p {
-                ScorePrecision::F32 => {
-                    if has!("avx2") && has!("fma") {
-                        v.push(Self::Avx2);
-                    }
-                    if has!("avx512f") {
-                        v.push(Self::Avx512);
-                    }
-                }
-                ScorePrecision::I8 => {
-                    if has!("avx512f") && has!("avx512bw") && has!("avx512vnni") {
-                        v.push(Self::Avx512);
-                    }
-                }
-            }
+impl I8Kernel {
+    /// The fastest 8-bit kernel of kernel path `isa` on this CPU (its sub-features from
+    /// [`features`]); the scalar one for a path this CPU cannot run.
+    pub(crate) fn for_isa(isa: Isa) -> Self {
+        let f = features();
+        if !isa.is_available() {
+            return Self::Scalar;
         }
-        v
+        match isa {
+            Isa::Scalar => Self::Scalar,
+            Isa::Avx512 if f.avx512vnni => Self::Avx512Vnni,
+            Isa::Avx2 | Isa::Avx512 if f.avxvnni => Self::AvxVnni,
+            Isa::Avx2 | Isa::Avx512 => Self::Avx2Pairs,
+            Isa::Neon if f.dotprod => Self::NeonSdot,
+            Isa::Neon => Self::NeonSmull,
+        }
     }
 
-    /// This kernel if the CPU runs it for `p`, else the scalar one.
-    fn or_scalar(self, p: ScorePrecision) -> Self {
-        if Self::available_for(p).contains(&self) {
-            self
-        } else {
-            Self::Scalar
+    /// Every 8-bit kernel path `isa` can run on this CPU (for the equality tests).
+    #[cfg(test)]
+    fn all_for(isa: Isa) -> Vec<Self> {
+        let all = [
+            Self::Scalar,
+            Self::Avx2Pairs,
+            Self::AvxVnni,
+            Self::Avx512Vnni,
+            Self::Vnni256,
+            Self::NeonSmull,
+            Self::NeonSdot,
+        ];
+        all.into_iter().filter(|k| k.isa() == isa && k.is_runnable()).collect()
+    }
+
+    /// The kernel path this kernel belongs to (its quantiser's instruction set).
+    #[cfg(test)]
+    fn isa(self) -> Isa {
+        match self {
+            Self::Scalar => Isa::Scalar,
+            Self::Avx2Pairs | Self::AvxVnni => Isa::Avx2,
+            Self::Avx512Vnni | Self::Vnni256 => Isa::Avx512,
+            Self::NeonSmull | Self::NeonSdot => Isa::Neon,
+        }
+    }
+
+    /// Whether this CPU has every feature the kernel uses.
+    fn is_runnable(self) -> bool {
+        let f = features();
+        match self {
+            Self::Scalar => true,
+            Self::Avx2Pairs => Isa::Avx2.is_available(),
+            Self::AvxVnni => Isa::Avx2.is_available() && f.avxvnni,
+            Self::Avx512Vnni => Isa::Avx512.is_available() && f.avx512vnni,
+            #[cfg(test)]
+            Self::Vnni256 => Isa::Avx512.is_available() && f.avx512vnni,
+            Self::NeonSmull => Isa::Neon.is_available(),
+            Self::NeonSdot => Isa::Neon.is_available() && f.dotprod,
+        }
+    }
+
+    /// Whether this kernel was measured faster than the f32 kernel of its path (docs/detection.md,
+    /// "8-bit SVM"; the rule of [`ScorePrecision::auto_for`]).
+    fn faster_than_f32(self) -> bool {
+        matches!(self, Self::AvxVnni | Self::Avx512Vnni)
+    }
+
+    fn layout(self) -> Layout {
+        match self {
+            Self::Avx2Pairs => Layout::Pairs,
+            _ => Layout::Bytes,
+        }
+    }
+
+    /// Column multiple the kernel steps by (a divisor of [`PAD_COLUMNS`]).
+    fn lanes(self) -> usize {
+        match self {
+            Self::Scalar => 1,
+            Self::NeonSmull => 4,
+            Self::Avx512Vnni => 16,
+            _ => 8,
+        }
+    }
+
+    /// Block positions per tile (the kernel reads weights up to the tile's end).
+    fn tile(self) -> usize {
+        match self {
+            Self::Scalar => 1,
+            Self::Avx512Vnni => TILE_K_AVX512,
+            _ => TILE_K_NARROW,
         }
     }
 }
@@ -284,10 +473,15 @@ pub fn quantise_block_value(v: f32) -> u8 {
 
 /// The model quantised for the 8-bit path ([`ScorePrecision::I8`]): `wq[g·nkp + k]` packs the i8
 /// weights of values `4g..4g+4` of block position `k` into one dword (little-endian, zero past
-/// the block length), the layout `vpdpbusd` broadcasts.
+/// the block length), the layout `vpdpbusd` broadcasts; `wq16` the same weights as i16 pairs for
+/// `vpmaddwd`, and `corr` the per-position constant of the NEON kernels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoreWeightsI8 {
     wq: Vec<u32>,
+    /// `wq16[h·nkp + k]` = the i16 weights of values `2h, 2h+1` of position `k`.
+    wq16: Vec<u32>,
+    /// `corr[k] = 128·Σ_i q_w[i][k]`: what shifting the block values by −128 takes off a product.
+    corr: Vec<i32>,
     bias: f32,
     /// `s = 127 / max|w|` (1 for an all-zero model).
     weight_scale: f32,
@@ -295,9 +489,10 @@ pub struct ScoreWeightsI8 {
     unit: f32,
     /// Worst-case |score − exact score| (see [`Self::error_bound`]).
     error_bound: f32,
-    /// Block length (36) and its dwords (`⌈bl/4⌉`).
+    /// Block length (36), its dwords (`⌈bl/4⌉`) and its u16 pairs (`⌈bl/2⌉`).
     bl: usize,
     ng: usize,
+    nh: usize,
     bw: usize,
     bh: usize,
     nk: usize,
@@ -312,13 +507,14 @@ impl ScoreWeightsI8 {
     /// Quantise `w` (once per model): `q = round(w·s)`, `s = 127 / max|w|`; the bias stays f32.
     pub fn new(w: &ScoreWeights) -> Result<Self, ScoreError> {
         let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
+        // nk·bl ≤ nkp·bl = w.wt.len(): no overflow.
         if nk * bl > Self::MAX_DESCRIPTOR_LEN {
             return Err(ScoreError::DescriptorTooLong {
                 len: nk * bl,
                 max: Self::MAX_DESCRIPTOR_LEN,
             });
         }
-        let ng = bl.div_ceil(4);
+        let (ng, nh) = (bl.div_ceil(4), bl.div_ceil(2));
         let weight = |i: usize, k: usize| w.wt[i * nkp + k];
         let all = || (0..nk).flat_map(move |k| (0..bl).map(move |i| weight(i, k)));
         let max = all().fold(0.0f32, |m, v| m.max(v.abs()));
@@ -328,19 +524,24 @@ impl ScoreWeightsI8 {
         } else {
             1.0
         };
-        let q = |v: f32| (v as f64 * s).round().clamp(-127.0, 127.0) as i8;
-        let mut wq = vec![0u32; ng * nkp];
+        let q = |i: usize, k: usize| {
+            if i < bl {
+                (weight(i, k) as f64 * s).round().clamp(-127.0, 127.0) as i8
+            } else {
+                0
+            }
+        };
+        let (mut wq, mut wq16, mut corr) = (vec![0u32; ng * nkp], vec![0u32; nh * nkp], vec![0i32; nkp]);
         for k in 0..nk {
             for g in 0..ng {
-                let b: [u8; 4] = std::array::from_fn(|t| {
-                    if 4 * g + t < bl {
-                        q(weight(4 * g + t, k)) as u8
-                    } else {
-                        0
-                    }
-                });
+                let b: [u8; 4] = std::array::from_fn(|t| q(4 * g + t, k) as u8);
                 wq[g * nkp + k] = u32::from_le_bytes(b);
             }
+            for h in 0..nh {
+                let (lo, hi) = (q(2 * h, k) as i16 as u16, q(2 * h + 1, k) as i16 as u16);
+                wq16[h * nkp + k] = lo as u32 | (hi as u32) << 16;
+            }
+            corr[k] = 128 * (0..bl).map(|i| q(i, k) as i32).sum::<i32>();
         }
         // |Δ| ≤ Σ|w|·½/255 (values) + Σv·½/s (weights) + n·¼/(255·s) (both), with Σv ≤ nk·√bl
         // for blocks of L2 norm ≤ 1.
@@ -350,12 +551,15 @@ impl ScoreWeightsI8 {
         let bound = abs_sum * 0.5 / qb + sum_v * 0.5 / s + (nk * bl) as f64 * 0.25 / (qb * s);
         Ok(Self {
             wq,
+            wq16,
+            corr,
             bias: w.bias,
             weight_scale: s as f32,
             unit: (1.0 / (qb * s)) as f32,
             error_bound: bound as f32,
             bl,
             ng,
+            nh,
             bw: w.bw,
             bh: w.bh,
             nk,
@@ -380,6 +584,14 @@ impl ScoreWeightsI8 {
         self.wq[(i / 4) * self.nkp + k].to_le_bytes()[i % 4] as i8
     }
 
+    /// Dwords per block in `layout`, and the weights in it.
+    fn layout(&self, layout: Layout) -> (usize, &[u32]) {
+        match layout {
+            Layout::Bytes => (self.ng, &self.wq),
+            Layout::Pairs => (self.nh, &self.wq16),
+        }
+    }
+
     /// An exact i32 window sum to a score: `bias + sum·(1/(255·s))`, the same in every kernel.
     #[inline]
     fn score_from_sum(&self, sum: i32) -> f32 {
@@ -401,46 +613,38 @@ impl ScoreWeightsI8 {
 }
 
 /// Scores of every window of `grid` (row-major, `grid.windows()` wide) into `scores`, with the
-/// fastest kernel of this CPU. `scores` must hold `nwx · nwy` values (extra values are untouched).
+/// kernel path of this process ([`crate::kernels::isa`]). `scores` must hold `nwx · nwy` values
+/// (extra values are untouched).
 pub fn window_scores(w: &ScoreWeights, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
-    window_scores_with(w, grid, exec, ProductKernel::detect(), scores)
+    window_scores_with(w, grid, exec, crate::kernels::isa(), scores)
 }
 
-/// [`window_scores`] with a chosen kernel (must be one of [`ProductKernel::available`]; an
-/// unavailable one falls back to the scalar kernel).
-pub fn window_scores_with(
-    w: &ScoreWeights,
-    grid: &BlockGrid,
-    exec: Exec,
-    kernel: ProductKernel,
-    scores: &mut [f32],
-) {
-    let kernel = kernel.or_scalar(ScorePrecision::F32);
+/// [`window_scores`] on kernel path `isa` (a path this CPU cannot run falls back to the scalar
+/// reference). Every path gives the same bits.
+pub fn window_scores_with(w: &ScoreWeights, grid: &BlockGrid, exec: Exec, isa: Isa, scores: &mut [f32]) {
+    let kernel = f32_kernel(isa);
     scores_by_strips(&F32Rows { w, kernel }, grid, exec, scores)
 }
 
 /// [`window_scores`] on the 8-bit path ([`ScorePrecision::I8`], see the module docs), with the
-/// fastest kernel of this CPU for it (the scalar one without AVX-512 VNNI).
+/// 8-bit kernel of this process's kernel path.
 pub fn window_scores_i8(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
-    window_scores_i8_with(
-        w,
-        grid,
-        exec,
-        ProductKernel::detect_for(ScorePrecision::I8),
-        scores,
-    )
+    window_scores_i8_with(w, grid, exec, crate::kernels::isa(), scores)
 }
 
-/// [`window_scores_i8`] with a chosen kernel (one of `ProductKernel::available_for(I8)`; an
-/// unavailable one falls back to the scalar kernel). Every kernel gives the same bits.
-pub fn window_scores_i8_with(
-    w: &ScoreWeightsI8,
-    grid: &BlockGrid,
-    exec: Exec,
-    kernel: ProductKernel,
-    scores: &mut [f32],
-) {
-    let kernel = kernel.or_scalar(ScorePrecision::I8);
+/// [`window_scores_i8`] on kernel path `isa` (its fastest 8-bit kernel on this CPU; a path this
+/// CPU cannot run falls back to the scalar reference). Every kernel gives the same bits.
+pub fn window_scores_i8_with(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, isa: Isa, scores: &mut [f32]) {
+    scores_i8_kernel(w, grid, exec, I8Kernel::for_isa(isa), scores)
+}
+
+/// [`window_scores_i8`] with one 8-bit kernel (the scalar one if this CPU cannot run it).
+fn scores_i8_kernel(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, kernel: I8Kernel, scores: &mut [f32]) {
+    let kernel = if kernel.is_runnable() {
+        kernel
+    } else {
+        I8Kernel::Scalar
+    };
     scores_by_strips(&I8Rows { w, kernel }, grid, exec, scores)
 }
 
@@ -465,7 +669,7 @@ trait RowProducts: Sync {
 /// The f32 path: transposed block rows, f32 products, window sums from the bias.
 struct F32Rows<'a> {
     w: &'a ScoreWeights,
-    kernel: ProductKernel,
+    kernel: Isa,
 }
 
 impl RowProducts for F32Rows<'_> {
@@ -492,7 +696,7 @@ impl RowProducts for F32Rows<'_> {
 /// The 8-bit path: quantised, dword-transposed block rows, exact i32 products and window sums.
 struct I8Rows<'a> {
     w: &'a ScoreWeightsI8,
-    kernel: ProductKernel,
+    kernel: I8Kernel,
 }
 
 impl RowProducts for I8Rows<'_> {
@@ -506,7 +710,8 @@ impl RowProducts for I8Rows<'_> {
         0
     }
     fn scratch(&self, nbxp: usize) -> (Vec<u8>, Vec<u32>) {
-        (vec![0; 4 * self.w.ng * nbxp], vec![0; self.w.ng * nbxp])
+        let (nd, _) = self.w.layout(self.kernel.layout());
+        (vec![0; 4 * self.w.ng * nbxp], vec![0; nd * nbxp])
     }
     fn products(&self, row: &[f32], nbx: usize, nbxp: usize, s: &mut (Vec<u8>, Vec<u32>), out: &mut [i32]) {
         let (q, btq) = s;
@@ -583,27 +788,55 @@ fn transpose_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, bt: &mut [f32]
     }
 }
 
-/// `out[k·nbxp + x] = Σ_i bt[i·nbxp + x] · wt[i·nkp + k]` for `k < nk`, `x < nbx` (SIMD kernels also
-/// fill padding columns), fused multiply-adds in order `i = 0..bl` from 0.
-fn block_products(
-    w: &ScoreWeights,
-    bt: &[f32],
+/// The lengths every product kernel relies on, checked once per call (the kernels' `# Safety`
+/// sections): `nbxp` whole vectors, `nbx ≤ nbxp`, the transposed row `nd·nbxp`, the weights `nd`
+/// rows of `nkp` with `nkp` whole tiles past `nk`, the products `nk·nbxp`.
+#[allow(clippy::too_many_arguments)]
+fn check_product_bounds(
     nbx: usize,
     nbxp: usize,
-    kernel: ProductKernel,
-    out: &mut [f32],
+    nd: usize,
+    bt_len: usize,
+    nk: usize,
+    nkp: usize,
+    w_len: usize,
+    tile: usize,
+    out_len: usize,
 ) {
-    debug_assert!(nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp);
-    debug_assert!(bt.len() >= w.bl * nbxp && out.len() >= w.nk * nbxp && w.wt.len() >= w.bl * w.nkp);
+    let fits = |a: usize, b: usize, len: usize| a.checked_mul(b).is_some_and(|n| n <= len);
+    assert!(
+        nbxp.is_multiple_of(PAD_COLUMNS)
+            && nbx <= nbxp
+            && fits(nd, nbxp, bt_len)
+            && fits(nd, nkp, w_len)
+            && round_up(nk, tile).is_some_and(|t| t <= nkp)
+            && fits(nk, nbxp, out_len),
+        "block products out of bounds: {nbx}/{nbxp} columns, {nd} rows ({bt_len}), {nk}/{nkp} positions \
+         (tile {tile}, weights {w_len}), products {out_len}"
+    );
+}
+
+/// `out[k·nbxp + x] = Σ_i bt[i·nbxp + x] · wt[i·nkp + k]` for `k < nk`, `x < nbx` (SIMD kernels also
+/// fill padding columns), fused multiply-adds in order `i = 0..bl` from 0.
+fn block_products(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, kernel: Isa, out: &mut [f32]) {
+    let tile = match kernel {
+        Isa::Avx512 => TILE_K_AVX512,
+        _ => TILE_K_NARROW,
+    };
+    check_product_bounds(nbx, nbxp, w.bl, bt.len(), w.nk, w.nkp, w.wt.len(), tile, out.len());
+    let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
+    let wt = &w.wt[..];
     match kernel {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `kernel` is one of `ProductKernel::available()` (checked by the caller), so the
-        // CPU has AVX2 and FMA; the kernel's loads and stores stay within the lengths asserted above.
-        // Measured: see docs/detection.md "Speed" (SVM stage).
-        ProductKernel::Avx2 => unsafe { block_products_avx2(w, bt, nbxp, out) },
+        // SAFETY: `kernel` is a path this CPU runs (`f32_kernel`): AVX2 and FMA; lengths checked
+        // above. Measured: see docs/detection.md "Speed" (SVM stage).
+        Isa::Avx2 => unsafe { super::kernels::avx2::products_f32(bt, wt, bl, nk, nkp, nbxp, out) },
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above, with AVX-512F detected.
-        ProductKernel::Avx512 => unsafe { block_products_avx512(w, bt, nbxp, out) },
+        // SAFETY: as above, with AVX-512F.
+        Isa::Avx512 => unsafe { super::kernels::avx512::products_f32(bt, wt, bl, nk, nkp, nbxp, out) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 CPU; lengths checked above.
+        Isa::Neon => unsafe { super::kernels::neon::products_f32(bt, wt, bl, nk, nkp, nbxp, out) },
         _ => block_products_scalar(w, bt, nbx, nbxp, out),
     }
 }
@@ -621,112 +854,49 @@ fn block_products_scalar(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, 
     }
 }
 
-/// AVX2 + FMA block products over all `nbxp` (a multiple of 8) columns.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA; `bt`, `out` and `w.wt` must hold the lengths asserted in
-/// [`block_products`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn block_products_avx2(w: &ScoreWeights, bt: &[f32], nbx: usize, out: &mut [f32]) {
-    use std::arch::x86_64::*;
-    const L: usize = 8;
-    debug_assert!(nbx.is_multiple_of(L));
-    let full = nbx;
-    let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
-    debug_assert!(nk.div_ceil(TILE_K_AVX2) * TILE_K_AVX2 <= nkp);
-    for x in (0..full).step_by(L) {
-        for k0 in (0..nk).step_by(TILE_K_AVX2) {
-            let mut acc = [_mm256_setzero_ps(); TILE_K_AVX2];
-            for i in 0..bl {
-                debug_assert!(i * nbx + x + L <= bt.len() && i * nkp + k0 + TILE_K_AVX2 <= w.wt.len());
-                // SAFETY: x + 8 ≤ nbx and i < bl, so the 8 loaded floats are inside bt (bl·nbx);
-                // k0 + TILE ≤ nkp, so the broadcasts read inside wt (bl·nkp).
-                let b = unsafe { _mm256_loadu_ps(bt.as_ptr().add(i * nbx + x)) };
-                let wr = unsafe { w.wt.as_ptr().add(i * nkp + k0) };
-                for (j, a) in acc.iter_mut().enumerate() {
-                    let wv = unsafe { _mm256_broadcast_ss(&*wr.add(j)) };
-                    *a = _mm256_fmadd_ps(b, wv, *a);
-                }
-            }
-            for (j, a) in acc.iter().enumerate() {
-                let k = k0 + j;
-                if k < nk {
-                    debug_assert!(k * nbx + x + L <= out.len());
-                    // SAFETY: k < nk and x + 8 ≤ nbx, inside out (nk·nbx).
-                    unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(k * nbx + x), *a) };
-                }
-            }
-        }
-    }
-}
-
-/// AVX-512F block products over all `nbxp` (a multiple of 16) columns.
-///
-/// # Safety
-/// The CPU must support AVX-512F; lengths as in [`block_products`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn block_products_avx512(w: &ScoreWeights, bt: &[f32], nbx: usize, out: &mut [f32]) {
-    use std::arch::x86_64::*;
-    const L: usize = 16;
-    debug_assert!(nbx.is_multiple_of(L));
-    let full = nbx;
-    let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
-    debug_assert!(nk.div_ceil(TILE_K_AVX512) * TILE_K_AVX512 <= nkp);
-    for x in (0..full).step_by(L) {
-        for k0 in (0..nk).step_by(TILE_K_AVX512) {
-            let mut acc = [_mm512_setzero_ps(); TILE_K_AVX512];
-            for i in 0..bl {
-                debug_assert!(i * nbx + x + L <= bt.len() && i * nkp + k0 + TILE_K_AVX512 <= w.wt.len());
-                // SAFETY: x + 16 ≤ nbx and i < bl: inside bt; k0 + TILE ≤ nkp: inside wt.
-                let b = unsafe { _mm512_loadu_ps(bt.as_ptr().add(i * nbx + x)) };
-                let wr = unsafe { w.wt.as_ptr().add(i * nkp + k0) };
-                for (j, a) in acc.iter_mut().enumerate() {
-                    let wv = _mm512_set1_ps(unsafe { *wr.add(j) });
-                    *a = _mm512_fmadd_ps(b, wv, *a);
-                }
-            }
-            for (j, a) in acc.iter().enumerate() {
-                let k = k0 + j;
-                if k < nk {
-                    debug_assert!(k * nbx + x + L <= out.len());
-                    // SAFETY: k < nk and x + 16 ≤ nbx, inside out (nk·nbx).
-                    unsafe { _mm512_storeu_ps(out.as_mut_ptr().add(k * nbx + x), *a) };
-                }
-            }
-        }
-    }
-}
-
 /// Quantise block row `row` (`nbx` blocks of `bl` values) on the 8-bit path: `q[x·4ng + i]` =
 /// [`quantise_block_value`] of value `i` of block `x` (zero for `bl ≤ i < 4ng`), then the dword
-/// transpose `btq[g·nbxp + x]` = bytes `4g..4g+4` of block `x` (padding columns stay zero). With
-/// the AVX-512 kernel (and `bl` a multiple of 4, as every HOG block) the same bytes come from
-/// AVX-512 code.
-fn quantise_row(
-    row: &[f32],
-    bl: usize,
-    nbx: usize,
-    nbxp: usize,
-    kernel: ProductKernel,
-    q: &mut [u8],
-    btq: &mut [u32],
-) {
+/// transpose of the kernel's layout: `btq[g·nbxp + x]` = bytes `4g..4g+4` of block `x`
+/// ([`Layout::Bytes`]) or u16 values `2g, 2g+1` ([`Layout::Pairs`]); padding columns stay zero.
+/// For blocks of a multiple of 4 values (every HOG block) the kernel's instruction set
+/// quantises; the bytes are the scalar ones.
+fn quantise_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, kernel: I8Kernel, q: &mut [u8], btq: &mut [u32]) {
     let ng = bl.div_ceil(4);
-    debug_assert!(row.len() >= nbx * bl && q.len() >= nbx * 4 * ng && btq.len() >= ng * nbxp);
-    debug_assert!(nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp);
-    #[cfg(target_arch = "x86_64")]
-    if kernel == ProductKernel::Avx512 && bl == 4 * ng {
-        // SAFETY: the AVX-512 kernel of the 8-bit path is only chosen when the CPU has AVX-512F
-        // and BW (`ProductKernel::available_for(I8)`); lengths as asserted above.
-        return unsafe { quantise_row_avx512(row, ng, nbx, nbxp, q, btq) };
-    }
-    let _ = kernel;
+    let nd = match kernel.layout() {
+        Layout::Bytes => ng,
+        Layout::Pairs => bl.div_ceil(2),
+    };
+    let n = nbx * 4 * ng;
+    // The bounds the SIMD quantisers rely on, once per call.
+    assert!(
+        row.len() >= nbx * bl && q.len() >= n && btq.len() >= nd * nbxp && nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp,
+        "quantise_row out of bounds: {nbx}/{nbxp} blocks of {bl}, row {}, q {}, btq {}",
+        row.len(),
+        q.len(),
+        btq.len()
+    );
     if bl == 4 * ng {
-        // Every block length of a HOG spec (4·nbins): one contiguous pass.
-        for (d, &v) in q[..nbx * bl].iter_mut().zip(&row[..nbx * bl]) {
-            *d = quantise_block_value(v);
+        match kernel {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the kernel is runnable (`scores_i8_kernel`), so the CPU has AVX-512F and
+            // BW; lengths checked above with bl = 4·ng.
+            I8Kernel::Avx512Vnni => {
+                return unsafe { super::kernels::avx512::quantise_row_bytes(row, ng, nbx, nbxp, q, btq) };
+            }
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: these kernels run only with AVX2 (`is_runnable`); n ≤ row.len(), q.len().
+            I8Kernel::Avx2Pairs | I8Kernel::AvxVnni => unsafe { super::kernels::avx2::quantise_values(row, n, q) },
+            #[cfg(all(test, target_arch = "x86_64"))]
+            // SAFETY: as above.
+            I8Kernel::Vnni256 => unsafe { super::kernels::avx2::quantise_values(row, n, q) },
+            #[cfg(target_arch = "aarch64")]
+            // SAFETY: NEON is part of every aarch64 CPU; n ≤ row.len(), q.len().
+            I8Kernel::NeonSmull | I8Kernel::NeonSdot => unsafe { super::kernels::neon::quantise_values(row, n, q) },
+            _ => {
+                for (d, &v) in q[..n].iter_mut().zip(&row[..n]) {
+                    *d = quantise_block_value(v);
+                }
+            }
         }
     } else {
         for (dst, blk) in q.chunks_exact_mut(4 * ng).zip(row.chunks_exact(bl)).take(nbx) {
@@ -736,87 +906,62 @@ fn quantise_row(
             dst[bl..].fill(0);
         }
     }
-    for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
-        for (g, b) in blk.chunks_exact(4).enumerate() {
-            btq[g * nbxp + x] = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    match kernel.layout() {
+        Layout::Bytes => {
+            for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
+                for (g, b) in blk.chunks_exact(4).enumerate() {
+                    btq[g * nbxp + x] = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                }
+            }
+        }
+        Layout::Pairs => {
+            for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
+                for (h, b) in blk.chunks_exact(2).take(nd).enumerate() {
+                    btq[h * nbxp + x] = b[0] as u32 | (b[1] as u32) << 16;
+                }
+            }
         }
     }
 }
 
-/// [`quantise_row`] for blocks of `4·ng` values with AVX-512: 16 values at a time
-/// (`vcvtps2dq` rounds to nearest even like [`quantise_block_value`]; `max(m, 0)` turns NaN
-/// into 0 as its clamp-then-cast does), then the dword transpose by 16-lane gathers.
-///
-/// # Safety
-/// The CPU must support AVX-512F and BW; lengths as in [`quantise_row`] with `bl = 4·ng`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw")]
-unsafe fn quantise_row_avx512(
-    row: &[f32],
-    ng: usize,
-    nbx: usize,
-    nbxp: usize,
-    q: &mut [u8],
-    btq: &mut [u32],
-) {
-    use std::arch::x86_64::*;
-    const L: usize = 16;
-    let n = nbx * 4 * ng;
-    debug_assert!(row.len() >= n && q.len() >= n && btq.len() >= ng * nbxp);
-    let scale = _mm512_set1_ps(BLOCK_QUANT_SCALE);
-    let zero = _mm512_setzero_ps();
-    for i in (0..n).step_by(L) {
-        // The last chunk of a row may be partial (n is a multiple of 4, not of 16).
-        let mask: __mmask16 = if i + L <= n { !0 } else { (1 << (n - i)) - 1 };
-        // SAFETY: the mask keeps the load inside row[..n] and the store inside q[..n].
-        let v = unsafe { _mm512_maskz_loadu_ps(mask, row.as_ptr().add(i)) };
-        let m = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(v, scale), zero), scale);
-        let d = _mm512_cvtps_epi32(m);
-        unsafe { _mm512_mask_cvtusepi32_storeu_epi8(q.as_mut_ptr().add(i).cast(), mask, d) };
-    }
-    let step = _mm512_set1_epi32(ng as i32);
-    let lanes = _mm512_mullo_epi32(
-        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
-        step,
-    );
-    for x in (0..nbx).step_by(L) {
-        let mask: __mmask16 = if x + L <= nbx { !0 } else { (1 << (nbx - x)) - 1 };
-        // SAFETY: lane j reads dword (x + j)·ng + g of q (inside q[..n] for x + j < nbx, masked
-        // otherwise); the store of 16 dwords ends at g·nbxp + x + 16 ≤ ng·nbxp (x + 16 ≤ nbxp),
-        // writing zeros in padding columns.
-        let base = unsafe { q.as_ptr().add(x * 4 * ng) };
-        for g in 0..ng {
-            let idx = _mm512_add_epi32(lanes, _mm512_set1_epi32(g as i32));
-            let v =
-                unsafe { _mm512_mask_i32gather_epi32::<4>(_mm512_setzero_si512(), mask, idx, base.cast()) };
-            unsafe { _mm512_storeu_si512(btq.as_mut_ptr().add(g * nbxp + x).cast(), v) };
-        }
-    }
-}
-
-/// `out[k·nbxp + x] = Σ_i q_b[i][x] · q_w[i][k]` for `k < nk`, `x < nbx` (the VNNI kernel also
-/// fills padding columns), exact in i32.
-fn quant_products(
-    w: &ScoreWeightsI8,
-    btq: &[u32],
-    nbx: usize,
-    nbxp: usize,
-    kernel: ProductKernel,
-    out: &mut [i32],
-) {
-    debug_assert!(nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp);
-    debug_assert!(btq.len() >= w.ng * nbxp && out.len() >= w.nk * nbxp && w.wq.len() >= w.ng * w.nkp);
+/// `out[k·nbxp + x] = Σ_i q_b[i][x] · q_w[i][k]` for `k < nk`, `x < nbx` (SIMD kernels also fill
+/// padding columns), exact in i32.
+fn quant_products(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usize, kernel: I8Kernel, out: &mut [i32]) {
+    let (nd, wq) = w.layout(kernel.layout());
+    check_product_bounds(nbx, nbxp, nd, btq.len(), w.nk, w.nkp, wq.len(), kernel.tile(), out.len());
+    debug_assert!(PAD_COLUMNS.is_multiple_of(kernel.lanes()));
+    let (nk, nkp) = (w.nk, w.nkp);
     match kernel {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `kernel` is one of `ProductKernel::available_for(I8)` (checked by the caller), so
-        // the CPU has AVX-512F, BW and VNNI; loads and stores stay within the lengths asserted
-        // above. Measured: see docs/detection.md "8-bit SVM".
-        ProductKernel::Avx512 => unsafe { quant_products_vnni(w, btq, nbxp, out) },
+        // SAFETY: the kernel is runnable (`scores_i8_kernel`): AVX-512F, BW and VNNI; lengths
+        // checked above. Measured: see docs/detection.md "8-bit SVM".
+        I8Kernel::Avx512Vnni => unsafe {
+            super::kernels::avx512::products_bytes_vnni(btq, wq, nd, nk, nkp, nbxp, out)
+        },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: runnable: AVX2 and AVX-VNNI; lengths checked above.
+        I8Kernel::AvxVnni => unsafe { super::kernels::avx2::products_bytes_avxvnni(btq, wq, nd, nk, nkp, nbxp, out) },
+        #[cfg(all(test, target_arch = "x86_64"))]
+        // SAFETY: runnable: AVX2, AVX-512 VNNI (and VL, part of the AVX-512 path); lengths checked.
+        I8Kernel::Vnni256 => unsafe { super::kernels::avx2::products_bytes_vnni256(btq, wq, nd, nk, nkp, nbxp, out) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: runnable: AVX2; lengths (of the u16-pair layout) checked above.
+        I8Kernel::Avx2Pairs => unsafe { super::kernels::avx2::products_pairs_madd(btq, wq, nd, nk, nkp, nbxp, out) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: runnable: the dot-product extension; lengths checked above, corr holds nkp ≥ nk.
+        I8Kernel::NeonSdot => unsafe {
+            super::kernels::neon::products_bytes_sdot(btq, wq, &w.corr, nd, nk, nkp, nbxp, out)
+        },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 CPU; lengths checked above, corr holds nkp ≥ nk.
+        I8Kernel::NeonSmull => unsafe {
+            super::kernels::neon::products_bytes_smull(btq, wq, &w.corr, nd, nk, nkp, nbxp, out)
+        },
         _ => quant_products_scalar(w, btq, nbx, nbxp, out),
     }
 }
 
-/// The scalar reference of the 8-bit path: plain i32 arithmetic.
+/// The scalar reference of the 8-bit path: plain i32 arithmetic over the byte layout.
 fn quant_products_scalar(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usize, out: &mut [i32]) {
     for k in 0..w.nk {
         for x in 0..nbx {
@@ -829,44 +974,6 @@ fn quant_products_scalar(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usiz
                 }
             }
             out[k * nbxp + x] = acc;
-        }
-    }
-}
-
-/// AVX-512 VNNI products over all `nbxp` (a multiple of 16) columns: per dword group `g`, one
-/// `vpdpbusd` per block position adds the four u8·i8 products of 16 blocks at once.
-///
-/// # Safety
-/// The CPU must support AVX-512F, AVX-512BW and AVX-512 VNNI; lengths as in [`quant_products`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-unsafe fn quant_products_vnni(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, out: &mut [i32]) {
-    use std::arch::x86_64::*;
-    const L: usize = 16;
-    debug_assert!(nbx.is_multiple_of(L));
-    let (ng, nk, nkp) = (w.ng, w.nk, w.nkp);
-    debug_assert!(nk.div_ceil(TILE_K_AVX512) * TILE_K_AVX512 <= nkp);
-    for x in (0..nbx).step_by(L) {
-        for k0 in (0..nk).step_by(TILE_K_AVX512) {
-            let mut acc = [_mm512_setzero_si512(); TILE_K_AVX512];
-            for g in 0..ng {
-                debug_assert!(g * nbx + x + L <= btq.len() && g * nkp + k0 + TILE_K_AVX512 <= w.wq.len());
-                // SAFETY: x + 16 ≤ nbx and g < ng: inside btq (ng·nbx); k0 + TILE ≤ nkp: inside wq.
-                let b = unsafe { _mm512_loadu_si512(btq.as_ptr().add(g * nbx + x).cast()) };
-                let wr = unsafe { w.wq.as_ptr().add(g * nkp + k0) };
-                for (j, a) in acc.iter_mut().enumerate() {
-                    let wv = _mm512_set1_epi32(unsafe { *wr.add(j) } as i32);
-                    *a = _mm512_dpbusd_epi32(*a, b, wv);
-                }
-            }
-            for (j, a) in acc.iter().enumerate() {
-                let k = k0 + j;
-                if k < nk {
-                    debug_assert!(k * nbx + x + L <= out.len());
-                    // SAFETY: k < nk and x + 16 ≤ nbx, inside out (nk·nbx).
-                    unsafe { _mm512_storeu_si512(out.as_mut_ptr().add(k * nbx + x).cast(), *a) };
-                }
-            }
         }
     }
 }
@@ -889,24 +996,20 @@ mod tests {
     }
 
     #[test]
-    fn every_kernel_is_bit_identical_to_the_scalar_reference() {
-        // 300 px → 36 blocks across: padded to 48 columns for the SIMD kernels.
+    fn kernel_paths_f32_scores_are_bit_identical_to_the_scalar_reference() {
+        // 300 px → 36 blocks across: padded to 48 columns for the SIMD kernels. The f32 kernels
+        // all run the same fused multiply-add chain, so the stated bound is 0: bit for bit.
         let (spec, grid, wts) = setup(300, 277);
-        let sw = ScoreWeights::new(&spec, &wts, 0.25);
+        let sw = ScoreWeights::new(&spec, &wts, 0.25).unwrap();
         let (nwx, nwy) = grid.windows(&spec);
         let mut want = vec![0.0f32; nwx * nwy];
-        window_scores_with(&sw, &grid, Exec::Serial, ProductKernel::Scalar, &mut want);
-        let kernels = ProductKernel::available();
-        assert!(kernels.contains(&ProductKernel::Scalar));
-        for k in kernels {
+        window_scores_with(&sw, &grid, Exec::Serial, Isa::Scalar, &mut want);
+        assert!(want.iter().any(|&v| v != 0.25), "the weights must matter");
+        for isa in Isa::available() {
             for exec in [Exec::Serial, Exec::Parallel] {
                 let mut got = vec![0.0f32; nwx * nwy];
-                window_scores_with(&sw, &grid, exec, k, &mut got);
-                assert_eq!(
-                    got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                    want.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                    "{k:?} {exec:?}"
-                );
+                window_scores_with(&sw, &grid, exec, isa, &mut got);
+                assert_eq!(bits(&got), bits(&want), "{isa} {exec:?}");
             }
         }
     }
@@ -915,7 +1018,7 @@ mod tests {
     fn scores_equal_descriptor_dot_products() {
         // 700 px high → 72 window rows: two strips that share block rows.
         let (spec, grid, wts) = setup(100, 700);
-        let sw = ScoreWeights::new(&spec, &wts, -0.75);
+        let sw = ScoreWeights::new(&spec, &wts, -0.75).unwrap();
         let (nwx, nwy) = grid.windows(&spec);
         let mut got = vec![0.0f32; nwx * nwy];
         window_scores(&sw, &grid, Exec::Parallel, &mut got);
@@ -937,27 +1040,59 @@ mod tests {
         v.iter().map(|v| v.to_bits()).collect()
     }
 
+    /// Every 8-bit kernel of every path this CPU runs.
+    fn every_i8_kernel() -> Vec<I8Kernel> {
+        Isa::available().into_iter().flat_map(I8Kernel::all_for).collect()
+    }
+
     #[test]
-    fn every_i8_kernel_is_bit_identical_to_the_scalar_reference() {
+    fn kernel_paths_i8_scores_are_bit_identical_to_the_scalar_reference() {
         // 700 px high: two parallel strips; 300 px wide: 36 blocks padded to 48 columns.
         let (spec, grid, wts) = setup(300, 700);
-        let sw = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &wts, 0.25)).unwrap();
+        let sw = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &wts, 0.25).unwrap()).unwrap();
         let (nwx, nwy) = grid.windows(&spec);
         let mut want = vec![0.0f32; nwx * nwy];
-        window_scores_i8_with(&sw, &grid, Exec::Serial, ProductKernel::Scalar, &mut want);
+        scores_i8_kernel(&sw, &grid, Exec::Serial, I8Kernel::Scalar, &mut want);
         assert!(want.iter().any(|&v| v != 0.25), "the weights must matter");
-        let kernels = ProductKernel::available_for(ScorePrecision::I8);
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512vnni")
-            && std::arch::is_x86_feature_detected!("avx512bw")
-        {
-            assert!(kernels.contains(&ProductKernel::Avx512));
+        let kernels = every_i8_kernel();
+        for isa in Isa::available() {
+            assert!(kernels.contains(&I8Kernel::for_isa(isa)), "{isa}");
         }
         for k in kernels {
             for exec in [Exec::Serial, Exec::Parallel] {
                 let mut got = vec![0.0f32; nwx * nwy];
-                window_scores_i8_with(&sw, &grid, exec, k, &mut got);
+                scores_i8_kernel(&sw, &grid, exec, k, &mut got);
                 assert_eq!(bits(&got), bits(&want), "{k:?} {exec:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn kernel_paths_i8_products_are_exact_at_the_extremes() {
+        // Values 255 and weights ±127 side by side: the pair sums a saturating vpmaddubsw would
+        // clip (2·255·127 = 64 770), and −128 shifts at the NEON kernels' edge. Every kernel's
+        // products equal the i32 reference exactly.
+        let spec = HogSpec::new(&HogOptions::default()).unwrap();
+        let n = spec.descriptor_len();
+        for (wsign, vals) in [(1.0f32, 1.0f32), (-1.0, 1.0), (1.0, 0.0), (-1.0, std::f32::consts::FRAC_1_SQRT_2)] {
+            let w: Vec<f32> = (0..n).map(|i| if i % 3 == 2 { -wsign } else { wsign }).collect();
+            let sq = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0).unwrap()).unwrap();
+            // 20 blocks of one row (padded to 32 columns).
+            let row: Vec<f32> = (0..20 * 36).map(|i| if i % 5 == 4 { 0.0 } else { vals }).collect();
+            let run = |k: I8Kernel| {
+                let nd = sq.layout(k.layout()).0;
+                let (mut q, mut btq, mut out) = (vec![0u8; 20 * 36], vec![0u32; nd * 32], vec![0i32; sq.nk * 32]);
+                quantise_row(&row, 36, 20, 32, k, &mut q, &mut btq);
+                quant_products(&sq, &btq, 20, 32, k, &mut out);
+                (0..sq.nk).flat_map(|k| out[k * 32..][..20].to_vec()).collect::<Vec<i32>>()
+            };
+            let want = run(I8Kernel::Scalar);
+            let q = quantise_block_value(vals) as i32;
+            // Block position 0 of block 0: Σ over 36 values of q·(±127) with every 5th value 0.
+            let direct: i32 = (0..36).filter(|i| i % 5 != 4).map(|i| q * sq.weight(i, 0) as i32).sum();
+            assert_eq!(want[0], direct);
+            for k in every_i8_kernel() {
+                assert_eq!(run(k), want, "{k:?} weights {wsign} values {vals}");
             }
         }
     }
@@ -965,7 +1100,7 @@ mod tests {
     #[test]
     fn i8_scores_equal_the_quantised_descriptor_scores() {
         let (spec, grid, wts) = setup(100, 300);
-        let sw = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &wts, -0.75)).unwrap();
+        let sw = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &wts, -0.75).unwrap()).unwrap();
         let (nwx, nwy) = grid.windows(&spec);
         let mut got = vec![0.0f32; nwx * nwy];
         window_scores_i8(&sw, &grid, Exec::Parallel, &mut got);
@@ -993,7 +1128,7 @@ mod tests {
         let img = crate::raw::load::load_rgb8(&crate::data::require("kodak/kodim01.png")).unwrap();
         let mut grid = BlockGrid::empty();
         block_grid(&spec, &HogInput::Rgb8(img.view()), Exec::Parallel, &mut grid).unwrap();
-        let sw = ScoreWeights::new(&spec, &model.weights, model.bias);
+        let sw = ScoreWeights::new(&spec, &model.weights, model.bias).unwrap();
         let sq = ScoreWeightsI8::new(&sw).unwrap();
         let (nwx, nwy) = grid.windows(&spec);
         let (mut f, mut q) = (vec![0.0f32; nwx * nwy], vec![0.0f32; nwx * nwy]);
@@ -1029,7 +1164,7 @@ mod tests {
         assert_eq!(quantise_block_value(128.5 / 255.0), 128);
         let spec = HogSpec::new(&HogOptions::default()).unwrap();
         // All-zero weights: every window scores the bias.
-        let zero = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &[], 1.5)).unwrap();
+        let zero = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &[], 1.5).unwrap()).unwrap();
         assert_eq!(zero.weight_scale(), 1.0);
         let (_, grid, _) = setup(80, 144);
         let mut s = vec![0.0f32; 9];
@@ -1039,7 +1174,7 @@ mod tests {
         // from zero.
         let mut w = vec![0.0f32; spec.descriptor_len()];
         (w[0], w[1], w[2], w[37]) = (-127.0 / 128.0, 0.25, -0.5 / 128.0, 1.5 / 128.0);
-        let q = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0)).unwrap();
+        let q = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0).unwrap()).unwrap();
         assert_eq!(q.weight_scale(), 128.0);
         assert_eq!(
             [q.weight(0, 0), q.weight(1, 0), q.weight(2, 0), q.weight(1, 1)],
@@ -1052,7 +1187,7 @@ mod tests {
     }
 
     #[test]
-    fn every_quantiser_gives_the_scalar_bytes_at_the_edges() {
+    fn kernel_paths_quantisers_give_the_scalar_bytes_at_the_edges() {
         // 21 blocks of 36 values (756: a partial last vector and a partial gather of 5 blocks),
         // with ties, out-of-range values and NaN.
         let special = [
@@ -1071,17 +1206,30 @@ mod tests {
             .map(|i| special.get(i % 97).copied().unwrap_or((i as f32 * 0.618).fract()))
             .collect();
         let run = |k| {
-            let (mut q, mut btq) = (vec![0u8; 21 * 36], vec![1u32; 9 * 32]);
+            let (mut q, mut btq) = (vec![0u8; 21 * 36], vec![1u32; 18 * 32]);
             quantise_row(&row, 36, 21, 32, k, &mut q, &mut btq);
             (q, btq)
         };
-        let want = run(ProductKernel::Scalar);
+        let want = run(I8Kernel::Scalar);
         assert_eq!(want.0[..10], [0, 255, 0, 0, 255, 0, 255, 128, 128, 0]);
-        for k in ProductKernel::available_for(ScorePrecision::I8) {
+        for k in every_i8_kernel() {
             let got = run(k);
             assert_eq!(got.0, want.0, "{k:?}");
-            for g in 0..9 {
-                assert_eq!(got.1[g * 32..][..21], want.1[g * 32..][..21], "{k:?} dword {g}");
+            for x in 0..21 {
+                let block = &want.0[x * 36..][..36];
+                match k.layout() {
+                    Layout::Bytes => {
+                        for g in 0..9 {
+                            assert_eq!(got.1[g * 32 + x].to_le_bytes(), block[4 * g..][..4], "{k:?} {x} dword {g}");
+                        }
+                    }
+                    Layout::Pairs => {
+                        for h in 0..18 {
+                            let d = got.1[h * 32 + x];
+                            assert_eq!([d as u16, (d >> 16) as u16], [block[2 * h] as u16, block[2 * h + 1] as u16]);
+                        }
+                    }
+                }
             }
         }
     }
@@ -1091,12 +1239,19 @@ mod tests {
         // Two blocks of 6 values → 2 dwords each; 16 padded columns.
         let row = [1.0, 0.0, 0.5, 1.0, 0.2, 0.4, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0];
         let (mut q, mut btq) = (vec![9u8; 2 * 8], vec![7u32; 2 * 16]);
-        quantise_row(&row, 6, 2, 16, ProductKernel::Scalar, &mut q, &mut btq);
+        quantise_row(&row, 6, 2, 16, I8Kernel::Scalar, &mut q, &mut btq);
         assert_eq!(btq[0], u32::from_le_bytes([255, 0, 128, 255]));
         assert_eq!(btq[16], u32::from_le_bytes([51, 102, 0, 0]));
         assert_eq!(btq[1], u32::from_le_bytes([0, 255, 255, 0]));
         assert_eq!(btq[17], u32::from_le_bytes([255, 255, 0, 0]));
         assert_eq!(btq[2], 7, "columns past nbx are not written");
+        // The u16-pair layout of the same blocks: 3 dwords each.
+        let mut bt16 = vec![7u32; 3 * 16];
+        quantise_row(&row, 6, 2, 16, I8Kernel::Avx2Pairs, &mut q, &mut bt16);
+        assert_eq!(bt16[0], 255);
+        assert_eq!(bt16[16], 128 | 255 << 16);
+        assert_eq!(bt16[32], 51 | 102 << 16);
+        assert_eq!(bt16[1], 255 << 16);
     }
 
     #[test]
@@ -1107,14 +1262,15 @@ mod tests {
         assert_eq!("I8".parse::<ScorePrecision>().unwrap(), ScorePrecision::I8);
         assert_eq!(ScorePrecision::default(), ScorePrecision::F32);
         let e = "f16".parse::<ScorePrecision>().unwrap_err().to_string();
-        assert!(e.contains("f16") && e.contains("f32, i8"), "{e}");
+        assert!(e.contains("f16") && e.contains("f32, i8, auto"), "{e}");
+        assert_eq!("AUTO".parse::<ScorePrecision>().unwrap(), ScorePrecision::auto());
         // 255 bins: 7·15 blocks of 1020 values overflow i32 window sums.
         let spec = HogSpec::new(&HogOptions {
             nbins: 255,
             ..HogOptions::default()
         })
         .unwrap();
-        let e = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &[1.0], 0.0)).unwrap_err();
+        let e = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &[1.0], 0.0).unwrap()).unwrap_err();
         assert_eq!(
             e,
             ScoreError::DescriptorTooLong {
@@ -1127,9 +1283,74 @@ mod tests {
     #[test]
     fn a_grid_smaller_than_a_window_leaves_scores_alone() {
         let spec = HogSpec::new(&HogOptions::default()).unwrap();
-        let sw = ScoreWeights::new(&spec, &[], 1.0);
+        let sw = ScoreWeights::new(&spec, &[], 1.0).unwrap();
         let mut s = vec![7.0f32; 3];
         window_scores(&sw, &BlockGrid::empty(), Exec::Serial, &mut s);
         assert_eq!(s, vec![7.0; 3]);
+    }
+
+    #[test]
+    fn auto_picks_i8_only_on_the_measured_paths_and_slow_settings_say_why() {
+        let f = features();
+        for isa in Isa::ALL {
+            let auto = ScorePrecision::auto_for(isa);
+            let vnni = isa.is_available()
+                && match isa {
+                    Isa::Avx2 => f.avxvnni,
+                    Isa::Avx512 => f.avx512vnni || f.avxvnni,
+                    _ => false,
+                };
+            assert_eq!(auto == ScorePrecision::I8, vnni, "{isa}");
+            assert_eq!(ScorePrecision::F32.slow_reason(isa), None);
+            assert_eq!(auto.slow_reason(isa), None, "{isa}");
+            if auto == ScorePrecision::F32 && isa != Isa::Neon {
+                let why = ScorePrecision::I8.slow_reason(isa).unwrap();
+                let names = if isa == Isa::Scalar { "scalar" } else { "avx512vnni and avxvnni" };
+                assert!(why.contains(names) && why.contains("auto"), "{why}");
+            }
+        }
+        assert_eq!(ScorePrecision::auto(), ScorePrecision::auto_for(crate::kernels::isa()));
+    }
+
+    #[test]
+    fn overflowing_window_geometry_is_refused_with_its_sizes() {
+        // Input-driven geometry (issue 24): sizes whose products wrap are refused with the
+        // values, before anything is indexed.
+        let huge = usize::MAX / 4;
+        for (bw, bh, bl) in [(7, huge, 36), (huge, 5, 1), (1, usize::MAX, 1), (3, 3, usize::MAX / 2)] {
+            assert_eq!(
+                gemm_sizes(bw, bh, bl),
+                Err(ScoreError::Geometry {
+                    blocks_x: bw,
+                    blocks_y: bh,
+                    block_len: bl
+                }),
+                "{bw} {bh} {bl}"
+            );
+        }
+        assert_eq!(gemm_sizes(7, 15, 36), Ok((105, 108, 36 * 108)));
+        // The crafted model of the report: a 32 x 6148914691236517216 window of 2 bins, whose
+        // descriptor length wraps to 8. Refused here if the HOG spec lets it through.
+        let opts = HogOptions {
+            win_width: 32,
+            win_height: 6_148_914_691_236_517_216,
+            nbins: 2,
+            ..HogOptions::default()
+        };
+        if let Ok(spec) = HogSpec::new(&opts) {
+            let e = ScoreWeights::new(&spec, &[1.0; 8], 0.0).unwrap_err();
+            assert!(matches!(e, ScoreError::Geometry { blocks_x: 3, block_len: 8, .. }), "{e}");
+            assert!(e.to_string().contains("3x768614336404564651 blocks of 8 values"), "{e}");
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "block products out of bounds")]
+    fn product_bounds_are_checked_in_release_builds_too() {
+        let (spec, _, wts) = setup(80, 144);
+        let sw = ScoreWeights::new(&spec, &wts, 0.0).unwrap();
+        // A transposed row one column short of 16 padded columns.
+        let (bt, mut out) = (vec![0.0f32; 36 * 16 - 1], vec![0.0f32; 105 * 16]);
+        block_products(&sw, &bt, 10, 16, crate::kernels::isa(), &mut out);
     }
 }

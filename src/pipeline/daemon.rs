@@ -33,7 +33,6 @@ use super::stats::StatsSnapshot;
 use crate::capture::SourceKind;
 use crate::clock::{Clock, MonotonicClock, ReplayClock};
 use crate::config::{CameraConfig, Config};
-use crate::detect::score::{ProductKernel, ScorePrecision};
 use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
 
 /// How often the daemon checks whether every pipeline has finished.
@@ -235,14 +234,6 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
     let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
         message: format!("compute: {e}"),
     })?;
-    if opts.svm == ScorePrecision::I8
-        && ProductKernel::detect_for(ScorePrecision::I8) == ProductKernel::Scalar
-    {
-        tracing::warn!(
-            "compute.svm = \"i8\" but this CPU has no AVX-512 VNNI: the 8-bit SVM runs its scalar \
-             kernel (same scores, slower than \"f32\")"
-        );
-    }
     Ok(Some(Arc::new(det)))
 }
 
