@@ -103,11 +103,11 @@ fn dng(
     out
 }
 
-#[test]
-fn synthetic_dng_crop_levels_and_gains() {
+/// The 10x8 test DNG: GRBG (CFAPattern 1 0 / 2 1), ActiveArea top 1, left 1, bottom 7, right 9,
+/// black 64, white 4000, AsShotNeutral 1/2, 1, 1/4. Returns the width, the pixels and the file.
+fn synthetic() -> (usize, Vec<u16>, Vec<u8>) {
     let (w, h) = (10usize, 8usize);
     let px: Vec<u16> = (0..w * h).map(|i| 64 + (i as u16 * 37) % 3900).collect();
-    // GRBG (CFAPattern 1 0 / 2 1), ActiveArea top 1, left 1, bottom 7, right 9.
     let bytes = dng(
         w as u32,
         h as u32,
@@ -118,6 +118,12 @@ fn synthetic_dng_crop_levels_and_gains() {
         [1, 1, 7, 9],
         [(1, 2), (1, 1), (1, 4)],
     );
+    (w, px, bytes)
+}
+
+#[test]
+fn synthetic_dng_crop_levels_and_gains() {
+    let (w, px, bytes) = synthetic();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("synth.dng");
     std::fs::write(&p, &bytes).unwrap();
@@ -153,18 +159,7 @@ fn synthetic_dng_crop_levels_and_gains() {
 /// the file with rawloader's error and nothing on stderr says "panicked".
 #[test]
 fn rawloader_caught_panics_stay_off_stderr() {
-    let (w, h) = (10usize, 8usize);
-    let px: Vec<u16> = (0..w * h).map(|i| 64 + (i as u16 * 37) % 3900).collect();
-    let bytes = dng(
-        w as u32,
-        h as u32,
-        &px,
-        [1, 0, 2, 1],
-        64,
-        4000,
-        [1, 1, 7, 9],
-        [(1, 2), (1, 1), (1, 4)],
-    );
+    let (_, _, bytes) = synthetic();
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path().join("truncated.dng");
     std::fs::write(&t, &bytes[..bytes.len() / 2]).unwrap();

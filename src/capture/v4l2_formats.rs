@@ -134,7 +134,6 @@ pub enum V4l2FormatError {
         /// Format.
         fourcc: String,
         /// The size and the limit.
-        #[source]
         limit: FrameTooLarge,
     },
 }

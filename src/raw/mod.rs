@@ -124,7 +124,6 @@ pub enum RawError {
         /// File.
         path: PathBuf,
         /// The size claimed and the limit.
-        #[source]
         limit: FrameTooLarge,
     },
     /// A file larger than any frame within the frame-size limit can be, refused before it is read.

@@ -57,7 +57,7 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 }
 
 /// Load a camera raw file: a Kodak DC40/DC50 KDC (identified by its TIFF make and model, see
-/// [`super::kodak_radc`]) through our RADC decoder, anything else through `rawloader`.
+/// [`crate::raw::kodak_radc`]) through our RADC decoder, anything else through `rawloader`.
 ///
 /// The file is `stat`ed first: one larger than [`max_camera_raw_bytes`] is
 /// [`RawError::FileTooLarge`] before it is read; a decoded frame beyond the frame-size limit is

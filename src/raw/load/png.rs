@@ -78,7 +78,7 @@ impl PngMosaicMeta {
 }
 
 /// Write a frame as a 16-bit grey PNG: values as stored (not scaled), with the pattern, bit depth
-/// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`load_input`] reads.
+/// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`super::load_input`] reads.
 pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let (w, h) = (frame.width(), frame.height());
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
