@@ -25,5 +25,9 @@ fuzz_target!(|data: &[u8]| {
     let from_memory = frame_from_bytes(bytes, &fmt, origin);
     let path = mosaicd_fuzz::scratch_file("in.raw", bytes);
     let from_file = load_headerless(&path, &fmt);
-    assert_eq!(from_memory.is_ok(), from_file.is_ok(), "memory and file loaders disagree");
+    assert_eq!(
+        from_memory.is_ok(),
+        from_file.is_ok(),
+        "memory and file loaders disagree"
+    );
 });
