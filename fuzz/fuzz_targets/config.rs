@@ -12,10 +12,13 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let _ = cfg.limits.frame_limits();
+    let _ = cfg.compute.mosaic_taps_override();
+    let _ = cfg.compute.mosaic_tone_override();
+    let _ = cfg.compute.wb_gains();
+    let _ = cfg.compute.svm_precision();
     for cam in &cfg.cameras {
         let _ = cam.cfa();
         let _ = cam.levels();
         let _ = cam.fourcc_bytes();
-        let _ = cam.wb_gains();
     }
 });
