@@ -5,7 +5,7 @@ CARGO ?= cargo
 export MOSAICD_DATA ?= $(abspath ../shared/data)
 ORACLE_DIR := target/oracle
 
-.PHONY: setup demo recording test oracle skimage-negatives lint doc bench
+.PHONY: setup demo recording test oracle skimage-negatives lint doc bench fuzz fuzz-smoke fuzz-build
 
 setup:
 	@bash scripts/setup.sh
@@ -44,6 +44,47 @@ test: oracle lint
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --all-targets --quiet
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --doc --quiet
 	$(MAKE) --no-print-directory doc
+	$(MAKE) --no-print-directory fuzz-smoke
 
 bench: setup
 	$(CARGO) bench
+
+# Fuzzing (docs/fuzzing.md): the fuzz/ crate's libFuzzer targets, built on the stable toolchain with
+# SanitizerCoverage (no sanitizer runtime), overflow checks and debug assertions on.
+FUZZ_TARGETS := mcap_source raw_frame_message headerless_sidecar pgm_png camera_raw model_files config v4l2_unpack
+FUZZ_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/fuzz
+FUZZ_HOST := $(shell rustc -vV | sed -n 's/^host: //p')
+FUZZ_BIN := $(FUZZ_TARGET_DIR)/$(FUZZ_HOST)/release
+FUZZ_CORPUS ?= $(FUZZ_TARGET_DIR)/corpus
+FUZZ_SECONDS ?= 600
+FUZZ_SMOKE_SECONDS ?= 4
+FUZZ_RUSTFLAGS := -Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
+	-Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
+	-Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing -Cdebug-assertions -Coverflow-checks
+# libFuzzer options: 2 GiB RSS limit, 64 KiB inputs, one job; crashes land in $(FUZZ_TARGET_DIR)/artifacts.
+FUZZ_FLAGS := -rss_limit_mb=2048 -max_len=65536 -timeout=10 -print_final_stats=1
+
+# --target keeps RUSTFLAGS off build scripts and proc macros.
+fuzz-build:
+	RUSTFLAGS="$(FUZZ_RUSTFLAGS)" $(CARGO) build --release --quiet --manifest-path fuzz/Cargo.toml \
+		--target $(FUZZ_HOST) --target-dir $(FUZZ_TARGET_DIR)
+
+# A few seconds per target (CI, through `make test`).
+fuzz-smoke: fuzz-build
+	bash fuzz/seed.sh $(FUZZ_CORPUS)
+	mkdir -p $(FUZZ_TARGET_DIR)/artifacts
+	for t in $(FUZZ_TARGETS); do \
+		out=$$($(FUZZ_BIN)/$$t $(FUZZ_FLAGS) -max_total_time=$(FUZZ_SMOKE_SECONDS) \
+			-artifact_prefix=$(FUZZ_TARGET_DIR)/artifacts/$$t- $(FUZZ_CORPUS)/$$t 2>&1); rc=$$?; \
+		echo "$$out" | grep -E '^Done' | sed "s/^/fuzz $$t: /"; \
+		if [ $$rc -ne 0 ]; then echo "$$out" | tail -40; exit 1; fi; \
+	done
+
+# Long runs: FUZZ_SECONDS per target (default 600), or one target with FUZZ_TARGETS=name.
+fuzz: fuzz-build
+	bash fuzz/seed.sh $(FUZZ_CORPUS)
+	mkdir -p $(FUZZ_TARGET_DIR)/artifacts
+	for t in $(FUZZ_TARGETS); do \
+		$(FUZZ_BIN)/$$t $(FUZZ_FLAGS) -max_total_time=$(FUZZ_SECONDS) \
+			-artifact_prefix=$(FUZZ_TARGET_DIR)/artifacts/$$t- $(FUZZ_CORPUS)/$$t || exit 1; \
+	done

@@ -46,8 +46,8 @@ const MAX_SHUTDOWN_TIMEOUT_MS: u64 = 90_000;
 const MIN_STATS_INTERVAL_MS: u64 = 50;
 /// Largest subscriber buffer (samples held per subscriber before the oldest is overwritten).
 const MAX_SUBSCRIBER_BUFFER: usize = 4096;
-/// Largest frame side we accept from a config (16 k pixels).
-const MAX_SIDE: usize = 16_384;
+/// Largest frame side we accept from a config (16 k pixels: the frame-size limit's side).
+const MAX_SIDE: usize = crate::raw::limits::MAX_SIDE;
 /// Allowed characters in a camera name (it becomes part of iceoryx2 service names).
 const NAME_CHARS: &str = "a-z, A-Z, 0-9, '_', '-'";
 
@@ -115,9 +115,37 @@ pub struct Config {
     /// Per-frame compute (`[compute]`).
     #[serde(default)]
     pub compute: ComputeConfig,
+    /// Limits on what inputs may claim (`[limits]`).
+    #[serde(default)]
+    pub limits: LimitsConfig,
     /// One entry per camera (`[[camera]]`); at least one.
     #[serde(default, rename = "camera")]
     pub cameras: Vec<CameraConfig>,
+}
+
+/// `[limits]`: bounds on what inputs may claim, checked before anything is allocated for them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LimitsConfig {
+    /// Largest frame in pixels (`4..=268435456`, default 2^26 = 67108864, "64 MP"), from any
+    /// source: recordings, files, cameras ([`crate::raw::limits`]; a side is at most 16384).
+    pub max_frame_pixels: u64,
+}
+
+impl Default for LimitsConfig {
+    fn default() -> Self {
+        Self {
+            max_frame_pixels: crate::raw::limits::DEFAULT_MAX_PIXELS,
+        }
+    }
+}
+
+impl LimitsConfig {
+    /// The frame-size limit (valid after [`Config::validate`]; out-of-range values give the
+    /// default).
+    pub fn frame_limits(&self) -> crate::raw::FrameLimits {
+        crate::raw::FrameLimits::new(self.max_frame_pixels).unwrap_or(crate::raw::FrameLimits::DEFAULT)
+    }
 }
 
 /// `[daemon]`: scheduling and process settings.
@@ -599,6 +627,12 @@ impl Config {
             1,
             MAX_SHUTDOWN_TIMEOUT_MS,
         )?;
+        range(
+            "limits.max_frame_pixels",
+            self.limits.max_frame_pixels,
+            4,
+            crate::raw::limits::MAX_MAX_PIXELS,
+        )?;
         let p = &self.publish;
         range(
             "publish.subscriber_buffer",
@@ -715,6 +749,17 @@ impl Config {
                         allowed: format!("an even number in 2..={MAX_SIDE} (whole 2x2 tiles)"),
                     });
                 }
+            }
+            let pixels = (cam.width as u64).saturating_mul(cam.height as u64);
+            if pixels > self.limits.max_frame_pixels {
+                return Err(ConfigError::OutOfRange {
+                    key: key("width"),
+                    value: format!("{} (x height {} = {pixels} pixels)", cam.width, cam.height),
+                    allowed: format!(
+                        "at most limits.max_frame_pixels = {} pixels in all",
+                        self.limits.max_frame_pixels
+                    ),
+                });
             }
             range(&key("bit_depth"), cam.bit_depth, 8, 16)?;
             if parse_cfa(&cam.cfa).is_none() {
@@ -861,6 +906,30 @@ mod tests {
                 .to_string();
             assert!(msg.contains("only with source = \"v4l2\""), "{extra}: {msg}");
         }
+    }
+
+    #[test]
+    fn frame_size_limit_is_one_key_with_a_default_and_bounds_cameras() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.limits.max_frame_pixels, crate::raw::limits::DEFAULT_MAX_PIXELS);
+        assert_eq!(c.limits.frame_limits(), crate::raw::FrameLimits::DEFAULT);
+        let c = Config::from_toml_str(&format!("[limits]\nmax_frame_pixels = 1000000\n{MIN}")).unwrap();
+        assert_eq!(c.limits.frame_limits().max_pixels(), 1_000_000);
+        for bad in ["0", "268435457"] {
+            let msg = Config::from_toml_str(&format!("[limits]\nmax_frame_pixels = {bad}\n{MIN}"))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains("limits.max_frame_pixels"), "{msg}");
+        }
+        let msg = Config::from_toml_str(&format!(
+            "[limits]\nmax_frame_pixels = 1000000\n{MIN}width = 2000\nheight = 1000\n"
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(
+            msg.contains("camera[0].width") && msg.contains("max_frame_pixels"),
+            "{msg}"
+        );
     }
 
     #[test]

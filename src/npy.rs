@@ -12,6 +12,9 @@
 
 use std::path::{Path, PathBuf};
 
+/// Largest `.npy` file [`NpyArray::read`] reads (values are widened to 8 bytes each in memory).
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
 /// Errors reading `.npy` files.
 #[derive(Debug, thiserror::Error)]
 pub enum NpyError {
@@ -23,6 +26,16 @@ pub enum NpyError {
         /// Cause.
         #[source]
         source: std::io::Error,
+    },
+    /// The file is larger than [`MAX_FILE_BYTES`].
+    #[error("{path}: file is {size} bytes, more than the {max} bytes a .npy file may have here")]
+    TooLarge {
+        /// File.
+        path: PathBuf,
+        /// Its size.
+        size: u64,
+        /// Largest size accepted.
+        max: u64,
     },
     /// The header is malformed or describes something unsupported.
     #[error("{origin}: not a supported .npy file: {what}")]
@@ -54,13 +67,31 @@ pub struct NpyArray {
 }
 
 impl NpyArray {
-    /// Read a file.
+    /// Read a file of at most [`MAX_FILE_BYTES`] (checked with `stat` before reading).
     pub fn read(path: impl AsRef<Path>) -> Result<Self, NpyError> {
+        use std::io::Read;
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| NpyError::Io {
+        let io = |source| NpyError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
+        };
+        let file = std::fs::File::open(path).map_err(io)?;
+        let size = file.metadata().map_err(io)?.len();
+        let too_big = |size| NpyError::TooLarge {
+            path: path.to_path_buf(),
+            size,
+            max: MAX_FILE_BYTES,
+        };
+        if size > MAX_FILE_BYTES {
+            return Err(too_big(size));
+        }
+        let mut bytes = Vec::with_capacity(size as usize);
+        file.take(MAX_FILE_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > MAX_FILE_BYTES {
+            return Err(too_big(bytes.len() as u64));
+        }
         Self::parse(&bytes, &path.display().to_string())
     }
 
@@ -74,7 +105,7 @@ impl NpyArray {
             return Err(fmt("missing \\x93NUMPY magic".into()));
         }
         let major = bytes[6];
-        let (hlen, hstart) = match major {
+        let (hlen, hstart): (usize, usize) = match major {
             1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
             2 | 3 => {
                 if bytes.len() < 12 {
@@ -87,7 +118,7 @@ impl NpyArray {
             }
             v => return Err(fmt(format!("format version {v} not supported"))),
         };
-        let hend = hstart + hlen;
+        let hend = hstart.saturating_add(hlen);
         if bytes.len() < hend {
             return Err(fmt("header cut off".into()));
         }
@@ -112,7 +143,13 @@ impl NpyArray {
                     .map_err(|_| fmt(format!("bad shape {shape_s}")))
             })
             .collect::<Result<_, _>>()?;
-        let n: usize = shape.iter().product();
+        // The shape comes from the file: its product is computed checked, so that a shape such as
+        // (2**62 + 3781,) with 4-byte values cannot wrap into a small size that passes the length
+        // check below.
+        let n = shape
+            .iter()
+            .try_fold(1usize, |n, &d| n.checked_mul(d))
+            .ok_or_else(|| fmt(format!("shape {shape_s} has more elements than fit in memory")))?;
         let (size, conv): (usize, fn(&[u8]) -> f64) = match descr {
             "<f4" => (4, |b| f32::from_le_bytes(b.try_into().unwrap()) as f64),
             "<f8" => (8, |b| f64::from_le_bytes(b.try_into().unwrap())),
@@ -128,14 +165,19 @@ impl NpyArray {
             d => return Err(fmt(format!("dtype {d} not supported"))),
         };
         let body = &bytes[hend..];
-        if body.len() < n * size {
+        let Some(len) = n.checked_mul(size) else {
+            return Err(fmt(format!(
+                "shape {shape_s} of {size}-byte values has more bytes than fit in memory"
+            )));
+        };
+        if body.len() < len {
             return Err(NpyError::Truncated {
                 origin: origin.to_string(),
-                expected: n * size,
+                expected: len,
                 actual: body.len(),
             });
         }
-        let data = body[..n * size].chunks_exact(size).map(conv).collect();
+        let data = body[..len].chunks_exact(size).map(conv).collect();
         Ok(Self { shape, data })
     }
 
@@ -209,5 +251,34 @@ mod tests {
             Err(NpyError::Truncated { .. })
         ));
         assert_eq!(NpyArray::parse(&b, "x").unwrap(), a);
+    }
+
+    /// A shape whose element count times the value size wraps (2^62 + 3781 four-byte values is
+    /// 15124 bytes modulo 2^64) must be refused, not read as 3781 values.
+    #[test]
+    fn shapes_that_overflow_are_refused() {
+        // (2^62 + 3781) * 4 bytes wraps to 3781 * 4 = 15124: before the check this read as a
+        // valid 3781-element vector (OpenCV's detector length).
+        let mut bytes = header_only(&format!("({},)", (1u64 << 62) + 3781));
+        bytes.extend(std::iter::repeat_n(0u8, 3781 * 4));
+        match NpyArray::parse(&bytes, "crafted") {
+            Err(NpyError::Format { what, .. }) => assert!(what.contains("fit in memory"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+        // The element count alone overflowing.
+        let e = NpyArray::parse(&header_only(&format!("({}, {})", 1u64 << 40, 1u64 << 40)), "x").unwrap_err();
+        assert!(e.to_string().contains("fit in memory"), "{e}");
+        // A sane shape in the same layout still reads.
+        let mut ok = header_only("(3,)");
+        ok.extend(1.5f32.to_le_bytes().repeat(3));
+        assert_eq!(NpyArray::parse(&ok, "ok").unwrap().data, vec![1.5; 3]);
+    }
+
+    fn header_only(shape: &str) -> Vec<u8> {
+        let header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape}, }}\n");
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        out
     }
 }

@@ -33,6 +33,7 @@ fn default_config_equals_built_in_defaults_and_mentions_every_key() {
     assert_eq!(c.publish, d.publish);
     assert_eq!(c.record, d.record);
     assert_eq!(c.compute, d.compute);
+    assert_eq!(c.limits, d.limits);
     let text =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/mosaicd.toml")).unwrap();
     let keys = toml::Value::try_from(&c).unwrap();

@@ -410,3 +410,25 @@ fn python_reads_the_gradient_slices() {
         assert_eq!(g["decimation"], 4);
     }
 }
+
+/// A non-finite number (a stats field before any frame, a NaN score) is printed as `null`: the
+/// subscriber's lines are strict JSON, which has no `NaN` or `Infinity`.
+#[test]
+fn python_subscriber_prints_null_for_non_finite_numbers() {
+    let dir = script().parent().unwrap().to_path_buf();
+    let code = "import sys, mosaicd_subscriber as m; \
+                print(m.json_line({'score': float('nan'), 'fps': float('inf'), \
+                'list': [1.5, float('-inf')], 'nested': {'x': float('nan')}, 'n': 3}))";
+    let out = Command::new("python3")
+        .current_dir(&dir)
+        .args(["-c", code])
+        .output()
+        .expect("python3 runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let line = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(line.trim()).unwrap_or_else(|e| panic!("{line}: {e}"));
+    assert_eq!(
+        v,
+        serde_json::json!({"score": null, "fps": null, "list": [1.5, null], "nested": {"x": null}, "n": 3})
+    );
+}

@@ -103,11 +103,11 @@ fn dng(
     out
 }
 
-#[test]
-fn synthetic_dng_crop_levels_and_gains() {
+/// The 10x8 test DNG: GRBG (CFAPattern 1 0 / 2 1), ActiveArea top 1, left 1, bottom 7, right 9,
+/// black 64, white 4000, AsShotNeutral 1/2, 1, 1/4. Returns the width, the pixels and the file.
+fn synthetic() -> (usize, Vec<u16>, Vec<u8>) {
     let (w, h) = (10usize, 8usize);
     let px: Vec<u16> = (0..w * h).map(|i| 64 + (i as u16 * 37) % 3900).collect();
-    // GRBG (CFAPattern 1 0 / 2 1), ActiveArea top 1, left 1, bottom 7, right 9.
     let bytes = dng(
         w as u32,
         h as u32,
@@ -118,6 +118,12 @@ fn synthetic_dng_crop_levels_and_gains() {
         [1, 1, 7, 9],
         [(1, 2), (1, 1), (1, 4)],
     );
+    (w, px, bytes)
+}
+
+#[test]
+fn synthetic_dng_crop_levels_and_gains() {
+    let (w, px, bytes) = synthetic();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("synth.dng");
     std::fs::write(&p, &bytes).unwrap();
@@ -146,4 +152,29 @@ fn synthetic_dng_crop_levels_and_gains() {
     std::fs::write(&t, &bytes[..bytes.len() / 2]).unwrap();
     let e = load_camera_raw(&t);
     assert!(e.is_err(), "truncated DNG must not load");
+}
+
+/// rawloader turns a panic of its decoders into an error, but the default panic hook printed
+/// "panicked at ..." on stderr first. A truncated DNG panics inside rawloader: the command refuses
+/// the file with rawloader's error and nothing on stderr says "panicked".
+#[test]
+fn rawloader_caught_panics_stay_off_stderr() {
+    let (_, _, bytes) = synthetic();
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("truncated.dng");
+    std::fs::write(&t, &bytes[..bytes.len() / 2]).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mosaicd"))
+        .arg("gradients")
+        .arg(&t)
+        .arg("--out")
+        .arg(dir.path().join("g"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("truncated.dng") && err.contains("rawloader"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
 }

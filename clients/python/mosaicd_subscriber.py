@@ -328,6 +328,23 @@ def stats_json(m: StatsMsg) -> dict:
     return v
 
 
+def _finite(v: Any) -> Any:
+    """``v`` with every NaN or infinite float replaced by ``None`` (JSON has no NaN/Infinity)."""
+    if isinstance(v, float):
+        return v if v == v and v not in (float("inf"), float("-inf")) else None
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite(x) for x in v]
+    return v
+
+
+def json_line(v: Any) -> str:
+    """One line of strict JSON: non-finite numbers (a stats field before any frame, a NaN score)
+    become ``null``; bare ``NaN``/``Infinity`` are not JSON."""
+    return json.dumps(_finite(v), allow_nan=False)
+
+
 def layout() -> dict:
     """Size, alignment and field offsets of every message structure, by iceoryx2 type name."""
     return {
@@ -394,7 +411,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.monotonic()
 
     def emit(v: dict) -> None:
-        out.write(json.dumps(v) + "\n")
+        out.write(json_line(v) + "\n")
 
     def drain_detections() -> None:
         nonlocal received

@@ -14,7 +14,8 @@ package from PyPI::
 ``header`` is the frame's JSON header (``sequence``, ``timestamp_ns``, ``width``, ``height``,
 ``cfa``, ``bit_depth``, ``black`` per 2x2 tile position ``(y & 1) * 2 + (x & 1)``, ``white``,
 ``wb_gains``, ...); ``mosaic`` is ``height x width``, ``uint8`` or ``uint16`` (values as stored,
-LSB-aligned). Records are checked against their CRCs. A truncated recording (a crash mid-write)
+LSB-aligned). Records are checked against their CRCs, and sizes against the daemon's default
+frame-size limit (:data:`MAX_FRAME_PIXELS`, :data:`MAX_RECORD_BYTES`) before anything is allocated. A truncated recording (a crash mid-write)
 yields every complete message before the cut and then stops with :class:`TruncatedRecording`,
 which says how many were read; a file that is not MCAP, a record whose CRC does not match and a
 corrupt frame message raise :class:`ValueError` naming what is wrong.
@@ -38,12 +39,20 @@ from typing import Any, Iterator
 
 import numpy as np
 from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.records import Channel, Chunk, Message, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
 
 #: Message encoding of the raw-frame channel.
 RAW_FRAME_ENCODING = "mosaicd.rawframe.v1"
 _MAGIC = b"MRF1"
+#: The daemon's default frame-size limit (``limits.max_frame_pixels``; docs/recording.md): pixels in
+#: all, and per side.
+MAX_FRAME_PIXELS = 1 << 26
+MAX_SIDE = 16384
+#: Largest record or uncompressed chunk read, bytes, derived from the frame-size limit as the daemon
+#: does: a recorder's largest chunk-size target (64 MiB) plus one 16-bit frame and its header. A chunk
+#: claiming more (a few KB of zstd can claim gigabytes) is refused before it is decompressed.
+MAX_RECORD_BYTES = (64 << 20) + 2 * MAX_FRAME_PIXELS + (64 << 10)
 
 
 class TruncatedRecording(Exception):
@@ -68,6 +77,10 @@ def decode_raw_frame(data: bytes, where: str = "message") -> tuple[dict, np.ndar
         raise ValueError(f"{where}: bad frame header: {e}") from None
     if bits not in (8, 16):
         raise ValueError(f"{where}: container_bits {bits} is neither 8 nor 16")
+    if not (0 <= w <= MAX_SIDE and 0 <= h <= MAX_SIDE and w * h <= MAX_FRAME_PIXELS):
+        raise ValueError(
+            f"{where}: a {w}x{h} frame exceeds the frame-size limit ({MAX_SIDE} per side, {MAX_FRAME_PIXELS} pixels)"
+        )
     dtype = np.dtype(np.uint8) if bits == 8 else np.dtype("<u2")
     pixels = data[8 + n :]
     if len(pixels) != w * h * dtype.itemsize:
@@ -85,9 +98,24 @@ def messages(path: str) -> Iterator[tuple[Channel, Schema | None, Message]]:
     channels: dict[int, Channel] = {}
     schemas: dict[int, Schema] = {}
     count = 0
+    def records(f):
+        reader = StreamReader(
+            f, skip_magic=False, emit_chunks=True, validate_crcs=True, record_size_limit=MAX_RECORD_BYTES
+        )
+        for r in reader.records:
+            if isinstance(r, Chunk):
+                if r.uncompressed_size > MAX_RECORD_BYTES:
+                    raise ValueError(
+                        f"{path}: a chunk claims {r.uncompressed_size} bytes uncompressed, more than the "
+                        f"{MAX_RECORD_BYTES} bytes a chunk of frames within the frame-size limit takes"
+                    )
+                yield from breakup_chunk(r, validate_crc=True)
+            else:
+                yield r
+
     with open(path, "rb") as f:
         try:
-            for r in StreamReader(f, skip_magic=False, validate_crcs=True).records:
+            for r in records(f):
                 if isinstance(r, Schema):
                     schemas[r.id] = r
                 elif isinstance(r, Channel):

@@ -2,7 +2,7 @@
 //!
 //! Each file is read by [`crate::raw::load::load_input`]: camera raw files through rawloader,
 //! mosaic PNG/PGM, RGB images (resampled to a mosaic), and **headerless** raw files described by a
-//! small TOML sidecar ([`Sidecar`]), looked up in this order: `--sidecar` given in the options,
+//! small TOML sidecar ([`Sidecar`], parsed into the loader's [`RawFormat`]), looked up in this order: `--sidecar` given in the options,
 //! `<file>.toml` (e.g. `frame.raw.toml`), `<stem>.toml`, then `mosaicd-raw.toml` in the file's
 //! directory. A sidecar looks like:
 //!
@@ -40,7 +40,9 @@ use std::sync::Arc;
 use serde::Deserialize;
 
 use super::{CaptureError, Clock, MonotonicClock, Source, SourceKind};
-use crate::raw::load::{load_input, Container, Endian, InputOptions};
+use crate::raw::load::{
+    headerless_format, load_headerless, load_input, Container, Endian, InputOptions, RawFormat,
+};
 use crate::raw::{Cfa, RawFrame};
 
 /// Directory-wide sidecar name.
@@ -85,8 +87,13 @@ pub struct Sidecar {
 }
 
 impl Sidecar {
-    /// Read and check a sidecar file.
-    pub fn read(path: &Path) -> Result<Self, CaptureError> {
+    /// Read a sidecar file and parse it into the headerless format it describes.
+    pub fn read(path: &Path) -> Result<RawFormat, CaptureError> {
+        Self::load(path)?.format(path)
+    }
+
+    /// Read a sidecar file as written (checked: its [`Sidecar::format`] is valid).
+    pub fn load(path: &Path) -> Result<Self, CaptureError> {
         let text = std::fs::read_to_string(path).map_err(|source| CaptureError::Io {
             context: format!("cannot read sidecar {}", path.display()),
             source,
@@ -95,12 +102,14 @@ impl Sidecar {
             path: path.to_path_buf(),
             source: Box::new(source),
         })?;
-        s.input_options(path)?;
+        s.format(path)?;
         Ok(s)
     }
 
-    /// The loader options this sidecar describes.
-    pub fn input_options(&self, path: &Path) -> Result<InputOptions, CaptureError> {
+    /// The headerless format this sidecar describes (the one [`RawFormat`] type of
+    /// [`crate::raw::load`]; defaults as there: container from the bit depth, black 0, white full
+    /// scale). `path` names the sidecar in errors.
+    pub fn format(&self, path: &Path) -> Result<RawFormat, CaptureError> {
         let bad = |key: &'static str, value: String, why: &'static str| CaptureError::SidecarValue {
             path: path.to_path_buf(),
             key,
@@ -125,7 +134,7 @@ impl Sidecar {
             Some("u16") => Some(Container::U16),
             Some(o) => return Err(bad("container", o.into(), "\"u8\" or \"u16\"")),
         };
-        Ok(InputOptions {
+        let opts = InputOptions {
             width: Some(self.width),
             height: Some(self.height),
             bit_depth: Some(self.bit_depth),
@@ -138,8 +147,18 @@ impl Sidecar {
             endian,
             stride_bytes: self.stride_bytes,
             container,
-        })
+        };
+        // Every field headerless_format needs is set: it cannot fail on this input, but its
+        // error is passed on rather than unwrapped.
+        Ok(headerless_format(path, &opts)?)
     }
+}
+
+/// How one file is read: the format of its sidecar, or the loader options.
+#[derive(Debug, Clone, Copy)]
+enum HowToRead {
+    Headerless(RawFormat),
+    Options(InputOptions),
 }
 
 /// File source options.
@@ -177,7 +196,7 @@ impl Default for FileSourceOptions {
 pub struct FileSource {
     files: Vec<PathBuf>,
     opts: FileSourceOptions,
-    global: Option<InputOptions>,
+    global: Option<RawFormat>,
     next: usize,
     sequence: u64,
     anchor: Option<u64>,
@@ -240,7 +259,7 @@ impl FileSource {
             });
         }
         let global = match &opts.sidecar {
-            Some(s) => Some(Sidecar::read(s)?.input_options(s)?),
+            Some(s) => Some(Sidecar::read(s)?),
             None => None,
         };
         Ok(Self {
@@ -260,11 +279,11 @@ impl FileSource {
         &self.files
     }
 
-    /// The loader options for `path`: global sidecar, per-file sidecar, directory sidecar, or
-    /// the options' defaults.
-    fn options_for(&self, path: &Path) -> Result<InputOptions, CaptureError> {
+    /// How to read `path`: global sidecar, per-file sidecar, directory sidecar, or the options'
+    /// defaults.
+    fn how_to_read(&self, path: &Path) -> Result<HowToRead, CaptureError> {
         if let Some(g) = self.global {
-            return Ok(g);
+            return Ok(HowToRead::Headerless(g));
         }
         let mut candidates = vec![
             PathBuf::from(format!("{}.toml", path.display())),
@@ -275,10 +294,10 @@ impl FileSource {
         }
         for c in candidates {
             if c.is_file() {
-                return Sidecar::read(&c)?.input_options(&c);
+                return Ok(HowToRead::Headerless(Sidecar::read(&c)?));
             }
         }
-        Ok(self.opts.input)
+        Ok(HowToRead::Options(self.opts.input))
     }
 }
 
@@ -305,8 +324,10 @@ impl Source for FileSource {
         }
         let path = self.files[self.next].clone();
         self.next += 1;
-        let opts = self.options_for(&path)?;
-        let mut frame = load_input(&path, &opts)?.frame;
+        let mut frame = match self.how_to_read(&path)? {
+            HowToRead::Headerless(fmt) => load_headerless(&path, &fmt)?,
+            HowToRead::Options(opts) => load_input(&path, &opts)?.frame,
+        };
         let interval = 1e9 / self.opts.fps;
         let ts = (self.sequence as f64 * interval).round() as u64;
         frame.meta.sequence = self.sequence;

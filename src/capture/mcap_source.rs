@@ -17,7 +17,10 @@
 //! centuries (`[0, u64::MAX, 5]`) replays, and stops, promptly.
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
-//! used, the data section, the summary) and record lengths limited to the file size.
+//! used, the data section, the summary: at open) and record lengths limited to the file size and
+//! to [`crate::record::read::record_length_limit`], which the frame-size limit
+//! ([`crate::raw::limits`]) sets: a chunk claiming more is refused before it is decompressed, and
+//! a frame message larger than the limit ([`RawError::TooLarge`]) before its pixels are copied.
 //! * A **truncated** file (a recording cut by a crash or a full disk, or a writer killed in the
 //!   middle of a chunk) yields every message of its complete chunks, then
 //!   [`CaptureError::Truncated`].
@@ -53,9 +56,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind, Stop};
-use crate::raw::RawFrame;
+use crate::raw::{FrameLimits, RawError, RawFrame};
 use crate::record::read::{read_summary, strict_reader_options};
-use crate::record::schema::{decode_raw_frame, RAW_FRAME_SCHEMA};
+use crate::record::schema::{decode_raw_frame, decode_raw_frame_header, RAW_FRAME_SCHEMA};
 
 /// Frame interval assumed when looping a one-frame recording (30 fps), ns.
 const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;
@@ -406,6 +409,16 @@ impl Source for McapSource {
             };
             if !self.wants(&m) {
                 continue;
+            }
+            // The frame-size limit, from the message's header, before its pixels are copied.
+            if let Ok((h, _)) = decode_raw_frame_header(&m.data) {
+                if let Err(limit) = FrameLimits::process().check(h.width.into(), h.height.into()) {
+                    self.finished = true;
+                    return Err(CaptureError::Raw(RawError::TooLarge {
+                        path: self.path.clone(),
+                        limit,
+                    }));
+                }
             }
             let mut frame = match decode_raw_frame(&m.data) {
                 Ok(f) => f,

@@ -41,7 +41,7 @@
 
 use rayon::prelude::*;
 
-use crate::raw::{Cfa, Levels, RawError, RawFrame, RawPixels};
+use crate::raw::{Cfa, FrameLimits, FrameTooLarge, Levels, RawError, RawFrame, RawPixels};
 
 /// Rows per rayon task when unpacking.
 pub const STRIP_ROWS: usize = 64;
@@ -128,6 +128,14 @@ pub enum V4l2FormatError {
     /// The result is not a valid frame (zero size, bad levels).
     #[error(transparent)]
     Frame(#[from] RawError),
+    /// The driver's frame size exceeds the frame-size limit.
+    #[error("{fourcc}: {limit}")]
+    TooLarge {
+        /// Format.
+        fourcc: String,
+        /// The size and the limit.
+        limit: FrameTooLarge,
+    },
 }
 
 /// Every supported FourCC, in the table's order.
@@ -216,13 +224,14 @@ pub fn bayer_format(fourcc: [u8; 4]) -> Result<BayerFormat, V4l2FormatError> {
 }
 
 impl BayerFormat {
-    /// Smallest `bytesperline` for `width` pixels.
+    /// Smallest `bytesperline` for `width` pixels (saturating: a width whose row does not fit
+    /// in `usize` needs `usize::MAX` bytes, which no buffer has).
     pub fn min_bytes_per_line(&self, width: usize) -> usize {
         match self.packing {
             Packing::U8 => width,
-            Packing::U16Le => width * 2,
-            Packing::Mipi10 => width.div_ceil(4) * 5,
-            Packing::Mipi12 => width.div_ceil(2) * 3,
+            Packing::U16Le => width.saturating_mul(2),
+            Packing::Mipi10 => width.div_ceil(4).saturating_mul(5),
+            Packing::Mipi12 => width.div_ceil(2).saturating_mul(3),
         }
     }
 
@@ -235,7 +244,16 @@ impl BayerFormat {
         fourcc_str(self.fourcc)
     }
 
+    /// Check a buffer's geometry: the size against the frame-size limit, the stride against the
+    /// width, the length against `bpl * (height - 1) + min` (all checked: the sizes come from the
+    /// driver).
     fn check(&self, len: usize, width: usize, height: usize, bpl: usize) -> Result<(), V4l2FormatError> {
+        FrameLimits::process()
+            .check_usize(width, height)
+            .map_err(|limit| V4l2FormatError::TooLarge {
+                fourcc: self.name(),
+                limit,
+            })?;
         let min = self.min_bytes_per_line(width);
         if bpl < min {
             return Err(V4l2FormatError::Stride {
@@ -245,7 +263,13 @@ impl BayerFormat {
                 width,
             });
         }
-        let needed = if height == 0 { 0 } else { bpl * (height - 1) + min };
+        let needed = match height {
+            0 => 0,
+            h => bpl
+                .checked_mul(h - 1)
+                .and_then(|n| n.checked_add(min))
+                .unwrap_or(usize::MAX),
+        };
         if len < needed {
             return Err(V4l2FormatError::BufferSize {
                 fourcc: self.name(),
@@ -313,6 +337,7 @@ pub fn unpack_into(
     dst: &mut [u16],
 ) -> Result<(), V4l2FormatError> {
     fmt.check(buf.len(), width, height, bytes_per_line)?;
+    // Within the frame-size limit (checked above) width * height cannot overflow.
     if dst.len() != width * height {
         return Err(V4l2FormatError::Frame(RawError::BufferSize {
             len: dst.len(),
@@ -389,8 +414,9 @@ pub fn raw_frame_from_v4l2(
     levels: Option<Levels>,
 ) -> Result<RawFrame, V4l2FormatError> {
     let levels = levels.unwrap_or(Levels::uniform(0, fmt.max_value()));
+    // Geometry first (frame-size limit, checked sizes): nothing is allocated for a bad one.
+    fmt.check(buf.len(), width, height, bytes_per_line)?;
     if fmt.packing == Packing::U8 {
-        fmt.check(buf.len(), width, height, bytes_per_line)?;
         let mut px = Vec::with_capacity(width * height);
         for y in 0..height {
             px.extend_from_slice(&buf[y * bytes_per_line..y * bytes_per_line + width]);
@@ -569,6 +595,32 @@ mod tests {
         assert!(raw_frame_from_v4l2(&fmt, &[0; 22], 6, 2, 12, None).is_ok());
         let e = raw_frame_from_v4l2(&fmt, &[], 0, 0, 0, None).unwrap_err();
         assert!(matches!(e, V4l2FormatError::Frame(_)), "{e}");
+    }
+
+    /// Sizes from a driver that would overflow `bytesperline * (height - 1) + min` or
+    /// `width * height` are errors, not wrapped lengths (or overflow panics).
+    #[test]
+    fn absurd_driver_sizes_are_errors_not_overflows() {
+        let fmt = bayer_format(*b"pRAA").unwrap();
+        let e = raw_frame_from_v4l2(&fmt, &[0; 64], 16, 4, usize::MAX / 2, None).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                V4l2FormatError::BufferSize {
+                    needed: usize::MAX,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        for (w, h) in [(usize::MAX / 2, 3), (20_000, 2), (8192, 8193)] {
+            let e = raw_frame_from_v4l2(&fmt, &[0; 64], w, h, usize::MAX, None).unwrap_err();
+            assert!(matches!(e, V4l2FormatError::TooLarge { .. }), "{w}x{h}: {e}");
+            let mut dst = [0u16; 4];
+            let e = unpack_into_serial(&fmt, &[0; 64], w, h, 8, &mut dst).unwrap_err();
+            assert!(matches!(e, V4l2FormatError::TooLarge { .. }), "{w}x{h}: {e}");
+        }
+        assert_eq!(fmt.min_bytes_per_line(usize::MAX), usize::MAX);
     }
 
     #[test]

@@ -8,6 +8,7 @@ use mosaicd::features::hog::{mosaic_from_raw_with, HogInput, MosaicTaps, MosaicT
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
 use mosaicd::raw::levels::Gains;
+use mosaicd::raw::load::{load_headerless, Container, Endian, RawFormat};
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 /// Arguments of `mosaicd detect`.
@@ -266,36 +267,22 @@ pub fn read_raw(path: &Path, a: &RawInputArgs) -> anyhow::Result<RawFrame> {
         .cfa
         .with_context(|| format!("{}: raw input needs --cfa", path.display()))?;
     let white = a.white.unwrap_or(((1u32 << a.bit_depth.min(16)) - 1) as u16);
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let levels = Levels::uniform(a.black, white);
-    if a.bit_depth == 8 {
-        if bytes.len() < w * h {
-            bail!(
-                "{}: truncated raw frame: {} bytes, {}x{} u8 needs {}",
-                path.display(),
-                bytes.len(),
-                w,
-                h,
-                w * h
-            );
-        }
-        return Ok(RawFrame::from_u8(w, h, bytes[..w * h].to_vec(), cfa, levels)?);
-    }
-    if bytes.len() < w * h * 2 {
-        bail!(
-            "{}: truncated raw frame: {} bytes, {}x{} u16 needs {}",
-            path.display(),
-            bytes.len(),
-            w,
-            h,
-            w * h * 2
-        );
-    }
-    let data: Vec<u16> = bytes[..w * h * 2]
-        .chunks_exact(2)
-        .map(|b| u16::from_le_bytes([b[0], b[1]]))
-        .collect();
-    Ok(RawFrame::from_u16(w, h, data, cfa, a.bit_depth, levels)?)
+    let container = if a.bit_depth == 8 {
+        Container::U8
+    } else {
+        Container::U16
+    };
+    let fmt = RawFormat::new(
+        w,
+        h,
+        a.bit_depth,
+        cfa,
+        container,
+        Endian::Little,
+        Levels::uniform(a.black, white),
+    );
+    // The library loader: frame-size limit, checked sizes, `stat` before `read`.
+    Ok(load_headerless(path, &fmt)?)
 }
 
 /// Load any supported input as a frame; `mosaic` turns a raw frame into the detector's mosaic
@@ -328,7 +315,8 @@ pub fn load_frame(
             d => bail!("raw input can only be detected as mosaic, not {d:?}"),
         };
     }
-    let img = image::open(path).with_context(|| format!("decoding {}", path.display()))?;
+    let img =
+        mosaicd::raw::load::decode_image(path).with_context(|| format!("decoding {}", path.display()))?;
     if let (image::DynamicImage::ImageLuma16(g), Some(cfa)) = (&img, raw.cfa) {
         let (w, h) = g.dimensions();
         let f = RawFrame::from_u16(

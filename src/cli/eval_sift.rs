@@ -292,7 +292,7 @@ fn fig12b(rows: &[EvalRow], path: &Path) -> anyhow::Result<()> {
 
 /// Fig. 10: mosaic SIFT matches between kodim09 and its rotation (planes rotated separately).
 fn fig10(path: &Path, angle: f64, spec: &SiftSpec, warp: PlaneWarp, out: &Path) -> anyhow::Result<()> {
-    let rgb = image::open(path)?.to_rgb8();
+    let rgb = mosaicd::raw::load::decode_image(path)?.to_rgb8();
     let m1 = rggb_mosaic_from_rgb8(&rgb);
     let t = Transform::Rotate(angle);
     let m2 = mosaic_transformed(&m1, t, warp);

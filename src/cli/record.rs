@@ -182,6 +182,14 @@ fn record_source(
         }
     }
     let s = rec.finish()?;
+    if n == 0 {
+        // An empty recording is not a success: every input was skipped (or there was none).
+        bail!(
+            "nothing was recorded from {} ({errors} skipped): {} holds no frame",
+            src.describe(),
+            joined(&s.files)
+        );
+    }
     println!(
         "recorded {n} frames from {} ({errors} skipped) into {}",
         src.describe(),
@@ -272,7 +280,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             .unwrap_or_default();
         let rgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") && a.opts.sidecar.is_none();
         let format = match &a.opts.sidecar {
-            Some(s) => Some(Sidecar::read(s)?),
+            Some(s) => Some(Sidecar::load(s)?),
             None => None,
         };
         let recipe = Recipe {

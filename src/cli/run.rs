@@ -123,6 +123,8 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
 }
 
 fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
+    // The one frame-size limit, for every source and loader of this process.
+    cfg.limits.frame_limits().set_process();
     let opts = RunOptions {
         results_out: o.results.clone(),
     };

@@ -42,6 +42,11 @@ use crate::npy::NpyArray;
 pub const FORMAT: &str = "mosaicd-hog-svm";
 /// Current format version.
 pub const VERSION: u32 = 1;
+/// Largest detection window side a model file may declare, pixels (OpenCV's people detector is
+/// 64x128). With at most 255 bins this bounds a model to about 4 million weights.
+pub const MAX_WINDOW_SIDE: usize = 512;
+/// Largest model file [`LinearModel::load`] reads, bytes (checked with `stat` before reading).
+pub const MAX_MODEL_FILE_BYTES: u64 = 128 << 20;
 
 /// Errors loading or validating a model.
 #[derive(Debug, thiserror::Error)]
@@ -254,6 +259,28 @@ impl LinearModel {
         if self.block_stride != BLOCK_STRIDE {
             return Err(unsupported("block_stride", self.block_stride, BLOCK_STRIDE));
         }
+        // The geometry comes from the file: bound it before anything multiplies it (a window of
+        // 32x6148914691236517216 made the descriptor length wrap to 8 and the scorer index out of
+        // bounds).
+        let window = |what, actual: usize| ModelError::Unsupported {
+            origin: origin.to_string(),
+            what,
+            actual: actual.to_string(),
+            supported: format!("{BLOCK_SIZE}..={MAX_WINDOW_SIDE} (a multiple of {CELL_SIZE})"),
+        };
+        for (what, side) in [("win_width", self.win_width), ("win_height", self.win_height)] {
+            if !(BLOCK_SIZE..=MAX_WINDOW_SIDE).contains(&side) || side % CELL_SIZE != 0 {
+                return Err(window(what, side));
+            }
+        }
+        if !(2..=255).contains(&self.nbins) {
+            return Err(ModelError::Unsupported {
+                origin: origin.to_string(),
+                what: "nbins",
+                actual: self.nbins.to_string(),
+                supported: "2..=255".into(),
+            });
+        }
         let opts = HogOptions {
             win_width: self.win_width,
             win_height: self.win_height,
@@ -327,10 +354,7 @@ impl LinearModel {
             let v: Vec<f32> = a.data.iter().map(|&x| x as f32).collect();
             return Self::from_opencv_vector(&v, domain_for_opencv, &origin);
         }
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
-            path: path.into(),
-            source,
-        })?;
+        let text = read_text_at_most(path, MAX_MODEL_FILE_BYTES)?;
         match ext.as_str() {
             "json" => Self::from_json(&text, &origin),
             "yml" | "yaml" => Self::from_opencv_yaml(&text, domain_for_opencv, &origin),
@@ -405,6 +429,30 @@ impl LinearModel {
         }
         Ok(m)
     }
+}
+
+/// A text file of at most `max` bytes, `stat`ed before it is read.
+fn read_text_at_most(path: &Path, max: u64) -> Result<String, ModelError> {
+    use std::io::Read;
+    let io = |source| ModelError::Io {
+        path: path.into(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let size = file.metadata().map_err(io)?.len();
+    let too_big = |size: u64| ModelError::Parse {
+        origin: path.display().to_string(),
+        what: format!("file is {size} bytes, more than the {max} bytes a model file may have"),
+    };
+    if size > max {
+        return Err(too_big(size));
+    }
+    let mut text = String::with_capacity(size as usize);
+    file.take(max + 1).read_to_string(&mut text).map_err(io)?;
+    if text.len() as u64 > max {
+        return Err(too_big(text.len() as u64));
+    }
+    Ok(text)
 }
 
 /// `key: value` on one line of a simple YAML document.
@@ -515,6 +563,53 @@ mod tests {
         m.cell_size = 6;
         let e = LinearModel::from_json(&m.to_json(), "mem").unwrap_err();
         assert!(e.to_string().contains("cell_size is 6"), "{e}");
+    }
+
+    /// The crafted model of the hostile-input review: a 32x6148914691236517216 window with 2 bins
+    /// made `descriptor_len` wrap to 8, so 8 weights passed the length check and `mosaicd detect`
+    /// panicked in the scorer. Now the geometry is refused, naming the field.
+    #[test]
+    fn absurd_geometry_is_refused_not_wrapped() {
+        let crafted = serde_json::json!({
+            "format": FORMAT, "version": 1, "win_width": 32,
+            "win_height": 6148914691236517216usize, "cell_size": 8, "block_size": 16,
+            "block_stride": 8, "nbins": 2, "gamma_correction": true, "l2hys_threshold": 0.2,
+            "domain": "mosaic", "bias": 0.0, "weights": [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        });
+        let e = LinearModel::from_json(&crafted.to_string(), "crafted.json").unwrap_err();
+        assert!(
+            matches!(&e, ModelError::Unsupported { what: "win_height", actual, .. } if actual == "6148914691236517216"),
+            "{e}"
+        );
+        let mut m = model();
+        for (w, h, nbins, field) in [
+            (64, 520, 9, "win_height"),
+            (usize::MAX - 7, 128, 9, "win_width"),
+            (64, 12, 9, "win_height"),
+            (64, 128, 1 << 40, "nbins"),
+            (64, 128, 1, "nbins"),
+        ] {
+            (m.win_width, m.win_height, m.nbins) = (w, h, nbins);
+            match m.hog_spec("m") {
+                Err(ModelError::Unsupported { what, .. }) => assert_eq!(what, field, "{w}x{h} {nbins}"),
+                other => panic!("{w}x{h} {nbins}: {other:?}"),
+            }
+        }
+        // The largest window allowed still validates with a matching weight vector.
+        (m.win_width, m.win_height, m.nbins) = (MAX_WINDOW_SIDE, MAX_WINDOW_SIDE, 9);
+        let blocks = (MAX_WINDOW_SIDE - BLOCK_SIZE) / BLOCK_STRIDE + 1;
+        m.weights = vec![0.0; blocks * blocks * 4 * 9];
+        assert_eq!(m.hog_spec("m").unwrap().descriptor_len(), m.weights.len());
+    }
+
+    #[test]
+    fn oversized_model_files_are_refused_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.json");
+        let f = std::fs::File::create(&p).unwrap();
+        f.set_len(MAX_MODEL_FILE_BYTES + 1).unwrap(); // sparse: no disk, no read
+        let e = LinearModel::load(&p, Domain::Grey).unwrap_err();
+        assert!(e.to_string().contains("more than"), "{e}");
     }
 
     #[test]

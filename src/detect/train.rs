@@ -597,7 +597,7 @@ pub fn raw_scene_srgb(scene: &RawInput) -> Result<Image<[u8; 3]>, TrainError> {
 
 /// Load an RGB image.
 pub fn load_rgb(path: &Path) -> Result<Image<[u8; 3]>, TrainError> {
-    let img = image::open(path)
+    let img = crate::raw::load::decode_image(path)
         .map_err(|e| TrainError::Data {
             path: path.into(),
             what: e.to_string(),

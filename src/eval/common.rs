@@ -98,7 +98,7 @@ pub fn load_kodak(name: &str) -> Result<Image<[f32; 3]>> {
 
 /// Any 8-bit RGB image file as RGB on [0, 1].
 pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
-    let img = image::open(path)
+    let img = crate::raw::load::decode_image(path)
         .map_err(|e| EvalError::Decode {
             path: path.to_path_buf(),
             reason: e.to_string(),

@@ -444,8 +444,8 @@ pub enum EvalSiftError {
     Image {
         /// Path.
         path: String,
-        /// Cause.
-        source: image::ImageError,
+        /// Cause (the decoder's, or the frame-size limit's).
+        source: crate::raw::RawError,
     },
     /// SIFT failed.
     #[error(transparent)]
@@ -460,7 +460,7 @@ pub fn evaluate_image(
     mosaic_spec: &SiftSpec,
     warp: PlaneWarp,
 ) -> Result<Vec<EvalRow>, EvalSiftError> {
-    let rgb = image::open(path)
+    let rgb = crate::raw::load::decode_image(path)
         .map_err(|source| EvalSiftError::Image {
             path: path.display().to_string(),
             source,

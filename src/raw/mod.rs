@@ -9,6 +9,7 @@ pub mod cfa;
 pub mod frame;
 pub mod kodak_radc;
 pub mod levels;
+pub mod limits;
 pub mod load;
 pub mod sample;
 
@@ -19,6 +20,7 @@ pub use frame::{FrameMeta, Levels, RawFrame, RawPixels, RawView};
 pub use levels::{
     f32_from_raw, normalise_into, u16_from_raw, Compression, Gains, NormaliseOptions, NormaliseSpec,
 };
+pub use limits::{FrameLimits, FrameTooLarge};
 pub use load::{load_input, Container, Endian, InputOptions, LoadedInput, RawFormat};
 pub use sample::{frame_from_rgb8, mosaic_from_rgb};
 
@@ -115,6 +117,26 @@ pub enum RawError {
         bytes_per_pixel: usize,
         /// Row stride in bytes.
         stride_bytes: usize,
+    },
+    /// A frame larger than the frame-size limit ([`limits`]), refused before its pixels are read.
+    #[error("{path}: {limit}")]
+    TooLarge {
+        /// File.
+        path: PathBuf,
+        /// The size claimed and the limit.
+        limit: FrameTooLarge,
+    },
+    /// A file larger than any frame within the frame-size limit can be, refused before it is read.
+    #[error("{path}: file is {size} bytes, more than the {max} bytes {what} within the frame-size limit can take (config key limits.max_frame_pixels)")]
+    FileTooLarge {
+        /// File.
+        path: PathBuf,
+        /// Its size in bytes.
+        size: u64,
+        /// Largest size accepted.
+        max: u64,
+        /// What kind of file ("a camera raw file", ...).
+        what: &'static str,
     },
     /// A value in a file exceeds the declared bit depth.
     #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]

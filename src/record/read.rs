@@ -13,20 +13,34 @@ use serde::de::DeserializeOwned;
 
 use super::schema::{DetectionsMessage, ImageAnnotations, SchemaError};
 use super::RecordError;
+use crate::raw::FrameLimits;
 
-/// Largest record or (de)compressed chunk a reader accepts, bytes: a corrupt length field cannot
-/// make us allocate more. Recorders refuse chunk sizes above a quarter of it; one 8K 16-bit frame
-/// (66 MB) still fits.
+/// Recorders refuse chunk-size targets above a quarter of this (64 MiB), bytes.
 pub const MAX_RECORD_BYTES: u64 = 256 * 1024 * 1024;
+/// Room for a raw-frame message's JSON header and the MCAP record framing, bytes.
+pub const FRAME_MESSAGE_SLACK_BYTES: u64 = 64 * 1024;
+
+/// The largest record or (de)compressed chunk a reader accepts under `limits`, bytes, so that a
+/// corrupt or hostile length field (an 8.5 KB zstd chunk can claim 250 MB) is refused before
+/// anything is allocated or decompressed. Derived from the frame-size limit: a recorder's chunk
+/// holds at most its chunk-size target (at most `MAX_RECORD_BYTES / 4`) plus the one message that
+/// crosses it, a raw frame of at most [`FrameLimits::max_sample_bytes`] and its header. With the
+/// default limit (2^26 pixels) that is 192 MiB + 64 KiB.
+pub fn record_length_limit(limits: FrameLimits) -> u64 {
+    (MAX_RECORD_BYTES / 4)
+        .saturating_add(limits.max_sample_bytes())
+        .saturating_add(FRAME_MESSAGE_SLACK_BYTES)
+}
 
 /// Reader options that check everything: chunk CRCs (before any message of the chunk is used),
-/// data-section and summary CRCs, and record lengths limited to [`MAX_RECORD_BYTES`].
+/// data-section and summary CRCs, and record lengths limited to [`record_length_limit`] of the
+/// process's frame-size limit.
 pub fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
     mcap::sans_io::LinearReaderOptions::default()
         .with_prevalidate_chunk_crcs(true)
         .with_validate_data_section_crc(true)
         .with_validate_summary_section_crc(true)
-        .with_record_length_limit(MAX_RECORD_BYTES as usize)
+        .with_record_length_limit(record_length_limit(FrameLimits::process()) as usize)
 }
 
 /// The message of an MCAP error including its I/O cause (which `McapError`'s own text omits).
@@ -129,13 +143,68 @@ impl RecordingInfo {
     }
 }
 
-/// Read the summary section through the footer (seeking), validating its CRC; `Ok(None)` when the
-/// file has no summary.
+/// Bytes of the footer record: opcode, length, summary start, summary offset start, summary CRC.
+const FOOTER_RECORD_BYTES: u64 = 1 + 8 + 8 + 8 + 4;
+
+/// Check the summary section's CRC32 against the footer's `summary_crc` (which covers every byte
+/// from the start of the summary section up to and including the footer's
+/// `summary_offset_start`). The summary reader of the `mcap` crate does not check it, and the
+/// streaming reader only at the very end, after every frame: this finds a damaged summary at open.
+/// `Ok(())` too for a file without a footer, a summary or a CRC (0 = not computed).
+pub fn check_summary_crc<R: Read + Seek>(r: &mut R) -> mcap::McapResult<()> {
+    use std::io::SeekFrom;
+    let len = r.seek(SeekFrom::End(0))?;
+    let magic = mcap::MAGIC.len() as u64;
+    let Some(footer_at) = len.checked_sub(magic + FOOTER_RECORD_BYTES) else {
+        return Ok(());
+    };
+    let mut footer = [0u8; FOOTER_RECORD_BYTES as usize];
+    r.seek(SeekFrom::Start(footer_at))?;
+    r.read_exact(&mut footer)?;
+    if footer[0] != 0x02 {
+        return Err(mcap::McapError::BadFooter);
+    }
+    let word = |at: usize| u64::from_le_bytes(footer[at..at + 8].try_into().expect("8 bytes"));
+    let summary_start = word(9);
+    let saved = u32::from_le_bytes(footer[25..29].try_into().expect("4 bytes"));
+    if summary_start == 0 || saved == 0 {
+        return Ok(());
+    }
+    if summary_start < magic || summary_start > footer_at {
+        return Err(mcap::McapError::BadFooter);
+    }
+    let mut hasher = crc32fast::Hasher::new();
+    r.seek(SeekFrom::Start(summary_start))?;
+    let mut left = footer_at - summary_start;
+    let mut buf = vec![0u8; 64 * 1024];
+    while left > 0 {
+        let n = left.min(buf.len() as u64) as usize;
+        r.read_exact(&mut buf[..n])?;
+        hasher.update(&buf[..n]);
+        left -= n as u64;
+    }
+    hasher.update(&footer[..25]);
+    let calculated = hasher.finalize();
+    if calculated != saved {
+        return Err(mcap::McapError::BadSummaryCrc { saved, calculated });
+    }
+    Ok(())
+}
+
+/// Read the summary section through the footer (seeking), validating its CRC
+/// ([`check_summary_crc`]) and limiting record lengths ([`record_length_limit`]); `Ok(None)` when
+/// the file has no summary.
 pub fn read_summary<R: Read + Seek>(r: &mut R) -> mcap::McapResult<Option<mcap::Summary>> {
     use mcap::sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
+    check_summary_crc(r)?;
     let len = r.seek(std::io::SeekFrom::End(0))?;
     r.seek(std::io::SeekFrom::Start(0))?;
-    let mut sr = SummaryReader::new_with_options(SummaryReaderOptions::default().with_file_size(len));
+    let limit = record_length_limit(FrameLimits::process()) as usize;
+    let mut sr = SummaryReader::new_with_options(
+        SummaryReaderOptions::default()
+            .with_file_size(len)
+            .with_record_length_limit(limit),
+    );
     while let Some(ev) = sr.next_event() {
         match ev? {
             SummaryReadEvent::ReadRequest(n) => {

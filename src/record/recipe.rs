@@ -55,7 +55,7 @@ use super::{
 use crate::capture::files::Sidecar;
 use crate::image::Image;
 use crate::isp::{add_noise_to_raw, raw_from_srgb, CameraProfile, NoiseLevel, ReverseIspOptions};
-use crate::raw::load::{load_input, load_rgb8, InputOptions};
+use crate::raw::load::{load_headerless, load_input, load_rgb8, InputOptions};
 use crate::raw::{Cfa, RawFrame};
 
 /// Crop-window alignment.
@@ -421,11 +421,10 @@ pub fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, Recip
     match spec.kind.as_str() {
         "raw" => {
             let path = file()?;
-            let opts = match &spec.format {
-                Some(s) => s.input_options(&path)?,
-                None => InputOptions::default(),
-            };
-            Ok(load_input(&path, &opts)?.frame)
+            match &spec.format {
+                Some(s) => Ok(load_headerless(&path, &s.format(&path)?)?),
+                None => Ok(load_input(&path, &InputOptions::default())?.frame),
+            }
         }
         "rgb" => {
             let rgb = load_rgb8(&file()?)?;

@@ -1,0 +1,356 @@
+//! Loaders: headerless raw, 8/16-bit grey PNG and PGM mosaics, camera raw (via `rawloader`),
+//! 8-bit RGB images (resampled to a mosaic), and a dispatcher [`load_input`].
+//!
+//! Every loader returns a [`RawError`] that names the file and the problem; none panics and none
+//! returns a silently wrong frame:
+//! - a headerless file whose size does not match `height * stride` is [`RawError::SizeMismatch`];
+//! - a value above the declared bit depth is [`RawError::ValueOutOfRange`] (this is what a wrong
+//!   endianness or a wrong bit depth looks like);
+//! - a PNG that is neither 1-channel (mosaic) nor 8-bit RGB(A) is [`RawError::Format`];
+//! - a frame larger than the frame-size limit ([`crate::raw::limits`], config key
+//!   `limits.max_frame_pixels`) is [`RawError::TooLarge`], found from the header (PNG, JPEG, BMP,
+//!   PGM), the format description (headerless) or the file's size (camera raw:
+//!   [`RawError::FileTooLarge`]) **before** the pixels are read or decoded. Every size from a file
+//!   is computed with checked arithmetic; files are `stat`ed before they are read.
+//!
+//! One module per format: `headerless` ([`RawFormat`], which the sidecar of
+//! [`crate::capture::files`] also parses into), `pgm`, `png` (mosaic PNGs), `rgb` (PNG, JPEG and
+//! BMP colour images through [`decode_image`]) and `camera` (rawloader and Kodak RADC).
+//!
+//! ```
+//! use mosaicd::raw::load::{frame_from_bytes, Container, Endian, RawFormat};
+//! use mosaicd::raw::{Cfa, Levels};
+//! // 2x2, 10-bit, little-endian u16: values 1, 2, 3, 1023
+//! let bytes = [1u8, 0, 2, 0, 3, 0, 0xff, 0x03];
+//! let fmt = RawFormat::new(2, 2, 10, Cfa::Grbg, Container::U16, Endian::Little, Levels::uniform(0, 1023));
+//! let f = frame_from_bytes(&bytes, &fmt, "mem".as_ref()).unwrap();
+//! assert_eq!(f.to_u16_vec(), vec![1, 2, 3, 1023]);
+//! // The same bytes read big-endian exceed 10 bits: refused, not silently wrong.
+//! let be = RawFormat { endian: Endian::Big, ..fmt };
+//! assert!(frame_from_bytes(&bytes, &be, "mem".as_ref()).is_err());
+//! ```
+//!
+//! Camera raw files are read once; a Kodak DC40/DC50 KDC (identified by its TIFF make and model,
+//! not by its name) is decoded by [`super::kodak_radc`] (RADC compression, which rawloader 0.37
+//! lacks) into a 768x512 GRBG frame, 14-bit, black 0, white 16383, no gains; a truncated or corrupt
+//! one is refused naming the camera and the byte offset. Everything else goes through
+//! `rawloader::decode`: its crop (`crops` = top, right, bottom,
+//! left) is applied and the pattern re-phased, its black levels (given per colour, RGBE) are mapped
+//! to our per-tile-position black levels, the bit depth is the smallest that holds the white level
+//! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
+//! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
+//! Refused with rawloader's or our message: cameras rawloader 0.37 does not know, floating-point
+//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
+//!
+//! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
+//! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.
+//!
+//! References: Netpbm PGM specification (16-bit samples are big-endian); PNG specification
+//! (16-bit samples are big-endian, the `png`/`image` crates return native values).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::{Cfa, FrameMeta, Levels, RawError, RawFrame, RawPixels};
+use crate::image::Image;
+
+mod camera;
+mod headerless;
+mod pgm;
+mod png;
+mod rgb;
+
+pub use camera::{load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
+pub use headerless::{frame_from_bytes, headerless_format, load_headerless, Container, Endian, RawFormat};
+pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
+pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
+pub use rgb::{decode_image, load_rgb8};
+
+use png::png_header;
+use rgb::rgb_input;
+
+fn io_err(path: &Path, source: std::io::Error) -> RawError {
+    RawError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn format_err(path: &Path, what: String) -> RawError {
+    RawError::Format {
+        path: path.to_path_buf(),
+        what,
+    }
+}
+
+fn too_large(path: &Path, limit: super::FrameTooLarge) -> RawError {
+    RawError::TooLarge {
+        path: path.to_path_buf(),
+        limit,
+    }
+}
+
+/// Read a whole file whose size is checked first: `stat`, refuse a file above `max` bytes
+/// ([`RawError::FileTooLarge`], naming `what`), then read at most `max` bytes (a file that grows
+/// between the two is refused the same way).
+fn read_at_most(path: &Path, max: u64, what: &'static str) -> Result<Vec<u8>, RawError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    let size = file.metadata().map_err(|e| io_err(path, e))?.len();
+    let too_big = |size| RawError::FileTooLarge {
+        path: path.to_path_buf(),
+        size,
+        max,
+        what,
+    };
+    if size > max {
+        return Err(too_big(size));
+    }
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(max.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| io_err(path, e))?;
+    if bytes.len() as u64 > max {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+fn meta_for(origin: &Path) -> FrameMeta {
+    FrameMeta {
+        source: Arc::from(origin.display().to_string()),
+        ..FrameMeta::default()
+    }
+}
+
+/// Check every pixel against the bit depth; the first offender is the error.
+fn check_range(data: &[u16], width: usize, bit_depth: u8, origin: &Path) -> Result<(), RawError> {
+    let max = ((1u32 << bit_depth) - 1) as u16;
+    if let Some(i) = data.iter().position(|&v| v > max) {
+        return Err(RawError::ValueOutOfRange {
+            path: origin.to_path_buf(),
+            value: data[i] as u32,
+            x: i % width,
+            y: i / width,
+            bit_depth,
+        });
+    }
+    Ok(())
+}
+
+/// How to interpret a 1-channel image file (PNG or PGM) as a mosaic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MosaicFormat {
+    /// Pattern at (0, 0).
+    pub cfa: Cfa,
+    /// Significant bits; `None` means the file's sample depth (8 or 16, or PGM's maxval bits).
+    pub bit_depth: Option<u8>,
+    /// Black level per tile position.
+    pub black: [u16; 4],
+    /// White level; `None` means `2^bit_depth - 1`.
+    pub white: Option<u16>,
+}
+
+fn bits_for(max: u32) -> u8 {
+    (32 - max.leading_zeros()).max(8) as u8
+}
+
+fn mosaic_frame(
+    width: usize,
+    height: usize,
+    pixels: RawPixels,
+    file_bits: u8,
+    fmt: &MosaicFormat,
+    origin: &Path,
+) -> Result<RawFrame, RawError> {
+    let bit_depth = fmt.bit_depth.unwrap_or(file_bits);
+    if !(8..=16).contains(&bit_depth) {
+        return Err(RawError::BitDepth {
+            bit_depth,
+            container_bits: 16,
+        });
+    }
+    let pixels = match pixels {
+        RawPixels::U8(v) if bit_depth > 8 => RawPixels::U16(v.into_iter().map(u16::from).collect()),
+        RawPixels::U16(v) => {
+            check_range(&v, width, bit_depth, origin)?;
+            RawPixels::U16(v)
+        }
+        p => p,
+    };
+    let max = ((1u32 << bit_depth.min(16)) - 1) as u16;
+    let levels = Levels {
+        black: fmt.black,
+        white: fmt.white.unwrap_or(max),
+    };
+    let f = RawFrame::new(width, height, width, pixels, fmt.cfa, bit_depth, levels)?;
+    Ok(f.with_meta(meta_for(origin)))
+}
+
+/// How [`load_input`] should read a file. Fields that do not apply to a file type are ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct InputOptions {
+    /// Width of a headerless file (giving width and height selects the headerless loader).
+    pub width: Option<usize>,
+    /// Height of a headerless file.
+    pub height: Option<usize>,
+    /// Bit depth of a headerless file or mosaic PNG/PGM.
+    pub bit_depth: Option<u8>,
+    /// Pattern of a headerless file or mosaic PNG/PGM (required for those), and the pattern RGB
+    /// images are resampled into (default RGGB).
+    pub cfa: Option<Cfa>,
+    /// Black level (per tile position; one value for all is `[b; 4]`). Default 0.
+    pub black: Option<[u16; 4]>,
+    /// White level. Default `2^bit_depth - 1`.
+    pub white: Option<u16>,
+    /// Byte order of a 16-bit headerless file.
+    pub endian: Endian,
+    /// Row stride of a headerless file, in bytes.
+    pub stride_bytes: Option<usize>,
+    /// Container of a headerless file; default from the bit depth (8 → u8, more → u16).
+    pub container: Option<Container>,
+}
+
+/// What [`load_input`] read: the mosaic, and the RGB image it was resampled from when the input
+/// was an RGB image.
+#[derive(Debug, Clone)]
+pub struct LoadedInput {
+    /// The mosaic.
+    pub frame: RawFrame,
+    /// The RGB image the mosaic was sampled from (RGB inputs only).
+    pub rgb: Option<Image<[u8; 3]>>,
+}
+
+fn ext_of(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+fn need_cfa(opts: &InputOptions, path: &Path, kind: &str) -> Result<Cfa, RawError> {
+    opts.cfa.ok_or_else(|| {
+        format_err(
+            path,
+            format!("{kind} needs its CFA pattern (--cfa RGGB|BGGR|GRBG|GBRG)"),
+        )
+    })
+}
+
+fn levels_from(opts: &InputOptions, bit_depth: u8) -> Option<Levels> {
+    if opts.black.is_none() && opts.white.is_none() {
+        return None;
+    }
+    let max = ((1u32 << bit_depth.min(16)) - 1) as u16;
+    Some(Levels {
+        black: opts.black.unwrap_or([0; 4]),
+        white: opts.white.unwrap_or(max),
+    })
+}
+
+/// Load any supported input, choosing the loader by options, extension and content:
+///
+/// - width and height given, or extension `raw`/`bin` → headerless ([`load_headerless`]);
+/// - `.pgm` → PGM mosaic; `.png` 1-channel → PNG mosaic (pattern from `opts.cfa`, required);
+/// - `.png` RGB(A) 8-bit, `.jpg`/`.jpeg`, `.bmp` → RGB image resampled into `opts.cfa` (default
+///   RGGB), keeping the RGB image (a grey BMP decodes to equal R, G and B);
+/// - anything else → camera raw through rawloader.
+pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    let ext = ext_of(path);
+    let headerless = (opts.width.is_some() || opts.height.is_some()) || ext == "raw" || ext == "bin";
+    if headerless {
+        let fmt = headerless_format(path, opts)?;
+        return Ok(LoadedInput {
+            frame: load_headerless(path, &fmt)?,
+            rgb: None,
+        });
+    }
+    let mosaic_fmt = |kind: &str| -> Result<MosaicFormat, RawError> {
+        Ok(MosaicFormat {
+            cfa: need_cfa(opts, path, kind)?,
+            bit_depth: opts.bit_depth,
+            black: opts.black.unwrap_or([0; 4]),
+            white: opts.white,
+        })
+    };
+    match ext.as_str() {
+        "pgm" => Ok(LoadedInput {
+            frame: load_pgm_mosaic(path, &mosaic_fmt("a PGM mosaic")?)?,
+            rgb: None,
+        }),
+        "png" => match png_header(path)? {
+            (true, meta) => {
+                // Flags override what the file says about itself.
+                let fmt = match meta {
+                    Some(m) => MosaicFormat {
+                        cfa: opts.cfa.unwrap_or(m.cfa),
+                        bit_depth: Some(opts.bit_depth.unwrap_or(m.bit_depth)),
+                        black: opts.black.unwrap_or(m.levels.black),
+                        white: Some(opts.white.unwrap_or(m.levels.white)),
+                    },
+                    None => mosaic_fmt("a grey PNG mosaic")?,
+                };
+                Ok(LoadedInput {
+                    frame: load_png_mosaic(path, &fmt)?,
+                    rgb: None,
+                })
+            }
+            (false, _) => rgb_input(path, opts),
+        },
+        // BMP: the decoder expands 8-bit (palette) files to RGB, so a grey BMP (the USC sets)
+        // samples into a mosaic of its own grey values, whatever the pattern.
+        "jpg" | "jpeg" | "bmp" => rgb_input(path, opts),
+        _ => Ok(LoadedInput {
+            frame: load_camera_raw(path)?,
+            rgb: None,
+        }),
+    }
+}
+
+/// A path for error messages when there is no file.
+pub fn memory_origin() -> PathBuf {
+    PathBuf::from("<memory>")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dispatcher_headerless_needs_its_format() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.raw");
+        std::fs::write(&p, [1u8, 2, 3, 4]).unwrap();
+        assert!(matches!(
+            load_input(&p, &InputOptions::default()),
+            Err(RawError::Format { .. })
+        ));
+        let opts = InputOptions {
+            width: Some(2),
+            height: Some(2),
+            cfa: Some(Cfa::Rggb),
+            container: Some(Container::U8),
+            ..InputOptions::default()
+        };
+        let l = load_input(&p, &opts).unwrap();
+        assert_eq!(l.frame.to_u16_vec(), vec![1, 2, 3, 4]);
+        assert_eq!(l.frame.bit_depth(), 8);
+        // u16 without a bit depth is refused.
+        let opts = InputOptions {
+            container: Some(Container::U16),
+            width: Some(1),
+            ..opts
+        };
+        assert!(matches!(load_input(&p, &opts), Err(RawError::Format { .. })));
+        // Missing file names the file.
+        let missing = dir.path().join("nope.raw");
+        let opts = InputOptions {
+            bit_depth: Some(8),
+            ..opts
+        };
+        match load_input(&missing, &opts) {
+            Err(RawError::Io { path, .. }) => assert_eq!(path, missing),
+            other => panic!("{other:?}"),
+        }
+    }
+}
