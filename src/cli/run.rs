@@ -123,6 +123,8 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
 }
 
 fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
+    // Once at start-up: the kernel path every kernel family runs and the CPU's features.
+    mosaicd::kernels::log_choice();
     let opts = RunOptions {
         results_out: o.results.clone(),
     };
