@@ -4,8 +4,24 @@
 CARGO ?= cargo
 export MOSAICD_DATA ?= $(abspath ../shared/data)
 ORACLE_DIR := target/oracle
+# The target directory cargo uses (CARGO_TARGET_DIR when set), for the binaries cross-test runs.
+TARGET_DIR := $(or $(CARGO_TARGET_DIR),target)
 
+<<<<<<< HEAD
 .PHONY: setup demo recording test oracle skimage-negatives lint doc bench fuzz fuzz-smoke fuzz-build
+=======
+# aarch64 (Jetson, Raspberry Pi 5, RK3588) cross build with Debian's cross gcc; tests run under
+# qemu-user (README, "Building for aarch64"). Only the aarch64 target reads these variables.
+AARCH64 := aarch64-unknown-linux-gnu
+AARCH64_SYSROOT := /usr/aarch64-linux-gnu
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_LINKER ?= aarch64-linux-gnu-gcc
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER ?= qemu-aarch64 -L $(AARCH64_SYSROOT)
+export BINDGEN_EXTRA_CLANG_ARGS_aarch64_unknown_linux_gnu ?= --sysroot=$(AARCH64_SYSROOT)
+export CC_aarch64_unknown_linux_gnu ?= aarch64-linux-gnu-gcc
+export AR_aarch64_unknown_linux_gnu ?= aarch64-linux-gnu-ar
+
+.PHONY: setup demo recording test oracle skimage-negatives lint doc bench cross-build cross-lint cross-test
+>>>>>>> arch
 
 setup:
 	@bash scripts/setup.sh
@@ -44,7 +60,33 @@ test: oracle lint
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --all-targets --quiet
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --doc --quiet
 	$(MAKE) --no-print-directory doc
+<<<<<<< HEAD
 	$(MAKE) --no-print-directory fuzz-smoke
+=======
+	$(MAKE) --no-print-directory cross-test
+
+# The aarch64 build: only what cross-test runs, in one cargo call so that everything shares one build
+# of the dependencies (a separate `cargo build` resolves features without the dev-dependencies and
+# rebuilds 16 crates): the library's test binary, the gradient invariants, and the mosaicd binary
+# (built because an integration test is).
+cross-build: setup
+	$(CARGO) test --target $(AARCH64) --lib --test gradient_invariants --no-run --quiet
+
+# clippy for aarch64 (the NEON paths and everything cfg'd to x86-64 left out).
+cross-lint: setup
+	$(CARGO) clippy --target $(AARCH64) --all-targets --quiet -- -D warnings
+
+# Under qemu-user: every kernel-equality test (every test whose name contains `kernel_paths`,
+# NEON against the scalar oracle), the gradient invariants, then `mosaicd detect` on a real frame,
+# whose boxes and scores must equal the x86-64 binary's (built the way `cargo test` builds it, so
+# with the same features as the tests: no rebuild after them).
+cross-test: cross-build
+	$(CARGO) test --target $(AARCH64) --lib --quiet kernel_paths
+	$(CARGO) test --target $(AARCH64) --test gradient_invariants --quiet
+	$(CARGO) test --lib --test gradient_invariants --no-run --quiet
+	bash scripts/cross_detect.sh $(TARGET_DIR)/debug/mosaicd \
+	  "$(CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER) $(TARGET_DIR)/$(AARCH64)/debug/mosaicd"
+>>>>>>> arch
 
 bench: setup
 	$(CARGO) bench

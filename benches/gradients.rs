@@ -1,6 +1,7 @@
 //! Fused raw mosaic → u16 magnitude + u8 orientation bin, one thread, on seeded synthetic mosaics
 //! (1080p and 12 MP, 8-bit and 12-bit), next to the memory-bandwidth floor: a plain copy of the
-//! input plus a write of the output (3 bytes per pixel).
+//! input plus a write of the output (3 bytes per pixel). The `fused_*` rows run the process's kernel
+//! path (printed first; `MOSAICD_KERNELS` forces one), the `path_*` rows each path this CPU has.
 //!
 //! `cargo bench --bench gradients`. The comparison with OpenCV in the same run is
 //! `mosaicd bench gradients` (see docs/gradients.md).
@@ -9,9 +10,10 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mosaicd::features::gradient::{
-    mag_bin, mag_bin_with_path, synthetic_mosaic, KernelPath, MagBinOptions, MagBinSpec, Operator,
+    mag_bin, mag_bin_with_isa, synthetic_mosaic, MagBinOptions, MagBinSpec, Operator,
 };
 use mosaicd::image::Image;
+use mosaicd::kernels::{self, Isa};
 use mosaicd::raw::RawView;
 
 /// Frame sizes: 1080p and 12 MP.
@@ -22,6 +24,8 @@ const BITS: [u8; 2] = [8, 12];
 const SEED: u64 = 2024;
 
 fn bench(c: &mut Criterion) {
+    // The `fused_*` rows run the process's path; name it.
+    eprintln!("{}", kernels::describe());
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let mut g = c.benchmark_group("gradients");
     g.sample_size(10);
@@ -63,21 +67,15 @@ fn bench(c: &mut Criterion) {
                     })
                 });
             }
-            // Each compiled path of the same kernel (1080p only, to keep the run short).
+            // Each kernel path of the same kernel (1080p only, to keep the run short).
             if name == "1080p" {
                 let spec = MagBinSpec::new(MagBinOptions::default()).unwrap();
-                for path in KernelPath::available() {
-                    if path == KernelPath::Scalar {
-                        continue;
-                    }
-                    let id = BenchmarkId::new(
-                        format!("path_{path:?}_central").to_lowercase(),
-                        format!("{name}_{bits}bit"),
-                    );
+                for path in Isa::available() {
+                    let id = BenchmarkId::new(format!("path_{path}_central"), format!("{name}_{bits}bit"));
                     g.bench_function(id, |b| {
                         b.iter(|| {
                             pool.install(|| {
-                                mag_bin_with_path(
+                                mag_bin_with_isa(
                                     src,
                                     bits,
                                     &spec,

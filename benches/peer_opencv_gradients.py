@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """OpenCV peer for `mosaicd bench gradients`: the conventional path on the same mosaic.
 
-Reads a Bayer mosaic (.npy, uint8 or uint16, physical pattern given by --cfa) and times, on ONE
-thread (cv2.setNumThreads(1)), the median of --repeats runs of:
+Reads a Bayer mosaic (.npy, uint8 or uint16, physical pattern given by --cfa) and times, on
+--threads threads (cv2.setNumThreads; default one), the median of --repeats runs of:
 
   mag:        cvtColor(Bayer→BGR, bilinear) → cvtColor(BGR2GRAY) → filter2D [-1,0,1] in x and y
               (CV_32F) → cv2.magnitude
@@ -11,7 +11,8 @@ thread (cv2.setNumThreads(1)), the median of --repeats runs of:
 
 Physical RGGB (red at (0,0)) is OpenCV's COLOR_BayerBG2BGR: OpenCV names the pattern by the
 second row's first two pixels. Prints one JSON line: {"mag_ms": .., "mag_phase_ms": .., ...}: median
-wall time and median CPU time of the calling thread (with one thread OpenCV runs its loops there).
+wall time, median CPU time of the calling thread (with one thread OpenCV runs its loops there) and
+median CPU time of the process (`*_proc_cpu_ms`, every thread).
 """
 import argparse
 import json
@@ -45,19 +46,23 @@ def pipeline(mosaic, code, with_phase):
 
 
 def median_ms(fn, repeats):
-    """Median wall time and median CPU time of this thread (robust when the machine is shared:
-    time during which other processes ran is not counted), in ms."""
+    """Median wall time, median CPU time of this thread and median CPU time of the process (all
+    threads: what OpenCV's workers spend with --threads > 1), in ms. CPU times are robust when the
+    machine is shared: time during which other processes ran is not counted."""
     fn()  # warm-up (allocations, page faults)
-    wall, cpu = [], []
+    wall, cpu, proc = [], [], []
     for _ in range(repeats):
         c = time.thread_time()
+        p = time.process_time()
         t = time.perf_counter()
         fn()
         wall.append((time.perf_counter() - t) * 1e3)
         cpu.append((time.thread_time() - c) * 1e3)
+        proc.append((time.process_time() - p) * 1e3)
     wall.sort()
     cpu.sort()
-    return wall[len(wall) // 2], cpu[len(cpu) // 2]
+    proc.sort()
+    return wall[len(wall) // 2], cpu[len(cpu) // 2], proc[len(proc) // 2]
 
 
 def main():
@@ -73,8 +78,10 @@ def main():
         print(f"peer: need a 2-D uint8/uint16 mosaic, got {mosaic.dtype} {mosaic.shape}", file=sys.stderr)
         return 2
     code = CODES[args.cfa]
-    mag_ms, mag_cpu_ms = median_ms(lambda: pipeline(mosaic, code, False), args.repeats)
-    mag_phase_ms, mag_phase_cpu_ms = median_ms(lambda: pipeline(mosaic, code, True), args.repeats)
+    mag_ms, mag_cpu_ms, mag_proc_ms = median_ms(lambda: pipeline(mosaic, code, False), args.repeats)
+    mag_phase_ms, mag_phase_cpu_ms, mag_phase_proc_ms = median_ms(
+        lambda: pipeline(mosaic, code, True), args.repeats
+    )
     print(
         json.dumps(
             {
@@ -82,6 +89,8 @@ def main():
                 "mag_phase_ms": mag_phase_ms,
                 "mag_cpu_ms": mag_cpu_ms,
                 "mag_phase_cpu_ms": mag_phase_cpu_ms,
+                "mag_proc_cpu_ms": mag_proc_ms,
+                "mag_phase_proc_cpu_ms": mag_phase_proc_ms,
                 "opencv": cv2.__version__,
                 "threads": cv2.getNumThreads(),
                 "shape": list(mosaic.shape),

@@ -16,11 +16,21 @@ fi
 [ -f /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] || pkgs+=(fonts-dejavu-core)
 # systemd-analyze verifies the units in systemd/.
 command -v systemd-analyze >/dev/null 2>&1 || pkgs+=(systemd)
+# The aarch64 cross build (`make cross-test`): Debian's cross gcc and libc, qemu-user to run it.
+command -v aarch64-linux-gnu-gcc >/dev/null 2>&1 || pkgs+=(gcc-aarch64-linux-gnu)
+[ -f /usr/aarch64-linux-gnu/include/stdio.h ] || pkgs+=(libc6-dev-arm64-cross)
+command -v qemu-aarch64 >/dev/null 2>&1 || pkgs+=(qemu-user)
 
 if [ ${#pkgs[@]} -gt 0 ]; then
   echo "setup: installing ${pkgs[*]}" >&2
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${pkgs[@]}" >/dev/null
+fi
+
+# The Rust standard library for aarch64.
+if ! rustup target list --installed 2>/dev/null | grep -qx aarch64-unknown-linux-gnu; then
+  echo "setup: adding the rustup target aarch64-unknown-linux-gnu" >&2
+  rustup target add aarch64-unknown-linux-gnu
 fi
 
 # Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing, rawpy (LibRaw).

@@ -1,6 +1,7 @@
 //! `mosaicd bench detect`: our multi-scale detector on a 1080p 12-bit mosaic vs OpenCV
 //! (cvtColor Bayer→BGR + `HOGDescriptor.detectMultiScale`) in the same run, same thread count,
-//! same scale coverage.
+//! same scale coverage. The output names the kernel path and the CPU's features
+//! ([`mosaicd::kernels::describe`]; `MOSAICD_KERNELS` forces a path), as does the JSON (`kernels`).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -246,6 +247,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let report = serde_json::json!({
         "input": path.display().to_string(), "width": a.width, "height": a.height, "bit_depth": a.bit_depth,
         "cfa": a.cfa.name(), "threads": a.threads, "frames": a.frames, "commit": commit,
+        "kernels": super::bench_gradients::kernels_json(),
         "scale_step": a.scale_step, "approx_levels": a.approx, "svm": opts.svm.name(), "max_levels": a.max_levels, "levels": levels, "windows": windows,
         "ours": {
             "fps": 1.0 / ours_s, "frame_ms": ours_s * 1e3, "boxes": boxes,
@@ -284,6 +286,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
             windows,
             commit
         );
+        println!("  {}", mosaicd::kernels::describe());
         println!(
             "  mosaicd : {:7.1} ms/frame  {:6.2} fps  ({} boxes)",
             ours_s * 1e3,

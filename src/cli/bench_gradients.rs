@@ -1,7 +1,9 @@
 //! `mosaicd bench gradients`: our fused raw → magnitude + orientation-bin kernel against OpenCV's
-//! demosaic (bilinear) → grey → `[-1, 0, 1]` → magnitude (and + phase), one thread each, on the same
-//! seeded synthetic mosaics, in one run; prints a table with the ratio and the memory-bandwidth
-//! floor (a copy of the input plus a write of the 3-byte-per-pixel output).
+//! demosaic (bilinear) → grey → `[-1, 0, 1]` → magnitude (and + phase), with the same number of
+//! threads each (`--threads`, default one), on the same seeded synthetic mosaics, in one run;
+//! prints a table with the ratio and the memory-bandwidth floor (a copy of the input plus a write
+//! of the 3-byte-per-pixel output), headed by the kernel path and the CPU's features
+//! ([`mosaicd::kernels::describe`]); `--json` prints the same as one JSON document.
 //!
 //! The OpenCV side is `benches/peer_opencv_gradients.py`, run on a temporary `.npy` of the mosaic.
 
@@ -11,10 +13,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 
-use mosaicd::features::gradient::{
-    mag_bin, synthetic_mosaic, KernelPath, MagBinOptions, MagBinSpec, Operator,
-};
+use mosaicd::features::gradient::{mag_bin, synthetic_mosaic, MagBinOptions, MagBinSpec, Operator};
 use mosaicd::image::Image;
+use mosaicd::kernels;
 use mosaicd::raw::RawView;
 
 /// Seed of the synthetic scene (same as `benches/gradients.rs`).
@@ -32,6 +33,13 @@ pub struct BenchGradientsArgs {
     /// Timed repetitions per measurement (median reported).
     #[arg(long, default_value_t = 15)]
     pub repeats: usize,
+    /// Threads for each side: ours on a rayon pool of this size, OpenCV with `setNumThreads`.
+    /// With one, ratios use the working thread's CPU time; with more, wall time.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Print one JSON document instead of the table.
+    #[arg(long)]
+    pub json: bool,
     /// Our operator (OpenCV always runs [-1, 0, 1]).
     #[arg(long, default_value = "central")]
     pub operator: Operator,
@@ -54,33 +62,83 @@ fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
     Ok((w, h))
 }
 
-/// CPU time of the calling thread in ms.
-fn thread_cpu_ms() -> f64 {
+/// CPU time of `clock` (`CLOCK_THREAD_CPUTIME_ID` or `CLOCK_PROCESS_CPUTIME_ID`) in ms.
+fn cpu_ms(clock: libc::clockid_t) -> f64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID is supported on Linux.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    // SAFETY: `ts` is a valid, writable timespec; both CPU-time clocks are supported on Linux.
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
     debug_assert_eq!(rc, 0);
     ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6
 }
 
-/// Median wall time and median CPU time (of this thread) of `f`, in ms. On a shared machine the
-/// CPU time leaves out the time other processes ran; it is the fair measure of the work itself.
-fn median_ms(repeats: usize, mut f: impl FnMut()) -> (f64, f64) {
+/// Medians of one measurement, in ms.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+struct Times {
+    /// Wall time.
+    wall_ms: f64,
+    /// CPU time of the calling (working) thread.
+    thread_cpu_ms: f64,
+    /// CPU time of the whole process (every worker thread).
+    process_cpu_ms: f64,
+}
+
+/// Median wall, thread-CPU and process-CPU time of `f`. On a shared machine the CPU times leave
+/// out the time other processes ran; with one thread the thread's is the fair measure of the work.
+fn median_ms(repeats: usize, mut f: impl FnMut()) -> Times {
     f(); // warm-up
-    let (mut wall, mut cpu): (Vec<f64>, Vec<f64>) = (0..repeats.max(1))
-        .map(|_| {
-            let c = thread_cpu_ms();
-            let t = Instant::now();
-            f();
-            (t.elapsed().as_secs_f64() * 1e3, thread_cpu_ms() - c)
-        })
-        .unzip();
-    wall.sort_by(f64::total_cmp);
-    cpu.sort_by(f64::total_cmp);
-    (wall[wall.len() / 2], cpu[cpu.len() / 2])
+    let mut v: [Vec<f64>; 3] = Default::default();
+    for _ in 0..repeats.max(1) {
+        let (c, p) = (
+            cpu_ms(libc::CLOCK_THREAD_CPUTIME_ID),
+            cpu_ms(libc::CLOCK_PROCESS_CPUTIME_ID),
+        );
+        let t = Instant::now();
+        f();
+        v[0].push(t.elapsed().as_secs_f64() * 1e3);
+        v[1].push(cpu_ms(libc::CLOCK_THREAD_CPUTIME_ID) - c);
+        v[2].push(cpu_ms(libc::CLOCK_PROCESS_CPUTIME_ID) - p);
+    }
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Times {
+        wall_ms: med(&mut v[0]),
+        thread_cpu_ms: med(&mut v[1]),
+        process_cpu_ms: med(&mut v[2]),
+    }
+}
+
+impl Times {
+    /// The time ratios are taken from: the thread's CPU with one thread, wall time with more.
+    fn basis(&self, threads: usize) -> f64 {
+        if threads == 1 {
+            self.thread_cpu_ms
+        } else {
+            self.wall_ms
+        }
+    }
+
+    /// The work: the thread's CPU with one thread, the process's (every thread) with more.
+    fn cpu(&self, threads: usize) -> f64 {
+        if threads == 1 {
+            self.thread_cpu_ms
+        } else {
+            self.process_cpu_ms
+        }
+    }
+}
+
+/// The kernel path and CPU features, for the JSON of every `bench` command.
+pub fn kernels_json() -> serde_json::Value {
+    serde_json::json!({
+        "path": kernels::isa().name(),
+        "cpu_features": kernels::features().names(),
+        "describe": kernels::describe(),
+    })
 }
 
 /// A `.npy` (version 1) of a 2-D u8 or u16 array.
@@ -121,7 +179,24 @@ struct Peer {
     mag_phase_ms: f64,
     mag_cpu_ms: f64,
     mag_phase_cpu_ms: f64,
+    mag_proc_cpu_ms: f64,
+    mag_phase_proc_cpu_ms: f64,
     opencv: String,
+}
+
+/// One row of the table.
+#[derive(serde::Serialize)]
+struct Row {
+    width: usize,
+    height: usize,
+    bits: u8,
+    ours: Times,
+    opencv_mag: Times,
+    opencv_mag_phase: Times,
+    floor: Times,
+    ratio_mag: f64,
+    ratio_mag_phase: f64,
+    ours_over_floor: f64,
 }
 
 /// Run `mosaicd bench gradients`.
@@ -134,12 +209,16 @@ pub fn run(args: BenchGradientsArgs) -> anyhow::Result<()> {
     if let Some(b) = args.bits.iter().find(|b| !(8..=16).contains(*b)) {
         bail!("bit depth {b} outside 8..=16");
     }
-    // One thread: the serial option runs every strip on this (the timing) thread.
+    anyhow::ensure!(args.threads >= 1, "--threads must be at least 1");
+    let threads = args.threads;
+    // One thread: the serial option runs every strip on this (the timing) thread. More: row
+    // strips on a pool of that size, as the daemon runs the kernel.
     let spec = MagBinSpec::new(MagBinOptions {
         operator: args.operator,
-        serial: true,
+        serial: threads == 1,
         ..Default::default()
     })?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let tmp = tempfile_dir()?;
     let commit = commit();
     let mut rows = Vec::new();
@@ -159,10 +238,17 @@ pub fn run(args: BenchGradientsArgs) -> anyhow::Result<()> {
             };
             let mut mag = Image::<u16>::new(w, h);
             let mut bin = Image::<u8>::new(w, h);
+            let mut kernel =
+                || mag_bin(src, bits, &spec, &mut mag.view_mut(), &mut bin.view_mut()).expect("valid sizes");
             let ours = median_ms(args.repeats, || {
-                mag_bin(src, bits, &spec, &mut mag.view_mut(), &mut bin.view_mut()).expect("valid sizes");
-                std::hint::black_box((&mag, &bin));
+                // One thread: serial, on this (the timing) thread; more: on the pool.
+                if threads == 1 {
+                    kernel()
+                } else {
+                    pool.install(&mut kernel)
+                }
             });
+            std::hint::black_box((&mag, &bin));
             let mut in_copy = vec![0u8; raw_bytes.len()];
             let out_src = vec![1u8; w * h * 3];
             let mut out_copy = vec![0u8; w * h * 3];
@@ -178,6 +264,7 @@ pub fn run(args: BenchGradientsArgs) -> anyhow::Result<()> {
                 .arg("--npy")
                 .arg(&npy)
                 .args(["--cfa", "RGGB", "--repeats", &args.repeats.to_string()])
+                .args(["--threads", &threads.to_string()])
                 .output()
                 .with_context(|| format!("running {} {}", args.python, args.peer.display()))?;
             let _ = std::fs::remove_file(&npy);
@@ -191,44 +278,72 @@ pub fn run(args: BenchGradientsArgs) -> anyhow::Result<()> {
             let peer: Peer = serde_json::from_slice(&out.stdout)
                 .with_context(|| format!("peer output: {}", String::from_utf8_lossy(&out.stdout)))?;
             opencv_version = peer.opencv.clone();
-            rows.push((
-                w,
-                h,
+            let cv = Times {
+                wall_ms: peer.mag_ms,
+                thread_cpu_ms: peer.mag_cpu_ms,
+                process_cpu_ms: peer.mag_proc_cpu_ms,
+            };
+            let cvp = Times {
+                wall_ms: peer.mag_phase_ms,
+                thread_cpu_ms: peer.mag_phase_cpu_ms,
+                process_cpu_ms: peer.mag_phase_proc_cpu_ms,
+            };
+            rows.push(Row {
+                width: w,
+                height: h,
                 bits,
+                ratio_mag: cv.basis(threads) / ours.basis(threads),
+                ratio_mag_phase: cvp.basis(threads) / ours.basis(threads),
+                ours_over_floor: ours.cpu(threads) / floor.thread_cpu_ms,
                 ours,
-                (peer.mag_ms, peer.mag_cpu_ms),
-                (peer.mag_phase_ms, peer.mag_phase_cpu_ms),
+                opencv_mag: cv,
+                opencv_mag_phase: cvp,
                 floor,
-            ));
+            });
         }
     }
     let _ = std::fs::remove_dir(&tmp);
+    if args.json {
+        let report = serde_json::json!({
+            "commit": commit, "opencv": opencv_version, "threads": threads,
+            "operator": format!("{:?}", args.operator), "bins": spec.options().bins,
+            "repeats": args.repeats, "kernels": kernels_json(), "rows": rows,
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
     println!(
-        "mosaicd bench gradients — commit {commit}, OpenCV {opencv_version}, 1 thread each, operator {:?}, {} bins, kernel path {:?}, median of {}",
+        "mosaicd bench gradients — commit {commit}, OpenCV {opencv_version}, {threads} thread(s) each, operator {:?}, {} bins, median of {}",
         args.operator,
         spec.options().bins,
-        KernelPath::best(),
         args.repeats
     );
-    println!("times: median wall ms / median CPU ms of the working thread; ratios from CPU time (the machine may be shared)");
+    println!("{}", kernels::describe());
+    if threads == 1 {
+        println!("times: median wall ms / median CPU ms of the working thread; ratios from CPU time (the machine may be shared)");
+    } else {
+        println!("times: median wall ms / median process CPU ms (all threads); ratios from wall time; ours / floor from CPU (the floor: one thread)");
+    }
     println!(
-        "| size | bits | threads | commit | ours (mag+bin) | OpenCV (mag) | ratio | OpenCV (mag+phase) | ratio | memcpy floor | ours / floor |"
+        "| size | bits | threads | path | commit | ours (mag+bin) | OpenCV (mag) | ratio | OpenCV (mag+phase) | ratio | memcpy floor | ours / floor |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    for (w, h, bits, ours, cv, cvp, floor) in rows {
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let cell = |t: &Times| format!("{:.2} / {:.2}", t.wall_ms, t.cpu(threads));
+    let path = kernels::isa();
+    for r in rows {
         println!(
-            "| {w}x{h} | {bits} | 1 | {commit} | {:.2} / {:.2} | {:.2} / {:.2} | {:.1}x | {:.2} / {:.2} | {:.1}x | {:.2} / {:.2} | {:.1}x |",
-            ours.0,
-            ours.1,
-            cv.0,
-            cv.1,
-            cv.1 / ours.1,
-            cvp.0,
-            cvp.1,
-            cvp.1 / ours.1,
-            floor.0,
-            floor.1,
-            ours.1 / floor.1
+            "| {}x{} | {} | {threads} | {path} | {commit} | {} | {} | {:.1}x | {} | {:.1}x | {:.2} / {:.2} | {:.1}x |",
+            r.width,
+            r.height,
+            r.bits,
+            cell(&r.ours),
+            cell(&r.opencv_mag),
+            r.ratio_mag,
+            cell(&r.opencv_mag_phase),
+            r.ratio_mag_phase,
+            r.floor.wall_ms,
+            r.floor.thread_cpu_ms,
+            r.ours_over_floor
         );
     }
     Ok(())

@@ -1,7 +1,9 @@
 //! `mosaicd bench pipeline`: replay throughput (frames/s) and capture→publish latency p50/p99 of
 //! the daemon pipeline on a synthetic stream (default 1920x1080 12-bit RGGB, 2 threads), with the
 //! iceoryx2 publishers on; then the same run with a subscriber that never reads, and the ratio (a
-//! stalled subscriber must not slow the daemon). Not a test: numbers for docs/daemon.md.
+//! stalled subscriber must not slow the daemon). Not a test: numbers for docs/daemon.md. The
+//! output names the kernel path and the CPU's features ([`mosaicd::kernels::describe`];
+//! `MOSAICD_KERNELS` forces a path), as does the JSON line (`kernels`).
 
 use std::sync::Arc;
 
@@ -148,6 +150,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
         a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames, fps, p50, p99
     );
+    println!("{}", mosaicd::kernels::describe());
     let mut stalled = None;
     if !a.no_stalled {
         // A subscriber that never reads, held for the whole second run.
@@ -180,7 +183,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints,
                "descriptors": a.descriptors, "keypoints_double": a.keypoints_double, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
-               "fps_with_stalled_subscriber": stalled, "commit": commit})
+               "fps_with_stalled_subscriber": stalled, "commit": commit, "kernels": super::bench_gradients::kernels_json()})
     );
     Ok(())
 }

@@ -1,6 +1,8 @@
 //! `mosaicd bench sift`: mosaic SIFT on a 1080p 12-bit mosaic against OpenCV's conventional path
 //! (demosaic → grey → 8-bit → `SIFT.detectAndCompute`) run by Python in the same command on the
-//! same frame with the same thread count. Prints both median times and the ratio.
+//! same frame with the same thread count. Prints the kernel path and the CPU's features
+//! ([`mosaicd::kernels::describe`]; `MOSAICD_KERNELS` forces a path), both median times and the
+//! ratio; `--json` prints the same as one JSON document.
 //!
 //! The frame is the real 1920x1080 10-bit RGGB chart `raw/openisp/test.RAW` shifted left by 2 bits
 //! (a 12-bit frame with the same content).
@@ -12,7 +14,10 @@ use std::process::Command;
 use anyhow::{bail, Context};
 
 use mosaicd::features::sift::{features_from_frame, SiftSpec};
+use mosaicd::kernels;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
+
+use super::bench_gradients::kernels_json;
 
 /// The Python peer: OpenCV demosaic, grey, 8-bit, SIFT; prints "median_seconds keypoints".
 const PEER: &str = r#"
@@ -54,6 +59,9 @@ pub struct BenchSiftArgs {
     /// Base blur sigma of the mosaic, in super-pixels (the mosaic default unless given).
     #[arg(long)]
     pub sigma: Option<f64>,
+    /// Print one JSON document instead of the text lines.
+    #[arg(long)]
+    pub json: bool,
     /// Time mosaicd only (no OpenCV peer): for profiling.
     #[arg(long)]
     pub no_peer: bool,
@@ -111,9 +119,20 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     };
 
     if args.no_peer {
+        if args.json {
+            let report = serde_json::json!({
+                "threads": args.threads, "reps": args.reps, "kernels": kernels_json(),
+                "ours_s": ours, "ours_keypoints": n_ours,
+            });
+            println!("{}", serde_json::to_string_pretty(&report)?);
+            return Ok(());
+        }
         println!(
-            "bench sift: mosaicd mosaic SIFT, {} threads, median of {} runs: {:.3} s ({n_ours} keypoints)",
-            args.threads, args.reps, ours
+            "bench sift: mosaicd mosaic SIFT, {} threads, median of {} runs: {:.3} s ({n_ours} keypoints); {}",
+            args.threads,
+            args.reps,
+            ours,
+            kernels::describe()
         );
         return Ok(());
     }
@@ -150,7 +169,19 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         .ok()
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_default();
+    if args.json {
+        let report = serde_json::json!({
+            "input": "raw/openisp/test.RAW << 2", "width": w, "height": h, "bit_depth": 12,
+            "threads": args.threads, "reps": args.reps, "commit": commit, "kernels": kernels_json(),
+            "opencv_s": cv_s, "opencv_keypoints": cv_n, "ours_s": ours, "ours_keypoints": n_ours,
+            "speedup": cv_s / ours,
+            "doubled": doubled.map(|(t, n)| serde_json::json!({"ours_s": t, "keypoints": n, "speedup": cv_s / t})),
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
     println!("bench sift: 1920x1080 12-bit RGGB (openisp test.RAW << 2), {} threads, median of {} runs, commit {commit}", args.threads, args.reps);
+    println!("  {}", kernels::describe());
     println!(
         "  OpenCV demosaic + grey + SIFT.detectAndCompute: {:.3} s ({cv_n} keypoints)",
         cv_s

@@ -18,8 +18,9 @@
 //!   `tests/gradient_oracle.rs`) for the OpenCV-compatible borders.
 //! * **Fused, integer**: [`mag_bin`] (a `u8`/`u16` mosaic → `u16` magnitude + `u8` orientation bin,
 //!   one pass over the rows, rayon over row strips, no allocation), [`mag_bin_from_raw`] (allocating,
-//!   from a [`RawFrame`]). [`mag_bin_scalar`] is its straightforward scalar oracle; every fast path
-//!   equals it bit for bit (tests loop over [`KernelPath::available`]).
+//!   from a [`RawFrame`]). [`mag_bin_scalar`] is its straightforward scalar oracle; every kernel path
+//!   ([`mag_bin_with_isa`]: the baseline build, AVX2, AVX-512, NEON, dispatched through
+//!   [`crate::kernels`]) equals it bit for bit (tests loop over [`Isa::available`]).
 //!
 //! ```
 //! use mosaicd::features::gradient::{gradients_from_image, mag_bin_from_raw, AngleRange, GradientSpec, MagBinOptions, MagBinSpec};
@@ -96,6 +97,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::image::{Image, ImageView, ImageViewMut};
+use crate::kernels::{self, Isa};
 use crate::raw::{RawFrame, RawView};
 
 /// Rows per rayon task (one strip). 16 rows of a 4000-pixel 16-bit frame is 128 KiB of input.
@@ -710,80 +712,6 @@ pub struct MagBin {
     pub mag_shift: u32,
 }
 
-/// Implementations of the fused kernel. All give identical results.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum KernelPath {
-    /// Per-pixel, through [`gradient_at`]: the oracle.
-    Scalar,
-    /// Chunked, auto-vectorised for the compile target.
-    Portable,
-    /// The portable code compiled with AVX2 + FMA enabled (x86-64, detected at run time). Rust never
-    /// contracts `a * b + c` into an FMA by itself, so results stay identical.
-    Avx2,
-    /// The portable code compiled with AVX-512 (F, BW, VL) enabled (x86-64, detected at run time).
-    Avx512,
-}
-
-impl KernelPath {
-    /// Paths this CPU can run.
-    pub fn available() -> Vec<KernelPath> {
-        let mut v = vec![KernelPath::Scalar, KernelPath::Portable];
-        if Self::avx2() {
-            v.push(KernelPath::Avx2);
-        }
-        if Self::avx512() {
-            v.push(KernelPath::Avx512);
-        }
-        v
-    }
-
-    /// The fastest available path (measured: AVX-512 > AVX2 > portable on the AMD EPYC we bench
-    /// on, see docs/gradients.md).
-    pub fn best() -> KernelPath {
-        if Self::avx512() {
-            KernelPath::Avx512
-        } else if Self::avx2() {
-            KernelPath::Avx2
-        } else {
-            KernelPath::Portable
-        }
-    }
-
-    /// Whether this path can run here.
-    pub fn is_available(self) -> bool {
-        match self {
-            KernelPath::Scalar | KernelPath::Portable => true,
-            KernelPath::Avx2 => Self::avx2(),
-            KernelPath::Avx512 => Self::avx512(),
-        }
-    }
-
-    fn avx2() -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
-    }
-
-    fn avx512() -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            Self::avx2()
-                && std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512bw")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
-    }
-}
-
 /// Per-row context of the fused kernel.
 struct Ctx<'s> {
     spec: &'s MagBinSpec,
@@ -944,46 +872,53 @@ fn finish_dyn(fin: &Fin, gx: &[f32], gy: &[f32], cos: &[f32], sin: &[f32], mag: 
     }
 }
 
-fn row_interior_portable<T: RawSample>(
-    ctx: &Ctx<'_>,
-    rp: &[T],
-    r0: &[T],
-    rn: &[T],
-    mag: &mut [u16],
-    bin: &mut [u8],
-) {
-    row_interior(ctx, rp, r0, rn, mag, bin)
+/// Defines one copy of [`row_interior`] per kernel path, each compiled with its own target
+/// features (the attributes given), all with the same signature.
+macro_rules! row_interior_copy {
+    ($(#[$m:meta])* unsafe fn $name:ident) => {
+        $(#[$m])*
+        unsafe fn $name<T: RawSample>(ctx: &Ctx<'_>, rp: &[T], r0: &[T], rn: &[T], mag: &mut [u16], bin: &mut [u8]) {
+            row_interior(ctx, rp, r0, rn, mag, bin)
+        }
+    };
+    ($(#[$m:meta])* fn $name:ident) => {
+        $(#[$m])*
+        fn $name<T: RawSample>(ctx: &Ctx<'_>, rp: &[T], r0: &[T], rn: &[T], mag: &mut [u16], bin: &mut [u8]) {
+            row_interior(ctx, rp, r0, rn, mag, bin)
+        }
+    };
 }
 
-/// # Safety
-/// The CPU must support AVX2 and FMA (checked by [`KernelPath::is_available`] before this path is chosen).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn row_interior_avx2<T: RawSample>(
-    ctx: &Ctx<'_>,
-    rp: &[T],
-    r0: &[T],
-    rn: &[T],
-    mag: &mut [u16],
-    bin: &mut [u8],
-) {
-    row_interior(ctx, rp, r0, rn, mag, bin)
-}
+row_interior_copy!(
+    /// The baseline copy ([`Isa::Scalar`]): the chunked body built for the compile target (SSE2 on
+    /// x86-64).
+    fn row_interior_baseline
+);
 
-/// # Safety
-/// The CPU must support AVX-512 F/BW/VL (checked by [`KernelPath::is_available`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512vl")]
-unsafe fn row_interior_avx512<T: RawSample>(
-    ctx: &Ctx<'_>,
-    rp: &[T],
-    r0: &[T],
-    rn: &[T],
-    mag: &mut [u16],
-    bin: &mut [u8],
-) {
-    row_interior(ctx, rp, r0, rn, mag, bin)
-}
+row_interior_copy!(
+    /// # Safety
+    /// The CPU must support AVX2 and FMA (checked by [`Isa::is_available`] before this path is chosen).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_interior_avx2
+);
+
+row_interior_copy!(
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW/VL (checked by [`Isa::is_available`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512vl")]
+    unsafe fn row_interior_avx512
+);
+
+row_interior_copy!(
+    /// The NEON copy ([`Isa::Neon`]): Advanced SIMD is part of the aarch64 baseline, so this is the
+    /// body as LLVM vectorises it for 128-bit registers (widening `ushll`, `scvtf`, `fmul`,
+    /// `fsqrt`, `fcmge`/`bsl` on `v.4s`, narrowing `xtn`; checked in the cross build's assembly,
+    /// docs/gradients.md "Benchmark").
+    #[cfg(target_arch = "aarch64")]
+    fn row_interior_neon
+);
 
 /// Magnitude and bin at one pixel through the scalar definitions (border pixels and the oracle).
 #[inline]
@@ -995,11 +930,20 @@ fn pixel_scalar<T: RawSample>(src: &ImageView<'_, T>, ctx: &Ctx<'_>, x: usize, y
     (mag_of(gx, gy, ctx.scale), ctx.spec.bin_of(gx, gy))
 }
 
+/// How [`mag_bin_typed`] computes the interior: the per-pixel oracle or a kernel path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Route {
+    /// Every pixel through [`pixel_scalar`].
+    Oracle,
+    /// The chunked body compiled for this path (available here).
+    Kernel(Isa),
+}
+
 fn mag_bin_typed<T: RawSample>(
     src: &ImageView<'_, T>,
     bit_depth: u8,
     spec: &MagBinSpec,
-    path: KernelPath,
+    route: Route,
     mag: &mut ImageViewMut<'_, u16>,
     bin: &mut ImageViewMut<'_, u8>,
 ) -> Result<(), GradientError> {
@@ -1010,10 +954,9 @@ fn mag_bin_typed<T: RawSample>(
     check_size(w, h, spec.opts.border)?;
     check_same("magnitude", (mag.width(), mag.height()), (w, h))?;
     check_same("bin", (bin.width(), bin.height()), (w, h))?;
-    let path = if path.is_available() {
-        path
-    } else {
-        KernelPath::Portable
+    let route = match route {
+        Route::Kernel(isa) if !isa.is_available() => Route::Kernel(Isa::Scalar),
+        r => r,
     };
     let ctx = Ctx {
         spec,
@@ -1021,7 +964,7 @@ fn mag_bin_typed<T: RawSample>(
     };
     for_each_row2(mag, bin, spec.opts.serial, |y, mrow, brow| {
         let interior_row = y >= 1 && y + 1 < h;
-        if path == KernelPath::Scalar || !interior_row {
+        if route == Route::Oracle || !interior_row {
             for x in 0..w {
                 (mrow[x], brow[x]) = pixel_scalar(src, &ctx, x, y);
             }
@@ -1031,27 +974,32 @@ fn mag_bin_typed<T: RawSample>(
             (mrow[x], brow[x]) = pixel_scalar(src, &ctx, x, y);
         }
         let (rp, r0, rn) = (src.row(y - 1), src.row(y), src.row(y + 1));
-        match path {
+        match route {
             #[cfg(target_arch = "x86_64")]
-            KernelPath::Avx2 => {
-                // SAFETY: AVX2 + FMA support was checked above (`is_available` detects it at run
+            Route::Kernel(Isa::Avx2) => {
+                debug_assert!(Isa::Avx2.is_available());
+                // SAFETY: AVX2 + FMA support was checked above (`is_available` probes it at run
                 // time). The same code built for AVX2 is several times faster than the SSE2
                 // baseline build (docs/gradients.md).
                 unsafe { row_interior_avx2(&ctx, rp, r0, rn, mrow, brow) }
             }
             #[cfg(target_arch = "x86_64")]
-            KernelPath::Avx512 => {
+            Route::Kernel(Isa::Avx512) => {
+                debug_assert!(Isa::Avx512.is_available());
                 // SAFETY: AVX-512 F/BW/VL support was checked above (`is_available`).
                 unsafe { row_interior_avx512(&ctx, rp, r0, rn, mrow, brow) }
             }
-            _ => row_interior_portable(&ctx, rp, r0, rn, mrow, brow),
+            #[cfg(target_arch = "aarch64")]
+            Route::Kernel(Isa::Neon) => row_interior_neon(&ctx, rp, r0, rn, mrow, brow),
+            _ => row_interior_baseline(&ctx, rp, r0, rn, mrow, brow),
         }
     });
     Ok(())
 }
 
 /// The fused kernel: a `u8`/`u16` mosaic (or grey image) → `u16` magnitude and `u8` orientation bin,
-/// one pass, using the fastest path this CPU has ([`KernelPath::best`]).
+/// one pass, on the process's kernel path ([`crate::kernels::isa`]: the widest this CPU has, or
+/// the one `MOSAICD_KERNELS` names).
 ///
 /// Row strips of [`STRIP_ROWS`] run on the *current* rayon pool: the daemon calls it inside its own
 /// `ThreadPool::install`; with `serial` set in the options it stays on the calling thread.
@@ -1064,7 +1012,7 @@ pub fn mag_bin(
     mag: &mut ImageViewMut<'_, u16>,
     bin: &mut ImageViewMut<'_, u8>,
 ) -> Result<(), GradientError> {
-    mag_bin_with_path(src, bit_depth, spec, KernelPath::best(), mag, bin)
+    mag_bin_with_isa(src, bit_depth, spec, kernels::isa(), mag, bin)
 }
 
 /// [`mag_bin`] through the per-pixel scalar definition: the test oracle.
@@ -1075,21 +1023,34 @@ pub fn mag_bin_scalar(
     mag: &mut ImageViewMut<'_, u16>,
     bin: &mut ImageViewMut<'_, u8>,
 ) -> Result<(), GradientError> {
-    mag_bin_with_path(src, bit_depth, spec, KernelPath::Scalar, mag, bin)
+    mag_bin_routed(src, bit_depth, spec, Route::Oracle, mag, bin)
 }
 
-/// [`mag_bin`] through a chosen [`KernelPath`] (an unavailable path falls back to `Portable`).
-pub fn mag_bin_with_path(
+/// [`mag_bin`] on a chosen kernel path (a path this CPU cannot run falls back to
+/// [`Isa::Scalar`], the baseline build of the same body). Every path equals [`mag_bin_scalar`]
+/// bit for bit.
+pub fn mag_bin_with_isa(
     src: RawView<'_>,
     bit_depth: u8,
     spec: &MagBinSpec,
-    path: KernelPath,
+    isa: Isa,
+    mag: &mut ImageViewMut<'_, u16>,
+    bin: &mut ImageViewMut<'_, u8>,
+) -> Result<(), GradientError> {
+    mag_bin_routed(src, bit_depth, spec, Route::Kernel(isa), mag, bin)
+}
+
+fn mag_bin_routed(
+    src: RawView<'_>,
+    bit_depth: u8,
+    spec: &MagBinSpec,
+    route: Route,
     mag: &mut ImageViewMut<'_, u16>,
     bin: &mut ImageViewMut<'_, u8>,
 ) -> Result<(), GradientError> {
     match src {
-        RawView::U8(v) => mag_bin_typed(&v, bit_depth, spec, path, mag, bin),
-        RawView::U16(v) => mag_bin_typed(&v, bit_depth, spec, path, mag, bin),
+        RawView::U8(v) => mag_bin_typed(&v, bit_depth, spec, route, mag, bin),
+        RawView::U16(v) => mag_bin_typed(&v, bit_depth, spec, route, mag, bin),
     }
 }
 
@@ -1316,6 +1277,86 @@ mod tests {
             v.iter().sum::<f64>() / v.len() as f64
         };
         assert!(mean(1, 0) > mean(0, 0));
+    }
+
+    /// A seeded mosaic with smooth structure plus noise (so every orientation occurs), or full-range
+    /// noise with `full_range` (magnitudes up to the u16 limit and the shifted ones).
+    fn test_mosaic(w: usize, h: usize, bits: u8, seed: u64, full_range: bool) -> Image<u16> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let max = ((1u32 << bits) - 1) as f64;
+        Image::from_fn(w, h, |x, y| {
+            if full_range {
+                return rng.random_range(0..=max as u32) as u16;
+            }
+            let s = 0.5 + 0.35 * ((x as f64 * 0.21).sin() * (y as f64 * 0.13).cos());
+            let n: f64 = rng.random_range(-0.08..0.08);
+            ((s + n).clamp(0.0, 1.0) * max).round() as u16
+        })
+    }
+
+    /// Every kernel path this CPU has (the baseline build, AVX2, AVX-512 on x86-64; NEON on
+    /// aarch64) equals the per-pixel oracle bit for bit: u8/u16, 8/12/16-bit, both operators, three
+    /// borders, 9/12/36/8 bins, odd sizes and chunk tails (widths beyond one chunk of 256).
+    #[test]
+    fn kernel_paths_equal_scalar_oracle_bit_for_bit() {
+        let ops = [Operator::Central, Operator::Sobel];
+        let borders = [Border::Reflect101, Border::Replicate, Border::MosaicExtrapolate];
+        let run = |src: RawView<'_>, bits: u8, spec: &MagBinSpec, isa: Option<Isa>| {
+            let (w, h) = (src.width(), src.height());
+            let (mut m, mut b) = (Image::new(w, h), Image::new(w, h));
+            match isa {
+                Some(isa) => mag_bin_with_isa(src, bits, spec, isa, &mut m.view_mut(), &mut b.view_mut()),
+                None => mag_bin_scalar(src, bits, spec, &mut m.view_mut(), &mut b.view_mut()),
+            }
+            .unwrap();
+            (m, b)
+        };
+        let paths = Isa::available();
+        assert!(paths.contains(&Isa::Scalar));
+        assert_eq!(paths.contains(&Isa::Neon), cfg!(target_arch = "aarch64"));
+        for (w, h, full) in [
+            (4, 4, false),
+            (5, 7, false),
+            (301, 37, false),
+            (530, 19, false),
+            (300, 9, true),
+        ] {
+            let img12 = test_mosaic(w, h, 12, (w * h) as u64, full);
+            let img16 = test_mosaic(w, h, 16, (w * h) as u64 + 1, full);
+            let img8 = img12.map(|v| (v >> 4) as u8);
+            for op in ops {
+                for border in borders {
+                    for (bins, range) in [
+                        (9, AngleRange::Unsigned),
+                        (12, AngleRange::Unsigned),
+                        (36, AngleRange::Signed),
+                        (8, AngleRange::Signed),
+                    ] {
+                        let spec = MagBinSpec::new(MagBinOptions {
+                            operator: op,
+                            border,
+                            bins,
+                            range,
+                            serial: false,
+                        })
+                        .unwrap();
+                        for (src, bits) in [
+                            (RawView::U16(img12.view()), 12u8),
+                            (RawView::U16(img16.view()), 16u8),
+                            (RawView::U8(img8.view()), 8u8),
+                        ] {
+                            let (m0, b0) = run(src, bits, &spec, None);
+                            for &isa in &paths {
+                                let (m, b) = run(src, bits, &spec, Some(isa));
+                                assert_eq!(m, m0, "{w}x{h} {op:?} {border:?} {bins} {bits} {isa} magnitude");
+                                assert_eq!(b, b0, "{w}x{h} {op:?} {border:?} {bins} {bits} {isa} bin");
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -3,8 +3,8 @@
 //! clip at 0.2, renormalise, scale by 512 and saturate to `u8` (OpenCV's stored values).
 
 use super::detect::{floor, Candidate, GradScratch};
-use super::kernels::KernelPath;
 use crate::image::Image;
+use crate::kernels::Isa;
 
 /// Cells per side of the descriptor grid (`SIFT_DESCR_WIDTH`).
 pub(crate) const SIFT_DESCR_WIDTH: usize = 4;
@@ -65,7 +65,7 @@ pub(crate) fn descriptor(
     img: &Image<f32>,
     cand: &Candidate,
     s: usize,
-    path: KernelPath,
+    path: Isa,
     sc: &mut GradScratch,
 ) -> [u8; DESCRIPTOR_LEN] {
     let d = SIFT_DESCR_WIDTH;

@@ -5,11 +5,12 @@
 use rayon::prelude::*;
 
 use super::buffers;
-use super::kernels::{self, KernelPath};
+use super::kernels;
 use super::scale_space::{blur_step_with, downsample2_step_into, upsample2_step};
 use super::{Keypoint, SiftSpec};
 use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
+use crate::kernels::Isa;
 
 /// Width of the border (in octave pixels) in which no extremum is searched (`SIFT_IMG_BORDER`).
 pub(crate) const SIFT_IMG_BORDER: usize = 5;
@@ -119,7 +120,7 @@ pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid
     let sig_diff = (spec.sigma_px() * spec.sigma_px() - init_sigma * init_sigma)
         .max(0.01)
         .sqrt();
-    let path = KernelPath::best();
+    let path = crate::kernels::isa();
     // Scratch image of the blurs' horizontal pass, reused by every blur of the pyramid. All
     // large images come from `buffers` (recycled between frames, every pixel overwritten).
     let (iw, ih) = init.dimensions();
@@ -392,7 +393,7 @@ impl GradScratch {
     }
 
     /// Fill `mag` and `ori` from `dx` and `dy`.
-    pub fn polar(&mut self, path: KernelPath) {
+    pub fn polar(&mut self, path: Isa) {
         let n = self.dx.len();
         self.mag.resize(n, 0.0);
         self.ori.resize(n, 0.0);
@@ -442,7 +443,7 @@ fn orientation_hist(
     radius: i64,
     sigma: f32,
     s: usize,
-    path: KernelPath,
+    path: Isa,
     sc: &mut GradScratch,
     hist: &mut [f32; SIFT_ORI_HIST_BINS],
 ) -> f32 {
@@ -612,7 +613,7 @@ pub(crate) fn find_scale_space_extrema(pyr: &Pyramid, spec: &SiftSpec) -> Vec<Ca
     let s = spec.step();
     let reach = s;
     let threshold = (0.5 * spec.o.contrast_threshold / nl as f64 * INTENSITY_RANGE as f64) as f32;
-    let path = KernelPath::best();
+    let path = crate::kernels::isa();
     let mut out = Vec::new();
     for (o, dog) in pyr.dog.iter().enumerate() {
         let (cols, rows) = dog[0].dimensions();
@@ -674,7 +675,7 @@ fn orient(
     spec: &SiftSpec,
     o: usize,
     rf: &Refined,
-    (path, sc): (KernelPath, &mut GradScratch),
+    (path, sc): (Isa, &mut GradScratch),
     hist: &mut [f32; SIFT_ORI_HIST_BINS],
     out: &mut Vec<Candidate>,
 ) {

@@ -1,94 +1,31 @@
 //! Row kernels of the SIFT pyramid and of the gradient layers, one body per kernel compiled for
-//! several instruction sets.
+//! every instruction-set path of the kernel layer ([`crate::kernels`]).
 //!
 //! Each kernel is written once as an `#[inline(always)]` body over fixed-size stack chunks, which
-//! LLVM vectorises. The body is instantiated three times: without extra target features
-//! ([`KernelPath::Portable`], SSE2 on x86-64), and inside `#[target_feature]` functions for AVX2
-//! and AVX-512 chosen at run time. No path enables FMA and Rust never contracts `a * b + c`, so
-//! every path performs the same IEEE operations in the same order: all paths are **bit-equal** to
-//! the straightforward scalar loops kept in the tests (and to the reference `fast_atan2_deg`), checked there
-//! for every path this CPU offers. The kernels take slices and do not allocate.
+//! LLVM vectorises. The body is instantiated once per [`Isa`]: [`Isa::Scalar`] is the body built
+//! for the baseline target (SSE2 on x86-64); [`Isa::Avx2`] and [`Isa::Avx512`] are copies inside
+//! `#[target_feature]` functions chosen at run time; [`Isa::Neon`] is the aarch64 copy (NEON is
+//! baseline there, so the body is already vectorised for it: 4-lane `fmul`/`fadd`/`fcm*` on
+//! `v.4s` registers, checked in the cross build's assembly, docs/sift.md "Speed"). No path
+//! enables fused multiply-add contraction (Rust never contracts `a * b + c`), so every path
+//! performs the same IEEE operations in the same order: all paths are **bit-equal** to the
+//! straightforward scalar loops kept in the tests (and to the reference `fast_atan2_deg`),
+//! checked there for every path in [`Isa::available`]. The process's path is [`crate::kernels::isa`]
+//! (override: `MOSAICD_KERNELS`). The kernels take slices and do not allocate.
+
+use crate::kernels::Isa;
 
 /// Pixels accumulated on the stack per step of the blur kernels (32 floats: four AVX2 or two
-/// AVX-512 registers of accumulators).
+/// AVX-512 registers of accumulators, eight NEON registers).
 const CHUNK: usize = 32;
 
-/// Instruction-set path of the kernels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum KernelPath {
-    /// The body compiled for the baseline target (SSE2 on x86-64); always available.
-    Portable,
-    /// The body compiled with AVX2 enabled.
-    Avx2,
-    /// The body compiled with AVX-512 F/VL enabled.
-    Avx512,
-}
-
-impl KernelPath {
-    /// Every path, for tests that compare them.
-    #[cfg(test)]
-    pub(crate) const ALL: [KernelPath; 3] = [KernelPath::Portable, KernelPath::Avx2, KernelPath::Avx512];
-
-    /// The path SIFT runs: the widest this CPU supports, or the one named by the environment
-    /// variable `MOSAICD_SIFT_KERNELS` (`portable`, `avx2`, `avx512`; for benchmarking the
-    /// paths against each other) when that is available here. Decided once per process.
-    pub(crate) fn best() -> Self {
-        static CHOSEN: std::sync::OnceLock<KernelPath> = std::sync::OnceLock::new();
-        *CHOSEN.get_or_init(|| {
-            let asked = std::env::var("MOSAICD_SIFT_KERNELS").ok();
-            let forced = match asked.as_deref() {
-                Some("portable") => Some(Self::Portable),
-                Some("avx2") => Some(Self::Avx2),
-                Some("avx512") => Some(Self::Avx512),
-                _ => None,
-            };
-            match forced {
-                Some(p) if p.is_available() => p,
-                _ => {
-                    if let Some(v) = asked {
-                        tracing::warn!(value = %v, "MOSAICD_SIFT_KERNELS ignored (portable, avx2 or avx512 available here)");
-                    }
-                    Self::widest()
-                }
-            }
-        })
-    }
-
-    /// The widest path this CPU supports.
-    fn widest() -> Self {
-        if Self::Avx512.is_available() {
-            Self::Avx512
-        } else if Self::Avx2.is_available() {
-            Self::Avx2
-        } else {
-            Self::Portable
-        }
-    }
-
-    /// Whether this path can run here.
-    pub(crate) fn is_available(self) -> bool {
-        match self {
-            Self::Portable => true,
-            #[cfg(target_arch = "x86_64")]
-            Self::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
-            #[cfg(target_arch = "x86_64")]
-            Self::Avx512 => {
-                std::arch::is_x86_feature_detected!("avx2")
-                    && std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
-        }
-    }
-}
-
-/// Defines a dispatching function `$name(path, args..)` over one `#[inline(always)]` body:
-/// the portable copy, and AVX2 / AVX-512 copies compiled with those features.
+/// Defines a dispatching function `$name(isa, args..)` over one `#[inline(always)]` body: the
+/// baseline copy, AVX2 / AVX-512 copies compiled with those features on x86-64, and the aarch64
+/// (NEON) copy. A path this CPU cannot run falls back to the baseline copy.
 macro_rules! dispatch {
     ($(#[$m:meta])* $name:ident, $body:ident, ($($arg:ident: $ty:ty),*)) => {
         $(#[$m])*
-        pub(crate) fn $name(path: KernelPath, $($arg: $ty),*) {
+        pub(crate) fn $name(isa: Isa, $($arg: $ty),*) {
             #[cfg(target_arch = "x86_64")]
             {
                 /// # Safety
@@ -103,16 +40,16 @@ macro_rules! dispatch {
                 unsafe fn avx512($($arg: $ty),*) {
                     $body($($arg),*)
                 }
-                match path {
-                    KernelPath::Avx2 if KernelPath::Avx2.is_available() => {
-                        debug_assert!(KernelPath::Avx2.is_available());
+                match isa {
+                    Isa::Avx2 if Isa::Avx2.is_available() => {
+                        debug_assert!(Isa::Avx2.is_available());
                         // SAFETY: AVX2 support was just checked. The body indexes slices with
                         // bounds checks, so the only precondition is the instruction set.
                         // Measured gain in docs/sift.md ("Speed").
                         return unsafe { avx2($($arg),*) };
                     }
-                    KernelPath::Avx512 if KernelPath::Avx512.is_available() => {
-                        debug_assert!(KernelPath::Avx512.is_available());
+                    Isa::Avx512 if Isa::Avx512.is_available() => {
+                        debug_assert!(Isa::Avx512.is_available());
                         // SAFETY: AVX2 and AVX-512 F/VL support was just checked; the body is
                         // bounds-checked safe code.
                         return unsafe { avx512($($arg),*) };
@@ -120,7 +57,18 @@ macro_rules! dispatch {
                     _ => {}
                 }
             }
-            let _ = path;
+            #[cfg(target_arch = "aarch64")]
+            {
+                /// The NEON copy: Advanced SIMD is part of the aarch64 baseline, so this is
+                /// the body as LLVM vectorises it for 128-bit registers.
+                fn neon($($arg: $ty),*) {
+                    $body($($arg),*)
+                }
+                if isa == Isa::Neon {
+                    return neon($($arg),*);
+                }
+            }
+            let _ = isa;
             $body($($arg),*)
         }
     };
@@ -404,10 +352,10 @@ mod tests {
     }
 
     #[test]
-    fn every_path_is_bit_equal_to_the_scalar_loops() {
+    fn kernel_paths_are_bit_equal_to_the_scalar_loops() {
         let w = 203;
         let rows: Vec<Vec<f32>> = (0..25).map(|i| noise(w, 10 + i)).collect();
-        for path in KernelPath::ALL.into_iter().filter(|p| p.is_available()) {
+        for path in Isa::available() {
             for step in [1, 2, 3] {
                 for ntaps in [1, 3, 11, 25] {
                     let taps: Vec<f32> = noise(ntaps, 99 + ntaps as u64).iter().map(|v| v.abs()).collect();

@@ -466,7 +466,7 @@ fn compute_prepared(
     let cands = sorted_candidates(&pyr, spec);
     let t2 = std::time::Instant::now();
     let s = spec.step();
-    let path = kernels::KernelPath::best();
+    let path = crate::kernels::isa();
     let descriptors = cands
         .par_iter()
         .map_init(detect::GradScratch::default, |sc, c| {

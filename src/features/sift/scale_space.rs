@@ -15,12 +15,13 @@
 
 use rayon::prelude::*;
 
-use super::kernels::{self, KernelPath};
+use super::kernels;
 use crate::features::superpixel::{
     blur_mosaic, downsample2 as sp_downsample2, downsample2_mosaic, gaussian_blur, resize_bilinear,
     resize_mosaic, GaussianKernel, SuperPixelError,
 };
 use crate::image::Image;
+use crate::kernels::Isa;
 
 /// Gaussian blur with plane sigma `sigma` of a grey image (`step = 1`) or a mosaic (`step = 2`).
 pub(crate) fn blur_step(
@@ -36,7 +37,7 @@ pub(crate) fn blur_step(
         dst,
         &mut Image::new(0, 0),
         None,
-        KernelPath::best(),
+        crate::kernels::isa(),
     )
 }
 
@@ -50,7 +51,7 @@ pub(crate) fn blur_step_with(
     dst: &mut Image<f32>,
     tmp: &mut Image<f32>,
     dog: Option<&mut Image<f32>>,
-    path: KernelPath,
+    path: Isa,
 ) -> Result<(), SuperPixelError> {
     let k = GaussianKernel::from_sigma(sigma)?;
     let symmetric = step != 1 && src.width().is_multiple_of(2) && src.height().is_multiple_of(2);
@@ -96,7 +97,7 @@ pub(crate) fn blur_symmetric(
     dst: &mut Image<f32>,
     tmp: &mut Image<f32>,
     dog: Option<&mut Image<f32>>,
-    path: KernelPath,
+    path: Isa,
 ) {
     let (w, h) = src.dimensions();
     dst.reshape(w, h);
@@ -679,14 +680,14 @@ mod tests {
         pool.install(|| blur(&img, &taps, 2, &mut b));
         assert_eq!(a, b);
         let (mut c, mut d, mut t) = (Image::new(0, 0), Image::new(0, 0), Image::new(0, 0));
-        let path = KernelPath::best();
+        let path = crate::kernels::isa();
         blur_symmetric(&img, &taps, 2, &mut c, &mut t, None, path);
         pool.install(|| blur_symmetric(&img, &taps, 2, &mut d, &mut t, None, path));
         assert_eq!(c, d);
     }
 
     #[test]
-    fn blur_symmetric_is_bit_equal_to_its_reference_on_every_path() {
+    fn blur_symmetric_kernel_paths_are_bit_equal_to_its_reference() {
         // Wider than two kernel chunks, odd interior lengths, and a size where the kernel
         // reaches past the plane (reflect on both sides).
         for (w, h) in [(150, 46), (38, 30), (20, 12)] {
@@ -698,7 +699,7 @@ mod tests {
                     let taps = gaussian_taps(sigma);
                     let mut want = Image::new(0, 0);
                     blur_symmetric_reference(&img, &taps, step, &mut want);
-                    for path in KernelPath::ALL.into_iter().filter(|p| p.is_available()) {
+                    for path in Isa::available() {
                         let (mut got, mut tmp, mut dog) =
                             (Image::new(0, 0), Image::new(0, 0), Image::new(0, 0));
                         blur_symmetric(&img, &taps, step, &mut got, &mut tmp, Some(&mut dog), path);
