@@ -7,9 +7,6 @@ ORACLE_DIR := target/oracle
 # The target directory cargo uses (CARGO_TARGET_DIR when set), for the binaries cross-test runs.
 TARGET_DIR := $(or $(CARGO_TARGET_DIR),target)
 
-<<<<<<< HEAD
-.PHONY: setup demo recording test oracle skimage-negatives lint doc bench fuzz fuzz-smoke fuzz-build
-=======
 # aarch64 (Jetson, Raspberry Pi 5, RK3588) cross build with Debian's cross gcc; tests run under
 # qemu-user (README, "Building for aarch64"). Only the aarch64 target reads these variables.
 AARCH64 := aarch64-unknown-linux-gnu
@@ -20,8 +17,8 @@ export BINDGEN_EXTRA_CLANG_ARGS_aarch64_unknown_linux_gnu ?= --sysroot=$(AARCH64
 export CC_aarch64_unknown_linux_gnu ?= aarch64-linux-gnu-gcc
 export AR_aarch64_unknown_linux_gnu ?= aarch64-linux-gnu-ar
 
-.PHONY: setup demo recording test oracle skimage-negatives lint doc bench cross-build cross-lint cross-test
->>>>>>> arch
+.PHONY: setup demo recording test oracle skimage-negatives lint doc bench cross-build cross-lint cross-test \
+	fuzz fuzz-smoke fuzz-build
 
 setup:
 	@bash scripts/setup.sh
@@ -60,9 +57,7 @@ test: oracle lint
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --all-targets --quiet
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --doc --quiet
 	$(MAKE) --no-print-directory doc
-<<<<<<< HEAD
 	$(MAKE) --no-print-directory fuzz-smoke
-=======
 	$(MAKE) --no-print-directory cross-test
 
 # The aarch64 build: only what cross-test runs, in one cargo call so that everything shares one build
@@ -86,7 +81,6 @@ cross-test: cross-build
 	$(CARGO) test --lib --test gradient_invariants --no-run --quiet
 	bash scripts/cross_detect.sh $(TARGET_DIR)/debug/mosaicd \
 	  "$(CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER) $(TARGET_DIR)/$(AARCH64)/debug/mosaicd"
->>>>>>> arch
 
 bench: setup
 	$(CARGO) bench

@@ -123,13 +123,10 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
 }
 
 fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
-<<<<<<< HEAD
     // The one frame-size limit, for every source and loader of this process.
     cfg.limits.frame_limits().set_process();
-=======
     // Once at start-up: the kernel path every kernel family runs and the CPU's features.
     mosaicd::kernels::log_choice();
->>>>>>> arch
     let opts = RunOptions {
         results_out: o.results.clone(),
     };
