@@ -290,9 +290,10 @@ pub struct ComputeConfig {
     /// exact level per octave).
     pub approx_levels: usize,
     /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6), `"i8"` (8-bit blocks and weights,
-    /// exact integer sums, scores within ≈0.04 of f32: faster than f32 only with AVX-512 VNNI or
-    /// AVX-VNNI, and warned about at start-up elsewhere) or `"auto"` (`"i8"` where it is faster,
-    /// `"f32"` elsewhere: [`ScorePrecision::auto_for`]).
+    /// exact integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, most
+    /// with AVX-512 VNNI or AVX-VNNI; on aarch64 without the dot product it is not, which is
+    /// warned about at start-up) or `"auto"` (`"i8"` where it was measured faster, `"f32"`
+    /// elsewhere: [`ScorePrecision::auto_for`]).
     pub svm: String,
     /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
     /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or

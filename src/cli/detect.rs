@@ -87,9 +87,9 @@ pub struct DetectorArgs {
     #[arg(long, default_value_t = 1)]
     pub approx: usize,
     /// SVM arithmetic: `f32` (OpenCV's scores within 1e-6), `i8` (8-bit blocks and weights, exact
-    /// integer sums: faster than f32 with AVX-512 VNNI or AVX-VNNI, scores within ≈0.04 of f32;
-    /// slower elsewhere, warned about at start-up) or `auto` (`i8` where it is faster, else
-    /// `f32`; docs/detection.md, "8-bit SVM").
+    /// integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, 2.6–4x with
+    /// AVX-512 VNNI or AVX-VNNI) or `auto` (`i8` where it was measured faster, else `f32`;
+    /// docs/detection.md, "8-bit SVM").
     #[arg(long, value_enum, default_value_t = SvmArg::F32)]
     pub svm: SvmArg,
     /// Derivative of mosaic features, overriding the model's: `same-site` (`(I(x+2) −

@@ -130,9 +130,9 @@ pub struct DetectorOptions {
     /// (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
     pub approx_levels: usize,
     /// Arithmetic of the SVM stage: f32 (OpenCV's scores within ≈1e-6) or the 8-bit integer path
-    /// (scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]; faster than f32 with
-    /// AVX-512 VNNI or AVX-VNNI, see [`ScorePrecision::auto_for`]). A precision slower than the
-    /// other on this CPU is warned about when the detector is built.
+    /// (scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]; where it is faster
+    /// than f32: [`ScorePrecision::auto_for`]). A precision slower than the other on this CPU is
+    /// warned about when the detector is built ([`ScorePrecision::slow_reason`]).
     pub svm: ScorePrecision,
 }
 

@@ -186,6 +186,8 @@ const MAX_PAIRS: u32 = 4;
 /// `base`: the AVX-512 horizontal pass loads those values (`2·pairs` registers) and picks each
 /// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
 /// tap (no gathers).
+// Read only by the AVX-512 pass: built (and tested) everywhere, used on x86-64.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Perm16 {
     /// First source value of the window.
@@ -202,6 +204,7 @@ pub(crate) struct Perm16 {
 
 /// The [`Perm16`]s of one resize and the source row length they were built for (the AVX-512
 /// horizontal pass checks it against every row, once per call); empty off the AVX-512 path.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[derive(Debug, Clone, Default)]
 struct PermTaps {
     row_len: usize,
@@ -254,6 +257,8 @@ fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
 /// `out[x] = a[p] + (a[q] − a[p])·fx` for the column taps `(p, q, fx)` on kernel path `isa`
 /// (every path gives the same bits; the AVX-512 one permutes with `perms` where it has them).
 fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &PermTaps, out: &mut [f32], isa: Isa) {
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = perms;
     match isa {
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 if !perms.perms.is_empty() && isa.is_available() => {
@@ -271,7 +276,9 @@ fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &PermTaps, out: &mut [f3
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the path is available: AVX2 and FMA (the AVX-512 path includes both). The
         // kernel indexes with bounds checks.
-        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe { super::kernels::avx2::horizontal(a, tc, out) },
+        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe {
+            super::kernels::avx2::horizontal(a, tc, out)
+        },
         // NEON has no gather: the taps are arbitrary columns, so the portable loop (whose
         // arithmetic the compiler already emits as NEON) is the NEON path.
         _ => horizontal_row(a, tc, out),
@@ -283,7 +290,9 @@ fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], isa: Isa) {
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the path is available: AVX2 and FMA. The kernel indexes with bounds checks.
-        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe { super::kernels::avx2::vertical(r0, r1, fy, out) },
+        Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe {
+            super::kernels::avx2::vertical(r0, r1, fy, out)
+        },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: NEON is part of every aarch64 CPU; the kernel stays within the shortest slice.
         Isa::Neon => unsafe { super::kernels::neon::vertical(r0, r1, fy, out) },
@@ -477,7 +486,12 @@ mod tests {
     fn kernel_paths_resize_whole_images_bit_for_bit() {
         // Plain and mosaic resizes of a ramp with texture, every path against the scalar one.
         let src = Image::<f32>::from_fn(402, 230, |x, y| ((x * 37 + y * 91 + x * y) % 251) as f32 * 0.7);
-        for (w, h, mosaic) in [(301, 173, false), (100, 57, false), (300, 172, true), (120, 70, true)] {
+        for (w, h, mosaic) in [
+            (301, 173, false),
+            (100, 57, false),
+            (300, 172, true),
+            (120, 70, true),
+        ] {
             let step = if mosaic { 2 } else { 1 };
             let tc = column_taps(402 / step, w / step, step);
             let ty = taps(230 / step, h / step);

@@ -52,17 +52,18 @@
 //! keep the f32 kernels' tiles, `acc[j] = vpdpbusd(acc[j], btq[g][x..x+16], broadcast(wq[g][k0+j]))`:
 //! a quarter of their instructions (9 instead of 36 per block position). The other kernels:
 //! - **AVX2 without VNNI** reads u16 pairs (`btq[h·nbxp + x]` = values `2h, 2h+1` of block `x`,
-//!   weights as i16 pairs) with `vpmaddwd`: exact, but as many instructions as the f32 FMAs.
+//!   weights as i16 pairs) with `vpmaddwd`: exact, 18 `vpmaddwd` + 18 `vpaddd` + 18 broadcasts
+//!   per block position against 36 FMAs + 36 broadcasts in f32 (measured 1.1–1.6x faster).
 //!   `vpmaddubsw` would halve them but adds u8·i8 pairs in a saturating i16, and
 //!   `2·180·127 > 32 767` is reachable (two values of 1/√2 in one L2-Hys block): see
 //!   `detect/kernels/avx2.rs`.
 //! - **NEON** shifts the bytes to i8 (`v − 128`) and adds `128·Σ_i q_w[i][k]` back per position:
 //!   `sdot` where the CPU has the dot product, else `smull`/`sadalp` (`detect/kernels/neon.rs`).
 //!
-//! **Which is faster.** `auto` ([`ScorePrecision::auto_for`]) picks this path only with a
-//! `vpdpbusd` kernel, where it was measured faster than f32 (docs/detection.md, "8-bit SVM");
-//! choosing it elsewhere is warned about when a detector is built
-//! ([`ScorePrecision::slow_reason`]).
+//! **Which is faster.** `auto` ([`ScorePrecision::auto_for`]) picks this path where it was
+//! measured faster than f32 (docs/detection.md, "8-bit SVM": every x86-64 path), f32 elsewhere;
+//! choosing it where it is not faster is warned about when a detector is built, naming the missing
+//! CPU feature ([`ScorePrecision::slow_reason`]).
 //!
 //! **Determinism.** Integer addition is associative, so the scalar reference and every kernel,
 //! any strip split and any thread count give the same bits (tested), whatever order the sums run
@@ -228,15 +229,16 @@ impl ScorePrecision {
         Self::auto_for(crate::kernels::isa())
     }
 
-    /// The precision `auto` picks on kernel path `isa` of this CPU: [`Self::I8`] only where its
-    /// kernel was measured faster than f32 (docs/detection.md, "8-bit SVM"), [`Self::F32`]
-    /// everywhere else:
-    /// - AVX-512 with AVX-512 VNNI (`vpdpbusd` zmm): i8;
-    /// - AVX2 or AVX-512 with AVX-VNNI (`vpdpbusd` ymm): i8;
-    /// - AVX2 without either VNNI (the `vpmaddwd` kernel): f32;
-    /// - NEON: f32 (the `sdot` and `smull` kernels are tested for equality under emulation but
-    ///   their speed was not measured on aarch64 hardware);
-    /// - scalar: f32.
+    /// The precision `auto` picks on kernel path `isa` of this CPU: [`Self::I8`] where its kernel
+    /// was measured faster than the f32 one (docs/detection.md, "8-bit SVM"), [`Self::F32`]
+    /// elsewhere:
+    /// - AVX-512 with AVX-512 VNNI (`vpdpbusd` zmm; SVM stage 2.6–2.8x): i8;
+    /// - AVX2 or AVX-512 with AVX-VNNI (`vpdpbusd` ymm; its kernel body measured through the
+    ///   EVEX encoding, 4.2x the AVX2 f32 kernel): i8;
+    /// - AVX2 without VNNI (`vpmaddwd` on u16 pairs; 1.1–1.6x, noisy): i8;
+    /// - scalar on x86-64 (the f32 reference's `mul_add` is a libm call without FMA; i8 4x): i8;
+    /// - NEON, and scalar elsewhere: f32 (the `sdot` and `smull` kernels are tested for equality
+    ///   under emulation, their speed was not measured on aarch64 hardware).
     pub fn auto_for(isa: Isa) -> Self {
         if I8Kernel::for_isa(isa).faster_than_f32() {
             Self::I8
@@ -246,25 +248,16 @@ impl ScorePrecision {
     }
 
     /// Why this precision is slower than the other one on kernel path `isa`, naming the CPU
-    /// feature that is missing; `None` when it is not known to be slower. Only
-    /// [`Self::I8`] can be: off the paths where `auto` picks it (see [`Self::auto_for`]), except
-    /// NEON with the dot-product extension, whose `sdot` kernel is unmeasured rather than slow.
+    /// feature that is missing; `None` when it is not known to be. Only [`Self::I8`] on NEON
+    /// without the dot-product extension is: its `smull`/`sadalp` kernel issues as many
+    /// multiply instructions as the f32 one, plus the widening adds. (Where `auto` picks f32 for
+    /// want of a measurement, nothing is said.)
     pub fn slow_reason(self, isa: Isa) -> Option<String> {
-        if self != Self::I8 || Self::auto_for(isa) == Self::I8 {
-            return None;
-        }
-        let why = match isa {
-            Isa::Scalar => "kernel path scalar has no 8-bit SIMD kernel".to_string(),
-            Isa::Avx2 | Isa::Avx512 => format!(
-                "this CPU lacks avx512vnni and avxvnni, and the AVX2 8-bit kernel (vpmaddwd) is slower than the f32 one \
-                 on kernel path {isa}"
-            ),
-            Isa::Neon if features().dotprod => return None,
-            Isa::Neon => "this CPU lacks dotprod (the smull/sadalp kernel is no faster than f32)".to_string(),
-        };
-        Some(format!(
-            "svm = \"i8\" is slower than \"f32\" here: {why}; svm = \"auto\" picks the faster one"
-        ))
+        (self == Self::I8 && isa == Isa::Neon && isa.is_available() && !features().dotprod).then(|| {
+            "svm = \"i8\" is not faster than \"f32\" here: this CPU lacks dotprod (the NEON smull/sadalp 8-bit \
+             kernel issues as many multiplies as the f32 one); svm = \"auto\" picks f32"
+                .to_string()
+        })
     }
 
     /// Logs [`Self::slow_reason`] for this process's kernel path at `warn`, once per process.
@@ -393,7 +386,9 @@ impl I8Kernel {
             Self::NeonSmull,
             Self::NeonSdot,
         ];
-        all.into_iter().filter(|k| k.isa() == isa && k.is_runnable()).collect()
+        all.into_iter()
+            .filter(|k| k.isa() == isa && k.is_runnable())
+            .collect()
     }
 
     /// The kernel path this kernel belongs to (its quantiser's instruction set).
@@ -425,7 +420,13 @@ impl I8Kernel {
     /// Whether this kernel was measured faster than the f32 kernel of its path (docs/detection.md,
     /// "8-bit SVM"; the rule of [`ScorePrecision::auto_for`]).
     fn faster_than_f32(self) -> bool {
-        matches!(self, Self::AvxVnni | Self::Avx512Vnni)
+        match self {
+            Self::Scalar => cfg!(target_arch = "x86_64"),
+            Self::Avx2Pairs | Self::AvxVnni | Self::Avx512Vnni => true,
+            #[cfg(test)]
+            Self::Vnni256 => true,
+            Self::NeonSmull | Self::NeonSdot => false,
+        }
     }
 
     fn layout(self) -> Layout {
@@ -823,7 +824,17 @@ fn block_products(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, kernel:
         Isa::Avx512 => TILE_K_AVX512,
         _ => TILE_K_NARROW,
     };
-    check_product_bounds(nbx, nbxp, w.bl, bt.len(), w.nk, w.nkp, w.wt.len(), tile, out.len());
+    check_product_bounds(
+        nbx,
+        nbxp,
+        w.bl,
+        bt.len(),
+        w.nk,
+        w.nkp,
+        w.wt.len(),
+        tile,
+        out.len(),
+    );
     let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
     let wt = &w.wt[..];
     match kernel {
@@ -860,7 +871,15 @@ fn block_products_scalar(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, 
 /// ([`Layout::Bytes`]) or u16 values `2g, 2g+1` ([`Layout::Pairs`]); padding columns stay zero.
 /// For blocks of a multiple of 4 values (every HOG block) the kernel's instruction set
 /// quantises; the bytes are the scalar ones.
-fn quantise_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, kernel: I8Kernel, q: &mut [u8], btq: &mut [u32]) {
+fn quantise_row(
+    row: &[f32],
+    bl: usize,
+    nbx: usize,
+    nbxp: usize,
+    kernel: I8Kernel,
+    q: &mut [u8],
+    btq: &mut [u32],
+) {
     let ng = bl.div_ceil(4);
     let nd = match kernel.layout() {
         Layout::Bytes => ng,
@@ -869,7 +888,11 @@ fn quantise_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, kernel: I8Kerne
     let n = nbx * 4 * ng;
     // The bounds the SIMD quantisers rely on, once per call.
     assert!(
-        row.len() >= nbx * bl && q.len() >= n && btq.len() >= nd * nbxp && nbxp.is_multiple_of(PAD_COLUMNS) && nbx <= nbxp,
+        row.len() >= nbx * bl
+            && q.len() >= n
+            && btq.len() >= nd * nbxp
+            && nbxp.is_multiple_of(PAD_COLUMNS)
+            && nbx <= nbxp,
         "quantise_row out of bounds: {nbx}/{nbxp} blocks of {bl}, row {}, q {}, btq {}",
         row.len(),
         q.len(),
@@ -885,13 +908,17 @@ fn quantise_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, kernel: I8Kerne
             }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: these kernels run only with AVX2 (`is_runnable`); n ≤ row.len(), q.len().
-            I8Kernel::Avx2Pairs | I8Kernel::AvxVnni => unsafe { super::kernels::avx2::quantise_values(row, n, q) },
+            I8Kernel::Avx2Pairs | I8Kernel::AvxVnni => unsafe {
+                super::kernels::avx2::quantise_values(row, n, q)
+            },
             #[cfg(all(test, target_arch = "x86_64"))]
             // SAFETY: as above.
             I8Kernel::Vnni256 => unsafe { super::kernels::avx2::quantise_values(row, n, q) },
             #[cfg(target_arch = "aarch64")]
             // SAFETY: NEON is part of every aarch64 CPU; n ≤ row.len(), q.len().
-            I8Kernel::NeonSmull | I8Kernel::NeonSdot => unsafe { super::kernels::neon::quantise_values(row, n, q) },
+            I8Kernel::NeonSmull | I8Kernel::NeonSdot => unsafe {
+                super::kernels::neon::quantise_values(row, n, q)
+            },
             _ => {
                 for (d, &v) in q[..n].iter_mut().zip(&row[..n]) {
                     *d = quantise_block_value(v);
@@ -926,9 +953,26 @@ fn quantise_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, kernel: I8Kerne
 
 /// `out[k·nbxp + x] = Σ_i q_b[i][x] · q_w[i][k]` for `k < nk`, `x < nbx` (SIMD kernels also fill
 /// padding columns), exact in i32.
-fn quant_products(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usize, kernel: I8Kernel, out: &mut [i32]) {
+fn quant_products(
+    w: &ScoreWeightsI8,
+    btq: &[u32],
+    nbx: usize,
+    nbxp: usize,
+    kernel: I8Kernel,
+    out: &mut [i32],
+) {
     let (nd, wq) = w.layout(kernel.layout());
-    check_product_bounds(nbx, nbxp, nd, btq.len(), w.nk, w.nkp, wq.len(), kernel.tile(), out.len());
+    check_product_bounds(
+        nbx,
+        nbxp,
+        nd,
+        btq.len(),
+        w.nk,
+        w.nkp,
+        wq.len(),
+        kernel.tile(),
+        out.len(),
+    );
     debug_assert!(PAD_COLUMNS.is_multiple_of(kernel.lanes()));
     let (nk, nkp) = (w.nk, w.nkp);
     match kernel {
@@ -940,13 +984,19 @@ fn quant_products(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usize, kern
         },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: runnable: AVX2 and AVX-VNNI; lengths checked above.
-        I8Kernel::AvxVnni => unsafe { super::kernels::avx2::products_bytes_avxvnni(btq, wq, nd, nk, nkp, nbxp, out) },
+        I8Kernel::AvxVnni => unsafe {
+            super::kernels::avx2::products_bytes_avxvnni(btq, wq, nd, nk, nkp, nbxp, out)
+        },
         #[cfg(all(test, target_arch = "x86_64"))]
         // SAFETY: runnable: AVX2, AVX-512 VNNI (and VL, part of the AVX-512 path); lengths checked.
-        I8Kernel::Vnni256 => unsafe { super::kernels::avx2::products_bytes_vnni256(btq, wq, nd, nk, nkp, nbxp, out) },
+        I8Kernel::Vnni256 => unsafe {
+            super::kernels::avx2::products_bytes_vnni256(btq, wq, nd, nk, nkp, nbxp, out)
+        },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: runnable: AVX2; lengths (of the u16-pair layout) checked above.
-        I8Kernel::Avx2Pairs => unsafe { super::kernels::avx2::products_pairs_madd(btq, wq, nd, nk, nkp, nbxp, out) },
+        I8Kernel::Avx2Pairs => unsafe {
+            super::kernels::avx2::products_pairs_madd(btq, wq, nd, nk, nkp, nbxp, out)
+        },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: runnable: the dot-product extension; lengths checked above, corr holds nkp ≥ nk.
         I8Kernel::NeonSdot => unsafe {
@@ -1074,22 +1124,35 @@ mod tests {
         // products equal the i32 reference exactly.
         let spec = HogSpec::new(&HogOptions::default()).unwrap();
         let n = spec.descriptor_len();
-        for (wsign, vals) in [(1.0f32, 1.0f32), (-1.0, 1.0), (1.0, 0.0), (-1.0, std::f32::consts::FRAC_1_SQRT_2)] {
+        for (wsign, vals) in [
+            (1.0f32, 1.0f32),
+            (-1.0, 1.0),
+            (1.0, 0.0),
+            (-1.0, std::f32::consts::FRAC_1_SQRT_2),
+        ] {
             let w: Vec<f32> = (0..n).map(|i| if i % 3 == 2 { -wsign } else { wsign }).collect();
             let sq = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0).unwrap()).unwrap();
             // 20 blocks of one row (padded to 32 columns).
-            let row: Vec<f32> = (0..20 * 36).map(|i| if i % 5 == 4 { 0.0 } else { vals }).collect();
+            let row: Vec<f32> = (0..20 * 36)
+                .map(|i| if i % 5 == 4 { 0.0 } else { vals })
+                .collect();
             let run = |k: I8Kernel| {
                 let nd = sq.layout(k.layout()).0;
-                let (mut q, mut btq, mut out) = (vec![0u8; 20 * 36], vec![0u32; nd * 32], vec![0i32; sq.nk * 32]);
+                let (mut q, mut btq, mut out) =
+                    (vec![0u8; 20 * 36], vec![0u32; nd * 32], vec![0i32; sq.nk * 32]);
                 quantise_row(&row, 36, 20, 32, k, &mut q, &mut btq);
                 quant_products(&sq, &btq, 20, 32, k, &mut out);
-                (0..sq.nk).flat_map(|k| out[k * 32..][..20].to_vec()).collect::<Vec<i32>>()
+                (0..sq.nk)
+                    .flat_map(|k| out[k * 32..][..20].to_vec())
+                    .collect::<Vec<i32>>()
             };
             let want = run(I8Kernel::Scalar);
             let q = quantise_block_value(vals) as i32;
             // Block position 0 of block 0: Σ over 36 values of q·(±127) with every 5th value 0.
-            let direct: i32 = (0..36).filter(|i| i % 5 != 4).map(|i| q * sq.weight(i, 0) as i32).sum();
+            let direct: i32 = (0..36)
+                .filter(|i| i % 5 != 4)
+                .map(|i| q * sq.weight(i, 0) as i32)
+                .sum();
             assert_eq!(want[0], direct);
             for k in every_i8_kernel() {
                 assert_eq!(run(k), want, "{k:?} weights {wsign} values {vals}");
@@ -1220,13 +1283,20 @@ mod tests {
                 match k.layout() {
                     Layout::Bytes => {
                         for g in 0..9 {
-                            assert_eq!(got.1[g * 32 + x].to_le_bytes(), block[4 * g..][..4], "{k:?} {x} dword {g}");
+                            assert_eq!(
+                                got.1[g * 32 + x].to_le_bytes(),
+                                block[4 * g..][..4],
+                                "{k:?} {x} dword {g}"
+                            );
                         }
                     }
                     Layout::Pairs => {
                         for h in 0..18 {
                             let d = got.1[h * 32 + x];
-                            assert_eq!([d as u16, (d >> 16) as u16], [block[2 * h] as u16, block[2 * h + 1] as u16]);
+                            assert_eq!(
+                                [d as u16, (d >> 16) as u16],
+                                [block[2 * h] as u16, block[2 * h + 1] as u16]
+                            );
                         }
                     }
                 }
@@ -1294,22 +1364,27 @@ mod tests {
         let f = features();
         for isa in Isa::ALL {
             let auto = ScorePrecision::auto_for(isa);
-            let vnni = isa.is_available()
-                && match isa {
-                    Isa::Avx2 => f.avxvnni,
-                    Isa::Avx512 => f.avx512vnni || f.avxvnni,
-                    _ => false,
-                };
-            assert_eq!(auto == ScorePrecision::I8, vnni, "{isa}");
+            let x86 = cfg!(target_arch = "x86_64");
+            let measured = match isa {
+                Isa::Neon if isa.is_available() => false,
+                // Unavailable paths run the scalar kernels.
+                _ => x86,
+            };
+            assert_eq!(auto == ScorePrecision::I8, measured, "{isa}");
             assert_eq!(ScorePrecision::F32.slow_reason(isa), None);
             assert_eq!(auto.slow_reason(isa), None, "{isa}");
-            if auto == ScorePrecision::F32 && isa != Isa::Neon {
-                let why = ScorePrecision::I8.slow_reason(isa).unwrap();
-                let names = if isa == Isa::Scalar { "scalar" } else { "avx512vnni and avxvnni" };
-                assert!(why.contains(names) && why.contains("auto"), "{why}");
+            let slow = ScorePrecision::I8.slow_reason(isa);
+            if isa == Isa::Neon && isa.is_available() && !f.dotprod {
+                let why = slow.unwrap();
+                assert!(why.contains("dotprod") && why.contains("auto"), "{why}");
+            } else {
+                assert_eq!(slow, None, "{isa}");
             }
         }
-        assert_eq!(ScorePrecision::auto(), ScorePrecision::auto_for(crate::kernels::isa()));
+        assert_eq!(
+            ScorePrecision::auto(),
+            ScorePrecision::auto_for(crate::kernels::isa())
+        );
     }
 
     #[test]
@@ -1317,7 +1392,12 @@ mod tests {
         // Input-driven geometry (issue 24): sizes whose products wrap are refused with the
         // values, before anything is indexed.
         let huge = usize::MAX / 4;
-        for (bw, bh, bl) in [(7, huge, 36), (huge, 5, 1), (1, usize::MAX, 1), (3, 3, usize::MAX / 2)] {
+        for (bw, bh, bl) in [
+            (7, huge, 36),
+            (huge, 5, 1),
+            (1, usize::MAX, 1),
+            (3, 3, usize::MAX / 2),
+        ] {
             assert_eq!(
                 gemm_sizes(bw, bh, bl),
                 Err(ScoreError::Geometry {
@@ -1339,8 +1419,21 @@ mod tests {
         };
         if let Ok(spec) = HogSpec::new(&opts) {
             let e = ScoreWeights::new(&spec, &[1.0; 8], 0.0).unwrap_err();
-            assert!(matches!(e, ScoreError::Geometry { blocks_x: 3, block_len: 8, .. }), "{e}");
-            assert!(e.to_string().contains("3x768614336404564651 blocks of 8 values"), "{e}");
+            assert!(
+                matches!(
+                    e,
+                    ScoreError::Geometry {
+                        blocks_x: 3,
+                        block_len: 8,
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+            assert!(
+                e.to_string().contains("3x768614336404564651 blocks of 8 values"),
+                "{e}"
+            );
         }
     }
 
@@ -1352,5 +1445,53 @@ mod tests {
         // A transposed row one column short of 16 padded columns.
         let (bt, mut out) = (vec![0.0f32; 36 * 16 - 1], vec![0.0f32; 105 * 16]);
         block_products(&sw, &bt, 10, 16, crate::kernels::isa(), &mut out);
+    }
+
+    /// Block-product speed of every kernel on one block row of a 1080p level 0 (239 blocks),
+    /// quantiser or transpose included: `cargo test --release --lib svm_kernel_speed --
+    /// --ignored --nocapture`. Numbers in docs/detection.md, "8-bit SVM".
+    #[test]
+    #[ignore = "a timing, for release builds by hand"]
+    fn svm_kernel_speed() {
+        use std::hint::black_box;
+        use std::time::Instant;
+        let (spec, _, wts) = setup(80, 144);
+        let sw = ScoreWeights::new(&spec, &wts, 0.0).unwrap();
+        let sq = ScoreWeightsI8::new(&sw).unwrap();
+        let (nbx, nbxp, reps) = (239, 240, 400);
+        let row: Vec<f32> = (0..nbx * 36)
+            .map(|i| ((i * 7919) % 1000) as f32 / 4000.0)
+            .collect();
+        let time = |f: &mut dyn FnMut()| {
+            f();
+            let t = Instant::now();
+            for _ in 0..reps {
+                f();
+            }
+            t.elapsed().as_secs_f64() * 1e6 / reps as f64
+        };
+        for isa in Isa::available() {
+            let (mut bt, mut out) = (vec![0.0f32; 36 * nbxp], vec![0.0f32; sw.nk * nbxp]);
+            let us = time(&mut || {
+                transpose_row(&row, 36, nbx, nbxp, &mut bt);
+                block_products(&sw, &bt, nbx, nbxp, isa, &mut out);
+                black_box(&out);
+            });
+            eprintln!("f32 {isa}: {us:.1} us per block row");
+        }
+        for k in every_i8_kernel() {
+            let nd = sq.layout(k.layout()).0;
+            let (mut q, mut btq, mut out) = (
+                vec![0u8; 36 * nbxp],
+                vec![0u32; nd * nbxp],
+                vec![0i32; sq.nk * nbxp],
+            );
+            let us = time(&mut || {
+                quantise_row(&row, 36, nbx, nbxp, k, &mut q, &mut btq);
+                quant_products(&sq, &btq, nbx, nbxp, k, &mut out);
+                black_box(&out);
+            });
+            eprintln!("i8 {k:?}: {us:.1} us per block row");
+        }
     }
 }

@@ -162,7 +162,12 @@ unsafe fn pick16(src: *const f32, pairs: u32, idx: __m512i) -> __m512 {
 /// (`base + 32·pairs ≤ a.len()`, offsets < `32·pairs`): [`crate::detect::pyramid`] builds them
 /// for rows of `a`'s length and checks that once per call.
 #[target_feature(enable = "avx512f,avx2,fma")]
-pub(crate) unsafe fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &[Option<Perm16>], out: &mut [f32]) {
+pub(crate) unsafe fn horizontal(
+    a: &[f32],
+    tc: &[(u32, u32, f32)],
+    perms: &[Option<Perm16>],
+    out: &mut [f32],
+) {
     for (i, (o, pm)) in out.chunks_mut(16).zip(perms).enumerate() {
         match pm {
             Some(pm) if o.len() == 16 => {

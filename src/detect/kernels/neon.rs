@@ -48,10 +48,22 @@ pub(crate) unsafe fn products_f32(
                 };
                 for (t, a) in acc.chunks_exact_mut(4).enumerate() {
                     let w = unsafe { vld1q_f32(wr.add(4 * t)) };
-                    a[0] = [vfmaq_laneq_f32::<0>(a[0][0], b0, w), vfmaq_laneq_f32::<0>(a[0][1], b1, w)];
-                    a[1] = [vfmaq_laneq_f32::<1>(a[1][0], b0, w), vfmaq_laneq_f32::<1>(a[1][1], b1, w)];
-                    a[2] = [vfmaq_laneq_f32::<2>(a[2][0], b0, w), vfmaq_laneq_f32::<2>(a[2][1], b1, w)];
-                    a[3] = [vfmaq_laneq_f32::<3>(a[3][0], b0, w), vfmaq_laneq_f32::<3>(a[3][1], b1, w)];
+                    a[0] = [
+                        vfmaq_laneq_f32::<0>(a[0][0], b0, w),
+                        vfmaq_laneq_f32::<0>(a[0][1], b1, w),
+                    ];
+                    a[1] = [
+                        vfmaq_laneq_f32::<1>(a[1][0], b0, w),
+                        vfmaq_laneq_f32::<1>(a[1][1], b1, w),
+                    ];
+                    a[2] = [
+                        vfmaq_laneq_f32::<2>(a[2][0], b0, w),
+                        vfmaq_laneq_f32::<2>(a[2][1], b1, w),
+                    ];
+                    a[3] = [
+                        vfmaq_laneq_f32::<3>(a[3][0], b0, w),
+                        vfmaq_laneq_f32::<3>(a[3][1], b1, w),
+                    ];
                 }
             }
             for (j, a) in acc.iter().enumerate().filter(|(j, _)| k0 + j < nk) {
@@ -230,7 +242,10 @@ pub(crate) unsafe fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) 
         unsafe {
             let v0 = vld1q_f32(r0.as_ptr().add(x));
             let v1 = vld1q_f32(r1.as_ptr().add(x));
-            vst1q_f32(out.as_mut_ptr().add(x), vaddq_f32(v0, vmulq_f32(vsubq_f32(v1, v0), f)));
+            vst1q_f32(
+                out.as_mut_ptr().add(x),
+                vaddq_f32(v0, vmulq_f32(vsubq_f32(v1, v0), f)),
+            );
         }
     }
     crate::detect::pyramid::vertical_row(&r0[whole..n], &r1[whole..n], fy, &mut out[whole..n]);
