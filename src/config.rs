@@ -195,14 +195,46 @@ pub struct PublishConfig {
     pub gradients: bool,
     /// Keep every n-th gradient pixel in x and y (`1..=64`).
     pub gradients_decimation: usize,
-    /// The directory iceoryx2 keeps its files in (an absolute path; created `0750` when missing;
-    /// one of another user is refused). Subscribers (`mosaicd listen --root`, the Python client's
-    /// `--root`) must use the same. Default [`DEFAULT_IOX2_ROOT`].
-    pub root: PathBuf,
+    /// The directory iceoryx2 keeps its files in: `"auto"` (the default: resolved per process by
+    /// [`crate::publish::service::resolve_root`], so that it works under systemd, as root and as an
+    /// ordinary user alike) or an absolute path. Created `0750` when missing; one of another user
+    /// is refused. Subscribers (`mosaicd listen`, the Python client) of the same user resolve
+    /// `"auto"` to the same directory; with a path, pass them the same `--root`.
+    pub root: Iox2Root,
 }
 
-/// The default `publish.root`: under the systemd units' `RuntimeDirectory=mosaicd`.
-pub const DEFAULT_IOX2_ROOT: &str = "/run/mosaicd/iceoryx2";
+/// `publish.root`: [`Iox2Root::Auto`] (written `"auto"`) or a directory.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(from = "PathBuf", into = "PathBuf")]
+pub enum Iox2Root {
+    /// Chosen from the process's environment and user ([`crate::publish::service::resolve_root`]).
+    #[default]
+    Auto,
+    /// This directory (must be absolute: [`Config::validate`] refuses a relative one).
+    Path(PathBuf),
+}
+
+/// How `publish.root = "auto"` and the subscribers' `--root auto` are written.
+pub const AUTO_ROOT: &str = "auto";
+
+impl From<PathBuf> for Iox2Root {
+    fn from(p: PathBuf) -> Self {
+        if p.as_os_str() == AUTO_ROOT {
+            Self::Auto
+        } else {
+            Self::Path(p)
+        }
+    }
+}
+
+impl From<Iox2Root> for PathBuf {
+    fn from(r: Iox2Root) -> Self {
+        match r {
+            Iox2Root::Auto => PathBuf::from(AUTO_ROOT),
+            Iox2Root::Path(p) => p,
+        }
+    }
+}
 
 impl Default for PublishConfig {
     fn default() -> Self {
@@ -212,7 +244,7 @@ impl Default for PublishConfig {
             subscriber_buffer: 64,
             gradients: false,
             gradients_decimation: 4,
-            root: PathBuf::from(DEFAULT_IOX2_ROOT),
+            root: Iox2Root::Auto,
         }
     }
 }
@@ -649,12 +681,14 @@ impl Config {
                 allowed: format!("1..=64 characters from {NAME_CHARS}"),
             });
         }
-        if !p.root.is_absolute() {
-            return Err(ConfigError::OutOfRange {
-                key: "publish.root".into(),
-                value: format!("{:?}", p.root),
-                allowed: "an absolute path".into(),
-            });
+        if let Iox2Root::Path(root) = &p.root {
+            if !root.is_absolute() {
+                return Err(ConfigError::OutOfRange {
+                    key: "publish.root".into(),
+                    value: format!("{root:?}"),
+                    allowed: format!("{AUTO_ROOT:?} or an absolute path"),
+                });
+            }
         }
         range("record.preview_decimation", self.record.preview_decimation, 0, 16)?;
         range("record.flush_frames", self.record.flush_frames, 1, 10_000)?;
@@ -939,6 +973,26 @@ mod tests {
         assert_eq!(c.daemon, DaemonConfig::default());
         assert_eq!(c.compute.orientation_bins, 9);
         assert_eq!(c.cameras[0].cfa().unwrap(), Cfa::Rggb);
+    }
+
+    #[test]
+    fn publish_root_is_auto_by_default_or_an_absolute_path() {
+        assert_eq!(Config::from_toml_str(MIN).unwrap().publish.root, Iox2Root::Auto);
+        let with = |v: &str| Config::from_toml_str(&format!("[publish]\nroot = {v:?}\n{MIN}"));
+        assert_eq!(with("auto").unwrap().publish.root, Iox2Root::Auto);
+        assert_eq!(
+            with("/srv/iox").unwrap().publish.root,
+            Iox2Root::Path(PathBuf::from("/srv/iox"))
+        );
+        let msg = with("iox").unwrap_err().to_string();
+        assert!(
+            msg.contains("publish.root") && msg.contains("\"auto\" or an absolute path"),
+            "{msg}"
+        );
+        // Written back as it was read.
+        let c = with("auto").unwrap();
+        let text = toml::to_string(&c.publish).unwrap();
+        assert!(text.contains("root = \"auto\""), "{text}");
     }
 
     #[test]

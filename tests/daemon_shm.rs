@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use mosaicd::publish::service::{create_node, detections_service, publisher, PublishError, SHM_PREFIX};
+use mosaicd::publish::service::{create_node, detections_service, publisher, segment_prefix, PublishError};
 
 mod common;
 
@@ -94,18 +94,19 @@ fn the_root_comes_from_the_config_not_the_working_directory_and_listen_follows_i
     );
     assert_eq!(mode(&root), 0o750, "the root is created 0750");
     // iceoryx2 creates its management segment 0666 for every user: narrowed to the owner.
+    let shm_prefix = segment_prefix(&root);
     let mgmt: Vec<PathBuf> = std::fs::read_dir("/dev/shm")
         .unwrap()
         .filter_map(Result::ok)
         .map(|e| e.path())
         .filter(|p| {
             let n = p.file_name().unwrap().to_string_lossy();
-            n.starts_with(SHM_PREFIX) && n.ends_with(".global_mgmt")
+            n.starts_with(&shm_prefix) && n.ends_with(".global_mgmt")
         })
         .collect();
     assert!(
         !mgmt.is_empty(),
-        "no {SHM_PREFIX}*.global_mgmt segment in /dev/shm"
+        "no {shm_prefix}*.global_mgmt segment in /dev/shm"
     );
     for m in mgmt {
         assert_eq!(mode(&m) & 0o066, 0, "{} is open to others", m.display());
@@ -269,4 +270,75 @@ fn another_user_can_neither_subscribe_nor_publish() {
     // SAFETY: plain kill(2) on our own child's pid.
     unsafe { libc::kill(daemon.id() as i32, libc::SIGTERM) };
     assert!(daemon.wait().unwrap().success());
+}
+
+/// `mosaicd run` and `mosaicd listen` with `publish.root` and `--root` left at `"auto"`, as an
+/// ordinary user on a box where nobody prepared `/run/mosaicd` (the README quick start): they find
+/// each other. Run as root, the test runs both as `nobody` with an empty environment (no
+/// `XDG_RUNTIME_DIR`, no `RUNTIME_DIRECTORY`), so the root is `/tmp/mosaicd-65534/iceoryx2`;
+/// otherwise as this user without `RUNTIME_DIRECTORY`.
+#[test]
+fn an_ordinary_user_publishes_and_listens_with_the_default_root() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::process::CommandExt;
+    // SAFETY: geteuid has no preconditions.
+    let as_root = unsafe { libc::geteuid() } == 0;
+    let dir = tempfile::tempdir().unwrap();
+    let (prefix, camera) = (unique("ap"), unique("ac"));
+    let cfg = dir.path().join("auto.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[daemon]\nthreads = 1\nstats_interval_ms = 200\n[compute]\ndetect = false\n\
+             [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 256\n\
+             [[camera]]\nname = \"{camera}\"\nsource = \"synthetic\"\nwidth = 32\nheight = 32\nframes = 20\n"
+        ),
+    )
+    .unwrap();
+    let user = |c: &mut Command| {
+        if as_root {
+            std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+            std::fs::set_permissions(&cfg, std::fs::Permissions::from_mode(0o644)).unwrap();
+            c.uid(65534).gid(65534).env_clear();
+        } else {
+            c.env_remove("RUNTIME_DIRECTORY");
+        }
+        c.env("RUST_LOG", "warn");
+    };
+    let mut lc = Command::new(BIN);
+    lc.args(["listen", "--camera", &camera, "--prefix", &prefix])
+        .args(["--buffer", "256", "--until-final", "--timeout-s", "60"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    user(&mut lc);
+    let mut listener = lc.spawn().unwrap();
+    let mut err = BufReader::new(listener.stderr.take().unwrap());
+    let mut line = String::new();
+    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
+        line.clear();
+    }
+    assert!(line.contains("subscribed"), "listener did not start: {line}");
+    let mut dc = Command::new(BIN);
+    dc.args(["run", "--config"]).arg(&cfg);
+    user(&mut dc);
+    let out = dc.output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let lout = listener.wait_with_output().unwrap();
+    assert!(lout.status.success(), "listener failed");
+    let n = String::from_utf8_lossy(&lout.stdout)
+        .lines()
+        .filter(|l| l.contains("\"topic\":\"detections\""))
+        .count();
+    assert_eq!(n, 20, "the listener without --root received every frame ({line})");
+    if as_root {
+        let private = Path::new("/tmp/mosaicd-65534");
+        assert!(
+            line.trim_end().ends_with("under /tmp/mosaicd-65534/iceoryx2"),
+            "{line}"
+        );
+        let meta = std::fs::symlink_metadata(private).unwrap();
+        assert!(meta.is_dir() && meta.uid() == 65534, "{}", private.display());
+        assert_eq!(mode(private), 0o700, "{} is private", private.display());
+        assert_eq!(mode(&private.join("iceoryx2")), 0o750);
+    }
 }

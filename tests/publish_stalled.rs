@@ -13,7 +13,7 @@ fn a_stalled_subscriber_does_not_block_publishing() {
     let node = create_node(
         &format!("stalltest{}", std::process::id()),
         false,
-        std::path::Path::new(mosaicd::config::DEFAULT_IOX2_ROOT),
+        &mosaicd::publish::service::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
     )
     .unwrap();
     let svc = detections_service(&node, &prefix, &camera, 2).unwrap();

@@ -27,6 +27,61 @@ fn python() -> Command {
     c
 }
 
+/// The Python client resolves `--root auto` by the daemon's rule ([`resolve_root`]) and names its
+/// segments as the daemon does ([`segment_prefix`]), for every case of the rule.
+#[test]
+fn python_resolves_the_root_and_segment_prefix_as_the_daemon() {
+    use mosaicd::config::Iox2Root;
+    use mosaicd::publish::service::{resolve_root, segment_prefix, RootEnv};
+    let t = tempfile::tempdir().unwrap();
+    let base = t.path();
+    std::fs::create_dir(base.join("xdg")).unwrap();
+    // SAFETY: geteuid has no preconditions.
+    let me = unsafe { libc::geteuid() };
+    let xdg = base.join("xdg").to_str().unwrap().to_string();
+    let cases: Vec<(u32, Option<&str>, Option<&str>)> = vec![
+        (0, None, None),
+        (me, None, Some(&xdg)),
+        (me + 1, None, Some(&xdg)),
+        (4242, None, None),
+        (4242, Some("/run/mosaicd:/run/x"), Some(&xdg)),
+        (4242, Some("rel"), Some("rel")),
+    ];
+    for (uid, rd, xd) in cases {
+        let env = RootEnv {
+            uid,
+            runtime_directory: rd.map(Into::into),
+            xdg_runtime_dir: xd.map(Into::into),
+            system_dir: base.join("run-mosaicd"),
+            tmp_dir: base.join("tmp"),
+        };
+        let (want, _) = resolve_root(&Iox2Root::Auto, &env);
+        let code = format!(
+            "import sys; sys.path.insert(0, {dir:?}); import mosaicd_subscriber as m\n\
+             env = {{k: v for k, v in (('RUNTIME_DIRECTORY', {rd:?}), ('XDG_RUNTIME_DIR', {xd:?})) if v != 'None'}}\n\
+             r = m.resolve_root('auto', uid={uid}, env=env, system_dir={sys:?}, tmp_dir={tmp:?})\n\
+             print(r); print(m.segment_prefix(r))",
+            dir = script().parent().unwrap().to_str().unwrap(),
+            rd = rd.unwrap_or("None"),
+            xd = xd.unwrap_or("None"),
+            sys = base.join("run-mosaicd").to_str().unwrap(),
+            tmp = base.join("tmp").to_str().unwrap(),
+        );
+        let out = Command::new("python3")
+            .args(["-c", &code])
+            .output()
+            .expect("python3 runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout);
+        let got: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            got,
+            [want.to_str().unwrap(), segment_prefix(&want).as_str()],
+            "uid {uid}, RUNTIME_DIRECTORY {rd:?}, XDG_RUNTIME_DIR {xd:?}"
+        );
+    }
+}
+
 /// Size, alignment, iceoryx2 type name and field offsets of a message type.
 fn rust_layout<T: ZeroCopySend>(
     fields: Vec<(&'static str, usize)>,
@@ -215,7 +270,7 @@ fn an_incompatible_service_is_a_clear_error() {
     let node = create_node(
         &format!("pyx-test-{}", std::process::id()),
         false,
-        std::path::Path::new(mosaicd::config::DEFAULT_IOX2_ROOT),
+        &mosaicd::publish::service::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
     )
     .unwrap();
     let _det = detections_service(&node, &prefix, "c", 4).unwrap();

@@ -69,7 +69,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--camera", required=True)
     p.add_argument("--prefix", default="mosaicd")
-    p.add_argument("--root", default=DEFAULT_ROOT, help="the daemon's iceoryx2 root (publish.root)")
+    p.add_argument("--root", default=DEFAULT_ROOT,
+                   help="the daemon's iceoryx2 root (publish.root; default auto: as the daemon's auto)")
     p.add_argument("--buffer", type=int, default=64)
     p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")
     p.add_argument("--timeout-s", type=float, help="exit with an error after this many seconds")

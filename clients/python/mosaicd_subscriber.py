@@ -40,6 +40,7 @@ import base64
 import ctypes
 import json
 import os
+import stat
 import sys
 import time
 from typing import Any
@@ -55,9 +56,13 @@ DESCRIPTOR_BYTES = 128
 #: ``DetectionsMsg.sensor_sequence`` when the source has none.
 NO_SENSOR_SEQUENCE = 2**64 - 1
 
-#: The daemon's iceoryx2 root by default (``publish.root``, src/config.rs ``DEFAULT_IOX2_ROOT``).
-DEFAULT_ROOT = "/run/mosaicd/iceoryx2"
-#: Prefix of the daemon's iceoryx2 file and segment names (``SHM_PREFIX``).
+#: ``--root`` / ``publish.root`` value that resolves the root as the daemon does (:func:`resolve_root`).
+AUTO_ROOT = "auto"
+#: Default root: the daemon's default, ``"auto"``.
+DEFAULT_ROOT = AUTO_ROOT
+#: Longest root iceoryx2 accepts, in bytes (``MAX_ROOT_LEN`` in src/publish/service.rs).
+MAX_ROOT_LEN = 255
+#: Start of the daemon's iceoryx2 file and segment names (``SHM_PREFIX``; :func:`segment_prefix`).
 SHM_PREFIX = "mosaicd_"
 
 # The daemon's service settings (src/publish/service.rs); a subscriber opens with the same ones.
@@ -225,16 +230,89 @@ def _with_daemon_settings(builder: Any, buffer: int) -> Any:
     )
 
 
+def _absolute_dir(value: str | None, first_entry: bool = False) -> str | None:
+    if value is None:
+        return None
+    if first_entry:
+        value = value.split(":", 1)[0]
+    return value if os.path.isabs(value) else None
+
+
+def _dir_owned_by(path: str, uid: int) -> bool:
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    return stat.S_ISDIR(st.st_mode) and st.st_uid == uid
+
+
+def resolve_root(root: str = AUTO_ROOT, uid: int | None = None, env: dict[str, str] | None = None,
+                 system_dir: str = "/run/mosaicd", tmp_dir: str = "/tmp") -> str:
+    """The daemon's iceoryx2 root: ``root`` itself unless it is ``"auto"``, which resolves as the
+    daemon's ``publish.root = "auto"`` does for the same user (``resolve_root`` in
+    src/publish/service.rs; docs/daemon.md): ``$RUNTIME_DIRECTORY/iceoryx2`` (first ``:`` entry),
+    else ``/run/mosaicd/iceoryx2`` for root or the owner of ``/run/mosaicd``, else
+    ``$XDG_RUNTIME_DIR/mosaicd/iceoryx2`` when that is a directory of this user (and the path fits
+    :data:`MAX_ROOT_LEN`), else ``/tmp/mosaicd-<uid>/iceoryx2``. Relative or empty variables count
+    as unset. Creates nothing (:func:`create_node` prepares ``/tmp/mosaicd-<uid>``).
+    """
+    if root != AUTO_ROOT:
+        return root
+    uid = os.geteuid() if uid is None else uid
+    env = os.environ if env is None else env
+    rd = _absolute_dir(env.get("RUNTIME_DIRECTORY"), first_entry=True)
+    if rd is not None:
+        return os.path.join(rd, "iceoryx2")
+    if uid == 0 or _dir_owned_by(system_dir, uid):
+        return os.path.join(system_dir, "iceoryx2")
+    xdg = _absolute_dir(env.get("XDG_RUNTIME_DIR"))
+    if xdg is not None:
+        cand = os.path.join(xdg, "mosaicd", "iceoryx2")
+        if _dir_owned_by(xdg, uid) and len(os.fsencode(cand)) <= MAX_ROOT_LEN:
+            return cand
+    return os.path.join(tmp_dir, f"mosaicd-{uid}", "iceoryx2")
+
+
+def segment_prefix(root: str) -> str:
+    """The segment-name prefix of the nodes under ``root``: :data:`SHM_PREFIX`, the 32-bit FNV-1a hash
+    of the root's bytes in hex, ``_`` (``segment_prefix`` in src/publish/service.rs)."""
+    h = 0x811C9DC5
+    for b in os.fsencode(root):
+        h = ((h ^ b) * 0x01000193) & 0xFFFFFFFF
+    return f"{SHM_PREFIX}{h:08x}_"
+
+
+def _prepare_private_dir(path: str) -> None:
+    """Create ``/tmp/mosaicd-<uid>`` 0700, refuse it when another user owns it (as the daemon)."""
+    try:
+        os.mkdir(path, 0o700)
+    except FileExistsError:
+        pass
+    st = os.lstat(path)
+    if st.st_uid != os.geteuid():
+        raise PermissionError(f"iceoryx2 root: {path} belongs to uid {st.st_uid}, not to this "
+                              f"process's user uid {os.geteuid()}: another user created it; remove "
+                              "it, or pass --root with a directory of this user")
+    if not stat.S_ISDIR(st.st_mode):
+        raise NotADirectoryError(f"iceoryx2 root {path}: exists and is not a directory")
+    if stat.S_IMODE(st.st_mode) != 0o700:
+        os.chmod(path, 0o700)
+
+
 def create_node(name: str, root: str = DEFAULT_ROOT) -> Any:
-    """An iceoryx2 node under the daemon's root (``publish.root``), with the daemon's segment prefix.
+    """An iceoryx2 node under the daemon's root (``publish.root``, ``"auto"`` resolved by
+    :func:`resolve_root`), with the daemon's segment prefix.
 
     The config is built here, so no ``config/iceoryx2.toml`` of the working directory (or of the
     user) is read. Subscribers run as the daemon's user: iceoryx2 0.10 keeps a service's shared
     memory readable by its creator only (docs/daemon.md).
     """
+    resolved = resolve_root(root)
+    if root == AUTO_ROOT and os.path.dirname(resolved) == f"/tmp/mosaicd-{os.geteuid()}":
+        _prepare_private_dir(os.path.dirname(resolved))
     cfg = iox2.config.default()
-    cfg.global_cfg.root_path = iox2.Path.new(root)
-    cfg.global_cfg.prefix = iox2.FileName.new(SHM_PREFIX)
+    cfg.global_cfg.root_path = iox2.Path.new(resolved)
+    cfg.global_cfg.prefix = iox2.FileName.new(segment_prefix(resolved))
     return iox2.NodeBuilder.new().name(iox2.NodeName.new(name)).config(cfg).create(iox2.ServiceType.Ipc)
 
 
@@ -361,7 +439,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--camera", help="camera name (as in the daemon's config)")
     p.add_argument("--prefix", default="mosaicd", help="service name prefix (publish.service_prefix)")
-    p.add_argument("--root", default=DEFAULT_ROOT, help="the daemon's iceoryx2 root (publish.root)")
+    p.add_argument("--root", default=DEFAULT_ROOT,
+                   help="the daemon's iceoryx2 root (publish.root; default auto: as the daemon's auto)")
     p.add_argument("--buffer", type=int, default=64, help="samples buffered per service")
     p.add_argument("--count", type=int, help="exit after this many detections messages")
     p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")

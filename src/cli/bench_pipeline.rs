@@ -158,7 +158,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         let node = create_node(
             &format!("mosaicd-bench-stall-{}", std::process::id()),
             true,
-            &PublishConfig::default().root,
+            &mosaicd::publish::service::root_dir(&PublishConfig::default().root)?,
         )?;
         let svc = detections_service(
             &node,

@@ -13,9 +13,10 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
+use mosaicd::config::Iox2Root;
 use mosaicd::publish::messages::{DescriptorsMsg, DetectionsMsg, KeypointsMsg};
 use mosaicd::publish::service::{
-    create_node, descriptors_service, detections_service, gradients_service, keypoints_service,
+    create_node, descriptors_service, detections_service, gradients_service, keypoints_service, root_dir,
     stats_service, subscriber,
 };
 
@@ -31,8 +32,9 @@ pub struct ListenArgs {
     /// Service name prefix (`publish.service_prefix`).
     #[arg(long, default_value = "mosaicd")]
     prefix: String,
-    /// The daemon's iceoryx2 root (`publish.root`).
-    #[arg(long, default_value = mosaicd::config::DEFAULT_IOX2_ROOT)]
+    /// The daemon's iceoryx2 root (`publish.root`): `auto` (the default) resolves as the daemon's
+    /// `"auto"` does for the same user, or a directory.
+    #[arg(long, default_value = mosaicd::config::AUTO_ROOT)]
     root: std::path::PathBuf,
     /// Samples buffered per service (must not exceed the daemon's `publish.subscriber_buffer`).
     #[arg(long, default_value_t = 64)]
@@ -105,11 +107,8 @@ fn detections_json(m: &DetectionsMsg) -> serde_json::Value {
 
 /// Run `mosaicd listen`.
 pub fn run(args: ListenArgs) -> anyhow::Result<()> {
-    let node = create_node(
-        &format!("mosaicd-listen-{}", std::process::id()),
-        false,
-        &args.root,
-    )?;
+    let root = root_dir(&Iox2Root::from(args.root))?;
+    let node = create_node(&format!("mosaicd-listen-{}", std::process::id()), false, &root)?;
     let det = detections_service(&node, &args.prefix, &args.camera, args.buffer)?;
     let st = stats_service(&node, &args.prefix, &args.camera, args.buffer)?;
     let det_sub = subscriber(&det, args.buffer, "detections")?;
@@ -138,8 +137,10 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
         None
     };
     eprintln!(
-        "mosaicd listen: subscribed to {}/{}/{{detections,stats}}",
-        args.prefix, args.camera
+        "mosaicd listen: subscribed to {}/{}/{{detections,stats}} under {}",
+        args.prefix,
+        args.camera,
+        root.display()
     );
     let start = Instant::now();
     let stdout = std::io::stdout();

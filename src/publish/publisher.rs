@@ -11,7 +11,7 @@ use iceoryx2::prelude::*;
 use super::messages::{BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 use super::service::{
     create_node, descriptors_service, detections_service, gradients_publisher, gradients_service,
-    keypoints_service, publisher, stats_service,
+    keypoints_service, publisher, root_dir, stats_service,
 };
 use crate::config::PublishConfig;
 use crate::pipeline::engine::{FrameResult, Sink, SinkError, SinkFactory};
@@ -55,7 +55,7 @@ impl IceoryxSink {
         keypoints: bool,
         descriptors: bool,
     ) -> Result<Self, super::service::PublishError> {
-        let node = create_node(&format!("mosaicd-{camera}"), true, &cfg.root)?;
+        let node = create_node(&format!("mosaicd-{camera}"), true, &root_dir(&cfg.root)?)?;
         let p = &cfg.service_prefix;
         let det_svc = detections_service(&node, p, camera, cfg.subscriber_buffer)?;
         let stats_svc = stats_service(&node, p, camera, cfg.subscriber_buffer)?;
