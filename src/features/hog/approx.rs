@@ -49,10 +49,11 @@
 //!   USC AP is the same at all seven pyramid phases we measure. The exact pyramid is untouched.
 //! - At `r = 1` and `m = 1` this is the exact grid up to summation order and half-float rounding
 //!   (tested).
-//! - The AVX-512 fill builds a level one **cell at a time in registers** (its 16 profile
-//!   histograms stay in 16 registers while the micro rows and micro-cells landing in it are
-//!   added), skipping the x-profile that is exactly zero on each half of a cell. The portable fill
-//!   goes a micro row at a time through row buffers. Both make the same fused multiply-adds
+//! - The register fills (AVX-512, AVX2 and NEON builds in `kernels`) build a level one **cell at
+//!   a time** (on AVX-512 its 16 profile histograms stay in 16 registers while the micro rows and
+//!   micro-cells landing in it are added; AVX2 and NEON keep them in L1 between micro rows),
+//!   skipping the x-profile that is exactly zero on each half of a cell. The portable fill goes a
+//!   micro row at a time through row buffers. All make the same fused multiply-adds
 //!   ([`f32::mul_add`]; FMA instructions where the CPU has them) in the same order, so the same
 //!   bits (tested). The register fill took the approximated levels from ≈ 50 to ≈ 32 ms of CPU per
 //!   1080p frame and fused multiply-adds (instead of a multiply, then an add) to ≈ 27; those
@@ -60,11 +61,15 @@
 
 use rayon::prelude::*;
 
+use super::blocks::{block_grid_shape, blocks_in_bands, blocks_in_bands_with};
+use super::cells::{cell_len, cell_slot, live_profiles};
+use super::gradient::{gradient_row, CellScratch, RowScratch};
+use super::input::{planes_of, Planes};
+use super::kernels::{self, CellKernel, FillKernel};
 use super::{
-    blocks_in_bands_with, cell_len, cell_slot, gradient_row, have_avx2, live_profiles, planes_of, BlockGrid,
-    CellKernel, CellScratch, Exec, GammaPlanes, HogError, HogSpec, Planes, RowScratch, BAND_BLOCK_ROWS,
-    BLOCK_CELLS, CELL_SIZE, PROFILES,
+    BlockGrid, Exec, GammaPlanes, HogError, HogSpec, BAND_BLOCK_ROWS, BLOCK_CELLS, CELL_SIZE, PROFILES,
 };
+use crate::kernels::Isa;
 
 /// Micro-cell side the detector uses, in pixels. Dollár et al. shrink channels by 4; on USC
 /// (docs/detection.md) 4 costs ≈ 1 AP point more than 2 at `--approx 14` for ≈ 20 % less time,
@@ -77,14 +82,14 @@ const MICRO_ROWS_PER_TASK: usize = 4;
 /// source of [`blocks_from_micro_grid`]. Pixels beyond the last whole micro-cell are left out.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct MicroGrid {
-    nmx: usize,
-    nmy: usize,
+    pub(super) nmx: usize,
+    pub(super) nmy: usize,
     size: usize,
     width: usize,
     height: usize,
-    nbins: usize,
+    pub(super) nbins: usize,
     /// Votes as IEEE half-precision bits ([`f16_bits`]), `[my][mx][bin]`.
-    data: Vec<u16>,
+    pub(super) data: Vec<u16>,
 }
 
 impl MicroGrid {
@@ -147,6 +152,18 @@ pub fn micro_grid_from_gamma_planes(
     exec: Exec,
     dst: &mut MicroGrid,
 ) -> Result<(), HogError> {
+    micro_grid_with(crate::kernels::isa(), spec, planes, size, exec, dst)
+}
+
+/// [`micro_grid_from_gamma_planes`] with the `isa` build of the kernels.
+pub(super) fn micro_grid_with(
+    isa: Isa,
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    size: usize,
+    exec: Exec,
+    dst: &mut MicroGrid,
+) -> Result<(), HogError> {
     if !(1..=CELL_SIZE).contains(&size) {
         return Err(HogError::BadMicroCell(size));
     }
@@ -157,9 +174,9 @@ pub fn micro_grid_from_gamma_planes(
     if row_len == 0 {
         return Ok(());
     }
-    let avx2 = have_avx2();
-    let work =
-        |(t, chunk): (usize, &mut [u16])| micro_rows_with(avx2, &p, nb, size, t * MICRO_ROWS_PER_TASK, chunk);
+    let work = |(t, chunk): (usize, &mut [u16])| {
+        kernels::micro_rows(isa, &p, nb, size, t * MICRO_ROWS_PER_TASK, chunk)
+    };
     let task = MICRO_ROWS_PER_TASK * row_len;
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(task).enumerate().for_each(work),
@@ -169,10 +186,11 @@ pub fn micro_grid_from_gamma_planes(
 }
 
 /// [`super::block_grid_from_gamma_planes`] and [`micro_grid_from_gamma_planes`] of the same
-/// planes at once, with the same results bit for bit. With the AVX-512 cell kernel and `size` 2,
-/// the micro-cells are pooled inside the cell pass from the gradients it computes anyway
-/// (`cells_micro_row_avx512`), instead of a second pass that computes every gradient again;
-/// otherwise this runs the two functions one after the other. Errors as theirs.
+/// planes at once, with the same results bit for bit. With a register cell kernel (AVX2,
+/// AVX-512 or NEON; `kernels`) and `size` 2, the micro-cells are pooled inside the cell pass from
+/// the votes it computes anyway, instead of a second pass that computes every gradient again;
+/// otherwise (the scalar path, more than 16 bins, other sizes) this runs the two functions one
+/// after the other. Errors as theirs.
 pub fn block_and_micro_grids_from_gamma_planes(
     spec: &HogSpec,
     planes: &GammaPlanes,
@@ -181,86 +199,82 @@ pub fn block_and_micro_grids_from_gamma_planes(
     blocks: &mut BlockGrid,
     micro: &mut MicroGrid,
 ) -> Result<(), HogError> {
-    let kernel = CellKernel::detect(spec);
+    block_and_micro_grids_with(crate::kernels::isa(), spec, planes, size, exec, blocks, micro)
+}
+
+/// [`block_and_micro_grids_from_gamma_planes`] with the `isa` build of the kernels.
+pub(super) fn block_and_micro_grids_with(
+    isa: Isa,
+    spec: &HogSpec,
+    planes: &GammaPlanes,
+    size: usize,
+    exec: Exec,
+    blocks: &mut BlockGrid,
+    micro: &mut MicroGrid,
+) -> Result<(), HogError> {
+    let kernel = CellKernel::for_isa(isa, spec);
     let p = planes_of(spec, planes)?;
     let (ncx, ncy) = (p.width / CELL_SIZE, p.height / CELL_SIZE);
-    if size != 2 || kernel != CellKernel::Avx512 || ncx < BLOCK_CELLS || ncy < BLOCK_CELLS {
-        super::block_grid_from_gamma_planes(spec, planes, exec, blocks)?;
-        return micro_grid_from_gamma_planes(spec, planes, size, exec, micro);
+    if size != 2 || !kernel.pools_micro_cells() || ncx < BLOCK_CELLS || ncy < BLOCK_CELLS {
+        blocks_in_bands(spec, &p, exec, kernel, isa, blocks);
+        return micro_grid_with(isa, spec, planes, size, exec, micro);
     }
-    #[cfg(target_arch = "x86_64")]
-    {
-        let nb = spec.nbins();
-        micro.reshape(&p, size, nb);
-        // Micro rows per cell row, and the length of one micro row.
-        let per_cell = CELL_SIZE / size;
-        let row_len = micro.nmx * nb;
-        // Band b fills cell rows 16b ..= 16b + 16; it pools the micro rows of the first 16 (the
-        // last band: of all it fills), so every micro row is written once.
-        let nbands = (ncy - 1).div_ceil(BAND_BLOCK_ROWS);
-        let (mut rest, tail) = micro.data.split_at_mut(ncy * per_cell * row_len);
-        let mut slots = Vec::with_capacity(nbands);
-        for b in 0..nbands {
-            let rows = if b + 1 == nbands {
-                ncy - b * BAND_BLOCK_ROWS
-            } else {
-                BAND_BLOCK_ROWS
-            };
-            let (own, r) = rest.split_at_mut(rows * per_cell * row_len);
-            slots.push(std::sync::Mutex::new(Some(own)));
-            rest = r;
-        }
-        let scratch = |b: usize| {
-            let own = slots[b]
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take()
-                .expect("each band takes its own micro rows once");
-            (CellScratch::new(p.width), own, b * BAND_BLOCK_ROWS)
+    let nb = spec.nbins();
+    micro.reshape(&p, size, nb);
+    // Micro rows per cell row, and the length of one micro row.
+    let per_cell = CELL_SIZE / size;
+    let row_len = micro.nmx * nb;
+    // Band b fills cell rows 16b ..= 16b + 16; it pools the micro rows of the first 16 (the
+    // last band: of all it fills), so every micro row is written once.
+    let nbands = (ncy - 1).div_ceil(BAND_BLOCK_ROWS);
+    let (mut rest, tail) = micro.data.split_at_mut(ncy * per_cell * row_len);
+    let mut slots = Vec::with_capacity(nbands);
+    for b in 0..nbands {
+        let rows = if b + 1 == nbands {
+            ncy - b * BAND_BLOCK_ROWS
+        } else {
+            BAND_BLOCK_ROWS
         };
-        let fill = |cy: usize, row: &mut [f32], s: &mut (CellScratch, &mut [u16], usize)| {
-            let (cs, own, first) = s;
-            let at = (cy - *first) * per_cell * row_len;
-            if at < own.len() {
-                let m = &mut own[at..][..per_cell * row_len];
-                // SAFETY: `CellKernel::detect` chose the AVX-512 kernel, so AVX-512F/BW/VL, AVX2
-                // and FMA are present, nbins ≤ 16 and the profiles have their fixed zeros; `row`
-                // is one cell row and `m` its micro rows.
-                unsafe { super::cells_micro_row_avx512(spec, &p, cy, row, cs, m) }
-            } else {
-                super::cells_strip_with(kernel, spec, &p, cy, row, cs)
+        let (own, r) = rest.split_at_mut(rows * per_cell * row_len);
+        slots.push(std::sync::Mutex::new(Some(own)));
+        rest = r;
+    }
+    let scratch = |b: usize| {
+        let own = slots[b]
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .take()
+            .expect("each band takes its own micro rows once");
+        (CellScratch::new(p.width), own, b * BAND_BLOCK_ROWS)
+    };
+    let fill = |cy: usize, row: &mut [f32], s: &mut (CellScratch, &mut [u16], usize)| {
+        let (cs, own, first) = s;
+        let at = (cy - *first) * per_cell * row_len;
+        if at < own.len() {
+            let m = &mut own[at..][..per_cell * row_len];
+            let pooled = kernel.cells_micro_row(spec, &p, cy, row, cs, m);
+            debug_assert!(pooled, "{kernel:?} pools micro-cells");
+            if !pooled {
+                // Not reached (the kernel pools and the sizes are the ones it checks); kept so
+                // that every micro row is written whatever the kernel.
+                kernel.cells_strip(spec, &p, cy, row, cs);
+                kernels::micro_rows(isa, &p, nb, size, cy * per_cell, m);
             }
-        };
-        super::blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), blocks, scratch, fill);
-        // Micro rows below the last whole cell row.
-        micro_rows_with(have_avx2(), &p, nb, size, ncy * per_cell, tail);
-    }
+        } else {
+            kernel.cells_strip(spec, &p, cy, row, cs)
+        }
+    };
+    blocks_in_bands_with(spec, ncx, ncy, exec, isa, blocks, scratch, fill);
+    // Micro rows below the last whole cell row.
+    kernels::micro_rows(isa, &p, nb, size, ncy * per_cell, tail);
     Ok(())
 }
 
-/// [`micro_rows`], the AVX2 + FMA build when `avx2` (which must then be supported).
-fn micro_rows_with(avx2: bool, p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
-    avx2_or_generic!(
-        avx2,
-        micro_rows_avx2(p, nb, size, my0, chunk),
-        micro_rows(p, nb, size, my0, chunk)
-    )
-}
-
-/// [`micro_rows`] compiled for AVX2 + FMA (vectorises the gradient pass).
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn micro_rows_avx2(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
-    micro_rows(p, nb, size, my0, chunk)
-}
-
-/// Micro-cell rows from `my0` on (as many as `chunk` holds, every value written): each row summed
-/// in `f32`, then stored as half floats.
+/// Micro rows from `my0` on (as many as `chunk` holds, every value written): each row summed
+/// in `f32`, then stored as half floats (converted with the `isa` build). The portable kernel,
+/// compiled per ISA by `kernels`.
 #[inline(always)]
-fn micro_rows(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
+pub(super) fn micro_rows(isa: Isa, p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
     let nmx = p.width / size;
     let used = nmx * size;
     let mut sc = RowScratch::new(p.width);
@@ -282,78 +296,39 @@ fn micro_rows(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16])
                 }
             }
         }
-        to_f16_row(&row, out);
+        kernels::to_f16_row(isa, &row, out);
     }
 }
 
-/// `out[i] = f16_bits(src[i])`, with F16C's conversion (the same rounding) where the CPU has it.
-fn to_f16_row(src: &[f32], out: &mut [u16]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("f16c") {
-        // SAFETY: F16C detected.
-        return unsafe { to_f16_row_f16c(src, out) };
-    }
-    for (o, &v) in out.iter_mut().zip(src) {
-        *o = f16_bits(v);
-    }
-}
-
-/// [`to_f16_row`] with `vcvtps2ph` (round to nearest even, as [`f16_bits`]), 8 values at a time.
-///
-/// # Safety
-/// The CPU must support F16C.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "f16c,avx")]
-unsafe fn to_f16_row_f16c(src: &[f32], out: &mut [u16]) {
-    use std::arch::x86_64::*;
-    let n = src.len().min(out.len());
-    let mut i = 0;
-    while i + 8 <= n {
-        // SAFETY: 8 values at i < n in both slices.
-        unsafe {
-            let v = _mm256_loadu_ps(src.as_ptr().add(i));
-            let h = _mm256_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(v);
-            _mm_storeu_si128(out.as_mut_ptr().add(i) as *mut __m128i, h);
+/// The 2x2-pixel micro-cells `mx0..` of a cell row's 4 micro rows (`micro`, `nmx` micro-cells
+/// each) from its 8 pixel rows of votes (`bins`, `wts`, `stride` pixels apart), summed in the pixel
+/// order of [`micro_rows`]: the register cell kernels' margin right of the last whole cell.
+pub(super) fn micro_margin(
+    bins: &[[u8; 2]],
+    wts: &[[f32; 2]],
+    stride: usize,
+    nb: usize,
+    mx0: usize,
+    micro: &mut [u16],
+) {
+    let per_cell = CELL_SIZE / 2;
+    let nmx = micro.len() / (per_cell * nb).max(1);
+    let mut acc = vec![0.0f32; nb];
+    for a in 0..per_cell {
+        for mx in mx0..nmx {
+            acc.fill(0.0);
+            for y in 2 * a..2 * a + 2 {
+                for x in 2 * mx..2 * mx + 2 {
+                    let ([b0, b1], [w0, w1]) = (bins[y * stride + x], wts[y * stride + x]);
+                    acc[b0 as usize] += w0;
+                    acc[b1 as usize] += w1;
+                }
+            }
+            let out = &mut micro[(a * nmx + mx) * nb..][..nb];
+            for (o, &v) in out.iter_mut().zip(&acc) {
+                *o = f16_bits(v);
+            }
         }
-        i += 8;
-    }
-    for j in i..n {
-        out[j] = f16_bits(src[j]);
-    }
-}
-
-/// `out[i] = f32_from_f16(src[i])` (exact), with F16C's conversion where the CPU has it.
-fn from_f16_row(src: &[u16], out: &mut [f32]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("f16c") {
-        // SAFETY: F16C detected.
-        return unsafe { from_f16_row_f16c(src, out) };
-    }
-    for (o, &h) in out.iter_mut().zip(src) {
-        *o = f32_from_f16(h);
-    }
-}
-
-/// [`from_f16_row`] with `vcvtph2ps`, 8 values at a time.
-///
-/// # Safety
-/// The CPU must support F16C.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "f16c,avx")]
-unsafe fn from_f16_row_f16c(src: &[u16], out: &mut [f32]) {
-    use std::arch::x86_64::*;
-    let n = src.len().min(out.len());
-    let mut i = 0;
-    while i + 8 <= n {
-        // SAFETY: 8 values at i < n in both slices.
-        unsafe {
-            let h = _mm_loadu_si128(src.as_ptr().add(i) as *const __m128i);
-            _mm256_storeu_ps(out.as_mut_ptr().add(i), _mm256_cvtph_ps(h));
-        }
-        i += 8;
-    }
-    for j in i..n {
-        out[j] = f32_from_f16(src[j]);
     }
 }
 
@@ -411,9 +386,9 @@ pub fn f32_from_f16(h: u16) -> f32 {
 /// Where one micro-cell row or column lands in the target level: its cell and the weights of the
 /// 4 profiles at its continuous offset in that cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct AxisTap {
+pub(super) struct AxisTap {
     cell: usize,
-    w: [f32; PROFILES],
+    pub(super) w: [f32; PROFILES],
 }
 
 /// Profile `p` (block cell · 2 + offset of the image cell in the block) at the continuous pixel
@@ -465,18 +440,39 @@ pub fn blocks_from_micro_grid(
     exec: Exec,
     dst: &mut BlockGrid,
 ) {
+    blocks_from_micro_grid_with(crate::kernels::isa(), spec, micro, width, height, gain, exec, dst)
+}
+
+/// [`blocks_from_micro_grid`] with the `isa` build of the kernels.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn blocks_from_micro_grid_with(
+    isa: Isa,
+    spec: &HogSpec,
+    micro: &MicroGrid,
+    width: usize,
+    height: usize,
+    gain: f32,
+    exec: Exec,
+    dst: &mut BlockGrid,
+) {
     let (ncx, ncy) = (width / CELL_SIZE, height / CELL_SIZE);
     let nb = spec.nbins();
     if micro.nmx == 0 || micro.nmy == 0 || ncx == 0 || ncy == 0 {
-        super::block_grid_shape(spec, 0, 0, dst);
+        block_grid_shape(spec, 0, 0, dst);
         return;
     }
+    // A grid pooled with another bin count has no blocks of this spec (checked, not assumed:
+    // the fill kernels size their loads and stores by the grid's bins).
     debug_assert_eq!(micro.nbins, nb);
+    if micro.nbins != nb {
+        block_grid_shape(spec, 0, 0, dst);
+        return;
+    }
     let taps = Taps::new(spec, micro, width, height, gain);
-    let kernel = FillKernel::detect();
+    let kernel = FillKernel::for_isa(isa, nb);
     let scratch = |_| FillScratch::new();
-    let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| fill_with(kernel, micro, &taps, cy, row, s);
-    blocks_in_bands_with(spec, ncx, ncy, exec, have_avx2(), dst, scratch, fill);
+    let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| kernel.fill(micro, &taps, cy, row, s);
+    blocks_in_bands_with(spec, ncx, ncy, exec, isa, dst, scratch, fill);
 }
 
 /// The micro rows (or columns) `[lo, hi)` landing in each of `ncy` cell rows (columns)
@@ -497,21 +493,23 @@ fn row_ranges(yt: &[Option<AxisTap>], ncy: usize) -> Vec<(usize, usize)> {
 }
 
 /// The taps of one approximated level.
-struct Taps {
+pub(super) struct Taps {
     xt: Vec<Option<AxisTap>>,
-    yt: Vec<Option<AxisTap>>,
+    pub(super) yt: Vec<Option<AxisTap>>,
     /// Micro rows `[lo, hi)` landing in each cell row.
-    rows: Vec<(usize, usize)>,
+    pub(super) rows: Vec<(usize, usize)>,
     /// Micro columns `[lo, hi)` landing in each cell column.
-    cols: Vec<(usize, usize)>,
+    pub(super) cols: Vec<(usize, usize)>,
     /// The x-profile weights of each micro column (zeros where it has no tap).
-    xw: Vec<[f32; PROFILES]>,
+    pub(super) xw: Vec<[f32; PROFILES]>,
     /// Per cell column, the micro column `mid` such that only [`LEFT_PROFILES`] can be non-zero
     /// on `[lo, mid)` and only [`RIGHT_PROFILES`] on `[mid, hi)` (always so for [`HogSpec`]'s
     /// profiles: the tent of a block's second cell starts at a cell's centre); `None` if not.
-    split: Vec<Option<usize>>,
-    ncx: usize,
-    gain: f32,
+    pub(super) split: Vec<Option<usize>>,
+    pub(super) ncx: usize,
+    pub(super) gain: f32,
+    /// The shape of the micro grid the taps were made for: micro-cells across and down, bins.
+    shape: (usize, usize, usize),
 }
 
 impl Taps {
@@ -546,17 +544,31 @@ impl Taps {
             split,
             ncx,
             gain,
+            shape: (micro.nmx, micro.nmy, micro.nbins),
         }
+    }
+
+    /// Whether these are taps of `micro` (every micro row and column they name is in it, and its
+    /// buffer holds all its micro-cells): the check the fill kernels' loads rely on.
+    pub(super) fn fits(&self, micro: &MicroGrid) -> bool {
+        let (nmx, nmy, nb) = self.shape;
+        (micro.nmx, micro.nmy, micro.nbins) == self.shape
+            && micro.data.len() == nmx * nmy * nb
+            && self.yt.len() == nmy
+            && self.xt.len() == nmx
+            && self.xw.len() == nmx
+            && self.cols.len() == self.ncx
+            && self.split.len() == self.ncx
     }
 }
 
 /// The x-profiles that can be non-zero in the left / right half of a cell ([`live_profiles`] of
 /// the exact cell kernel): the register fill multiplies only these.
-const LEFT_PROFILES: [usize; 3] = live_profiles(0);
-const RIGHT_PROFILES: [usize; 3] = live_profiles(CELL_SIZE / 2);
+pub(super) const LEFT_PROFILES: [usize; 3] = live_profiles(0);
+pub(super) const RIGHT_PROFILES: [usize; 3] = live_profiles(CELL_SIZE / 2);
 
 /// Per-band buffers of [`fill_cell_row`].
-struct FillScratch {
+pub(super) struct FillScratch {
     /// One micro row pooled horizontally: `[cell][x-profile][bin]`.
     h: Vec<f32>,
     /// The cell row being built: `[y-profile][cell][x-profile][bin]`.
@@ -566,187 +578,12 @@ struct FillScratch {
 }
 
 impl FillScratch {
-    /// Empty buffers; the portable fill sizes them on first use (the AVX-512 fill needs none).
-    fn new() -> Self {
+    /// Empty buffers; the portable fill sizes them on first use (the register fills need none).
+    pub(super) fn new() -> Self {
         Self {
             h: Vec::new(),
             t: Vec::new(),
             v: Vec::new(),
-        }
-    }
-}
-
-/// Which build of [`fill_cell_row`] runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum FillKernel {
-    Generic,
-    Avx2,
-    Avx512,
-}
-
-impl FillKernel {
-    fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        if have_avx2() {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512bw")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-                && std::arch::is_x86_feature_detected!("f16c")
-            {
-                return Self::Avx512;
-            }
-            return Self::Avx2;
-        }
-        Self::Generic
-    }
-}
-
-/// [`fill_cell_row`] with `kernel` (the same fused multiply-adds in the same order: the same bits).
-fn fill_with(
-    kernel: FillKernel,
-    micro: &MicroGrid,
-    taps: &Taps,
-    cy: usize,
-    row: &mut [f32],
-    s: &mut FillScratch,
-) {
-    match kernel {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `FillKernel::detect` saw AVX2 and FMA.
-        FillKernel::Avx2 => unsafe { fill_cell_row_avx2(micro, taps, cy, row, s) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `FillKernel::detect` saw AVX-512F/BW/VL, F16C, AVX2 and FMA.
-        FillKernel::Avx512 => unsafe { fill_cell_row_avx512(micro, taps, cy, row, s) },
-        _ => fill_cell_row(micro, taps, cy, row, s, hpass),
-    }
-}
-
-/// [`fill_cell_row`] compiled for AVX2 + FMA.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn fill_cell_row_avx2(
-    micro: &MicroGrid,
-    taps: &Taps,
-    cy: usize,
-    row: &mut [f32],
-    s: &mut FillScratch,
-) {
-    fill_cell_row(micro, taps, cy, row, s, hpass)
-}
-
-/// [`fill_cell_row`] compiled for AVX-512F.
-///
-/// # Safety
-/// The CPU must support AVX-512F/BW/VL, F16C, AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw,avx512vl,f16c,avx2,fma")]
-unsafe fn fill_cell_row_avx512(
-    micro: &MicroGrid,
-    taps: &Taps,
-    cy: usize,
-    row: &mut [f32],
-    s: &mut FillScratch,
-) {
-    if micro.nbins <= 16 {
-        // SAFETY: this function's target features; nbins ≤ 16 checked; `row` is one cell row.
-        unsafe { fill_cell_row_regs_avx512(micro.nbins, micro, taps, cy, row) }
-    } else {
-        fill_cell_row(micro, taps, cy, row, s, hpass)
-    }
-}
-
-/// [`fill_cell_row`] one cell at a time, everything in registers: for each micro row landing in
-/// cell row `cy` (in order), the cell's run of micro-cells is summed into four 16-lane registers
-/// (one per x-profile, bins in lanes), and those are added with the row's four y-profile weights
-/// (times the gain) into the cell's 16 profile histograms, which stay in registers until the cell
-/// is stored into its slots. The same fused multiply-adds in the same order as
-/// [`fill_cell_row`] with [`hpass`] (every value is a chain over micro rows, each term a chain
-/// over micro-cells from `+0`), so the same bits; but no `[y-profile][cell][x-profile][bin]` row
-/// buffer goes through L2 per micro row, and no permutation pass follows.
-///
-/// # Safety
-/// The CPU must support AVX-512F/BW/VL and F16C; `nb ≤ 16`; `row` holds `taps.ncx` cells.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw,avx512vl,f16c,avx2,fma")]
-unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
-    use std::arch::x86_64::*;
-    debug_assert!(nb <= 16 && micro.nbins == nb);
-    let mask = ((1u32 << nb) - 1) as __mmask16;
-    let cl = cell_len(nb);
-    let (lo, hi) = taps.rows[cy];
-    let stride = micro.nmx * nb;
-    // The y-profile weights (times the gain) of the rows landing in this cell row, as the
-    // portable fill computes them.
-    let wys: Vec<(usize, [f32; PROFILES])> = (lo..hi)
-        .filter_map(|my| taps.yt[my].map(|ty| (my, ty.w.map(|w| w * taps.gain))))
-        .collect();
-    for (cx, cell) in row.chunks_exact_mut(cl).enumerate().take(taps.ncx) {
-        let (clo, chi) = taps.cols[cx];
-        let mut t = [_mm512_setzero_ps(); PROFILES * PROFILES];
-        for (i, (my, wy)) in wys.iter().enumerate() {
-            let mut acc = [_mm512_setzero_ps(); PROFILES];
-            let src = &micro.data[my * stride..][..stride];
-            // SAFETY (both closures): `nb` half floats of micro-cell `mx` (< nmx) of this row.
-            let load = |mx: usize| unsafe {
-                _mm512_cvtph_ps(_mm256_maskz_loadu_epi16(
-                    mask,
-                    src.as_ptr().add(mx * nb) as *const i16,
-                ))
-            };
-            match taps.split[cx] {
-                // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is: adding
-                // `0·v` (+0) to a sum ≥ +0 changes no bit, so those products are skipped.
-                Some(mid) => {
-                    for mx in clo..mid {
-                        let (w, vv) = (&taps.xw[mx], load(mx));
-                        for p in LEFT_PROFILES {
-                            acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
-                        }
-                    }
-                    for mx in mid..chi {
-                        let (w, vv) = (&taps.xw[mx], load(mx));
-                        for p in RIGHT_PROFILES {
-                            acc[p] = _mm512_fmadd_ps(_mm512_set1_ps(w[p]), vv, acc[p]);
-                        }
-                    }
-                }
-                None => {
-                    for mx in clo..chi {
-                        let (w, vv) = (&taps.xw[mx], load(mx));
-                        for (a, &w) in acc.iter_mut().zip(w) {
-                            *a = _mm512_fmadd_ps(_mm512_set1_ps(w), vv, *a);
-                        }
-                    }
-                }
-            }
-            for (py, &w) in wy.iter().enumerate() {
-                let wv = _mm512_set1_ps(w);
-                let tr = &mut t[py * PROFILES..][..PROFILES];
-                if i == 0 {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        *d = _mm512_mul_ps(wv, *a);
-                    }
-                } else if w != 0.0 {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        *d = _mm512_fmadd_ps(wv, *a, *d);
-                    }
-                }
-            }
-        }
-        for py in 0..PROFILES {
-            for px in 0..PROFILES {
-                // SAFETY: `nb` lanes at the slot's offset, inside the cell's `cl` values.
-                unsafe {
-                    _mm512_mask_storeu_ps(
-                        cell.as_mut_ptr().add(cell_slot(py, px) * nb),
-                        mask,
-                        t[py * PROFILES + px],
-                    )
-                };
-            }
         }
     }
 }
@@ -756,11 +593,11 @@ unsafe fn fill_cell_row_regs_avx512(nb: usize, micro: &MicroGrid, taps: &Taps, c
 /// micro-cell adds its histogram times its four x-profile weights to its cell (fused
 /// multiply-adds).
 #[inline(always)]
-fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
+fn hpass(isa: Isa, nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
     let hl = PROFILES * nb;
     h.fill(0.0);
     v.resize(src.len(), 0.0);
-    from_f16_row(src, v);
+    kernels::from_f16_row(isa, src, v);
     for (tx, mc) in xt.iter().zip(v.chunks_exact(nb)) {
         let Some(tx) = tx else { continue };
         let hc = &mut h[tx.cell * hl..][..hl];
@@ -774,37 +611,38 @@ fn hpass(nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut 
 }
 
 /// Cell row `cy` of the approximated level (cell layout of [`super::CellGrid`], every value
-/// written): each micro row landing in it is pooled horizontally into (cell, x-profile)
-/// histograms, which are added with the row's y-profile weights (times the gain) into a
-/// `[y-profile][cell][x-profile][bin]` buffer — one contiguous multiply-add per y-profile — and
-/// that buffer is finally permuted into the cells' slots.
+/// written; half floats converted with the `isa` build): each micro row landing in it is pooled
+/// horizontally into (cell, x-profile) histograms, which are added with the row's y-profile
+/// weights (times the gain) into a `[y-profile][cell][x-profile][bin]` buffer — one contiguous
+/// multiply-add per y-profile — and that buffer is finally permuted into the cells' slots. The
+/// portable kernel and the oracle of the register fills in `kernels`.
 #[inline(always)]
-fn fill_cell_row(
+pub(super) fn fill_cell_row(
+    isa: Isa,
     micro: &MicroGrid,
     taps: &Taps,
     cy: usize,
     row: &mut [f32],
     s: &mut FillScratch,
-    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32], &mut Vec<f32>),
 ) {
     // A literal bin count lets the compiler unroll and vectorise the default geometry.
     if micro.nbins == 9 {
-        fill_cell_row_nb(9, micro, taps, cy, row, s, hpass)
+        fill_cell_row_nb(isa, 9, micro, taps, cy, row, s)
     } else {
-        fill_cell_row_nb(micro.nbins, micro, taps, cy, row, s, hpass)
+        fill_cell_row_nb(isa, micro.nbins, micro, taps, cy, row, s)
     }
 }
 
 /// [`fill_cell_row`] for `nb` = `micro.nbins` bins.
 #[inline(always)]
 fn fill_cell_row_nb(
+    isa: Isa,
     nb: usize,
     micro: &MicroGrid,
     taps: &Taps,
     cy: usize,
     row: &mut [f32],
     s: &mut FillScratch,
-    hpass: impl Fn(usize, &[Option<AxisTap>], &[u16], &mut [f32], &mut Vec<f32>),
 ) {
     let hl = PROFILES * nb;
     let plane = taps.ncx * hl;
@@ -816,6 +654,7 @@ fn fill_cell_row_nb(
     for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
         let Some(ty) = ty else { continue };
         hpass(
+            isa,
             nb,
             &taps.xt,
             &micro.data[my * micro.nmx * nb..][..micro.nmx * nb],
@@ -959,45 +798,101 @@ mod tests {
         assert_eq!(ga, gc);
     }
 
+    /// A spec with `nbins` bins.
+    fn spec_nb(nbins: usize) -> HogSpec {
+        HogSpec::new(&HogOptions {
+            nbins,
+            ..Default::default()
+        })
+        .unwrap()
+    }
+
     #[test]
-    fn every_fill_kernel_gives_the_same_bits() {
-        let s = spec();
+    fn kernel_paths_fill_gives_the_same_bits() {
+        // Integer-exact comparison: every fill makes the same fused multiply-adds in the same
+        // order. 4 and 16 bins are one and two AVX2 registers (one and four NEON), 18 is more
+        // than the register fills hold (the portable fill of the path).
         let img = plane(150, 170);
-        let m = micro(&img, 2, Exec::Serial);
-        for (w, h) in [(150, 170), (119, 133), (80, 128)] {
-            let (ncx, ncy) = (w / CELL_SIZE, h / CELL_SIZE);
-            let taps = Taps::new(&s, &m, w, h, 0.8);
-            let run = |k: FillKernel| {
-                let mut sc = FillScratch::new();
-                let mut out = vec![f32::NAN; ncx * cell_len(9) * ncy];
-                for (cy, row) in out.chunks_mut(ncx * cell_len(9)).enumerate() {
-                    fill_with(k, &m, &taps, cy, row, &mut sc);
+        for nbins in [9, 4, 16, 18] {
+            let s = spec_nb(nbins);
+            let mut m = MicroGrid::empty();
+            micro_grid_with(
+                Isa::Scalar,
+                &s,
+                &GammaPlanes::Grey(img.view()),
+                2,
+                Exec::Serial,
+                &mut m,
+            )
+            .unwrap();
+            for (w, h) in [(150, 170), (119, 133), (80, 128)] {
+                let (ncx, ncy) = (w / CELL_SIZE, h / CELL_SIZE);
+                let taps = Taps::new(&s, &m, w, h, 0.8);
+                assert!(taps.fits(&m));
+                let run = |k: FillKernel| {
+                    let mut sc = FillScratch::new();
+                    let mut out = vec![f32::NAN; ncx * cell_len(nbins) * ncy];
+                    for (cy, row) in out.chunks_mut(ncx * cell_len(nbins)).enumerate() {
+                        k.fill(&m, &taps, cy, row, &mut sc);
+                    }
+                    out
+                };
+                let want = run(FillKernel::Scalar);
+                assert!(want.iter().all(|v| v.is_finite()));
+                for k in FillKernel::available(nbins) {
+                    let got = run(k);
+                    assert!(
+                        want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{k:?} {nbins} bins {w}x{h}"
+                    );
                 }
-                out
-            };
-            let want = run(FillKernel::Generic);
-            assert!(want.iter().all(|v| v.is_finite()));
-            let got = run(FillKernel::detect());
-            assert!(
-                want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
-                "{w}x{h}"
-            );
+            }
         }
     }
 
     #[test]
-    fn fused_cells_and_micro_cells_equal_the_two_passes() {
+    fn kernel_paths_approximated_levels_equal_the_scalar_ones() {
+        let img = plane(200, 260);
+        for nbins in [9, 4] {
+            let s = spec_nb(nbins);
+            let gp = GammaPlanes::Grey(img.view());
+            let mut m = MicroGrid::empty();
+            micro_grid_with(Isa::Scalar, &s, &gp, 2, Exec::Serial, &mut m).unwrap();
+            let mut want = BlockGrid::empty();
+            blocks_from_micro_grid_with(Isa::Scalar, &s, &m, 131, 171, 0.7, Exec::Serial, &mut want);
+            for isa in Isa::available() {
+                let mut mi = MicroGrid::empty();
+                micro_grid_with(isa, &s, &gp, 2, Exec::Parallel, &mut mi).unwrap();
+                assert_eq!(mi, m, "{isa} {nbins} bins");
+                let mut got = BlockGrid::empty();
+                blocks_from_micro_grid_with(isa, &s, &m, 131, 171, 0.7, Exec::Parallel, &mut got);
+                assert_eq!((got.nbx, got.nby), (want.nbx, want.nby));
+                assert!(
+                    got.data
+                        .iter()
+                        .zip(&want.data)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{isa} {nbins} bins"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn kernel_paths_fused_cells_and_micro_cells_equal_the_two_scalar_passes() {
         // Sizes with and without a right / bottom margin past the last whole cell, several
-        // bands, odd widths; grey, mosaic and colour planes; 1 and 2 workers.
-        let s = spec();
-        for (w, h) in [
-            (160, 144),
-            (173, 299),
-            (66, 530),
-            (174, 298),
-            (301, 133),
-            (71, 128),
+        // bands, odd widths; grey, mosaic and colour planes; 1 and 2 workers; one and two AVX2
+        // registers per histogram (4 and 9 bins) and more than the register kernels hold (18).
+        for (w, h, nbins) in [
+            (160, 144, 9),
+            (173, 299, 9),
+            (66, 530, 9),
+            (174, 298, 4),
+            (301, 133, 9),
+            (71, 128, 16),
+            (90, 140, 18),
         ] {
+            let s = spec_nb(nbins);
             let a = plane(w, h);
             let b = Image::from_fn(w, h, |x, y| a.get(w - 1 - x, y) * 0.7);
             let c = Image::from_fn(w, h, |x, y| a.get(x, h - 1 - y) + 1.0);
@@ -1009,27 +904,34 @@ mod tests {
                 all.push(GammaPlanes::Mosaic(a.view()));
             }
             for planes in all {
-                for exec in [Exec::Serial, Exec::Parallel] {
-                    let (mut want_b, mut want_m) = (BlockGrid::empty(), MicroGrid::empty());
-                    crate::features::hog::block_grid_from_gamma_planes(&s, &planes, exec, &mut want_b)
-                        .unwrap();
-                    micro_grid_from_gamma_planes(&s, &planes, 2, exec, &mut want_m).unwrap();
-                    let (mut got_b, mut got_m) = (BlockGrid::empty(), MicroGrid::empty());
-                    // Stale contents in reused buffers must not leak through.
-                    got_m.data = vec![0x7bff; 5];
-                    block_and_micro_grids_from_gamma_planes(&s, &planes, 2, exec, &mut got_b, &mut got_m)
-                        .unwrap();
-                    assert_eq!(got_m, want_m, "{w}x{h} {exec:?}");
-                    assert_eq!(got_b.blocks_x(), want_b.blocks_x());
-                    assert_eq!(got_b.blocks_y(), want_b.blocks_y());
-                    for by in 0..want_b.blocks_y() {
-                        let (g, e) = (got_b.block_row(by), want_b.block_row(by));
-                        assert!(
-                            g.iter().zip(e).all(|(x, y)| x.to_bits() == y.to_bits()),
-                            "{w}x{h} row {by}"
-                        );
+                let (mut want_b, mut want_m) = (BlockGrid::empty(), MicroGrid::empty());
+                let p = planes_of(&s, &planes).unwrap();
+                blocks_in_bands(&s, &p, Exec::Serial, CellKernel::Scalar, Isa::Scalar, &mut want_b);
+                micro_grid_with(Isa::Scalar, &s, &planes, 2, Exec::Serial, &mut want_m).unwrap();
+                for isa in Isa::available() {
+                    for exec in [Exec::Serial, Exec::Parallel] {
+                        let (mut got_b, mut got_m) = (BlockGrid::empty(), MicroGrid::empty());
+                        // Stale contents in reused buffers must not leak through.
+                        got_m.data = vec![0x7bff; 5];
+                        block_and_micro_grids_with(isa, &s, &planes, 2, exec, &mut got_b, &mut got_m)
+                            .unwrap();
+                        assert_eq!(got_m, want_m, "{isa} {w}x{h} {exec:?}");
+                        assert_eq!(got_b.blocks_x(), want_b.blocks_x());
+                        assert_eq!(got_b.blocks_y(), want_b.blocks_y());
+                        for by in 0..want_b.blocks_y() {
+                            let (g, e) = (got_b.block_row(by), want_b.block_row(by));
+                            assert!(
+                                g.iter().zip(e).all(|(x, y)| x.to_bits() == y.to_bits()),
+                                "{isa} {w}x{h} {nbins} bins row {by}"
+                            );
+                        }
                     }
                 }
+                // The public entry point runs the process's path.
+                let (mut pb, mut pm) = (BlockGrid::empty(), MicroGrid::empty());
+                block_and_micro_grids_from_gamma_planes(&s, &planes, 2, Exec::Parallel, &mut pb, &mut pm)
+                    .unwrap();
+                assert_eq!((pb, pm), (want_b, want_m));
             }
         }
     }
@@ -1054,24 +956,26 @@ mod tests {
     }
 
     #[test]
-    fn every_micro_kernel_gives_the_same_bits() {
+    fn kernel_paths_micro_rows_give_the_same_bits() {
         let s = spec();
         let img = plane(150, 170);
         let gp = GammaPlanes::Grey(img.view());
         let p = planes_of(&s, &gp).unwrap();
-        let run = |avx2: bool| {
+        let run = |isa: Isa| {
             let mut out = vec![0x7e00u16; (150 / 2) * 9 * 5];
-            micro_rows_with(avx2, &p, 9, 2, 7, &mut out);
+            kernels::micro_rows(isa, &p, 9, 2, 7, &mut out);
             out
         };
-        let want = run(false);
+        let want = run(Isa::Scalar);
         assert!(want.iter().all(|&v| f32_from_f16(v).is_finite()));
         assert_eq!(want, micro(&img, 2, Exec::Serial).data[7 * 75 * 9..12 * 75 * 9]);
-        assert_eq!(want, run(have_avx2()));
+        for isa in Isa::available() {
+            assert_eq!(want, run(isa), "{isa}");
+        }
     }
 
     #[test]
-    fn half_floats_round_trip_and_match_the_hardware() {
+    fn kernel_paths_half_floats_round_trip_and_match_the_hardware() {
         // Every half float converts to f32 and back unchanged (NaNs stay NaNs).
         for h in 0..=u16::MAX {
             let f = f32_from_f16(h);
@@ -1095,16 +999,18 @@ mod tests {
             .filter(|v| v.is_finite())
             .collect();
         vals.extend((0..4096).map(|i| i as f32 * 0.013 + 0.5));
-        let mut hw = vec![0u16; vals.len()];
-        to_f16_row(&vals, &mut hw);
-        for (v, h) in vals.iter().zip(&hw) {
-            assert_eq!(f16_bits(*v), *h, "{v:e}");
-        }
         let all: Vec<u16> = (0..=u16::MAX).collect();
-        let mut back = vec![0.0f32; all.len()];
-        from_f16_row(&all, &mut back);
-        for (&h, f) in all.iter().zip(&back) {
-            assert_eq!(f.to_bits(), f32_from_f16(h).to_bits(), "{h:#06x}");
+        for isa in Isa::available() {
+            let mut hw = vec![0u16; vals.len()];
+            kernels::to_f16_row(isa, &vals, &mut hw);
+            for (v, h) in vals.iter().zip(&hw) {
+                assert_eq!(f16_bits(*v), *h, "{isa} {v:e}");
+            }
+            let mut back = vec![0.0f32; all.len()];
+            kernels::from_f16_row(isa, &all, &mut back);
+            for (&h, f) in all.iter().zip(&back) {
+                assert_eq!(f.to_bits(), f32_from_f16(h).to_bits(), "{isa} {h:#06x}");
+            }
         }
     }
 
