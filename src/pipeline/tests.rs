@@ -4,10 +4,10 @@ use std::sync::Arc;
 
 use super::clock::ReplayClock;
 use super::engine::{Pipeline, PipelineSpec};
-use super::pool::BufferPool;
 use super::sinks::{strip_wall_clock, CollectSink};
 use super::stage::{Stage, StageSpec};
-use super::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::capture::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::pool::BufferPool;
 
 fn run(
     threads: usize,
@@ -263,7 +263,7 @@ impl super::engine::Sink for FailAt {
     fn frames_not_written(&self) -> u64 {
         self.not_written
     }
-    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+    fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {
@@ -343,7 +343,7 @@ impl super::engine::Sink for PanicAt {
         assert!(r.index != self.0, "a bug in a sink (frame {})", r.index);
         Ok(())
     }
-    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+    fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {

@@ -11,6 +11,7 @@ pub mod kodak_radc;
 pub mod levels;
 pub mod load;
 pub mod sample;
+pub mod tone;
 
 use std::path::PathBuf;
 
