@@ -36,6 +36,11 @@ lint:
 	$(CARGO) fmt --check
 	$(CARGO) clippy --all-targets --quiet -- -D warnings
 
+# No import circle between the files of src/, nor between its top-level modules (scripts/module_graph.py).
+.PHONY: module-graph
+module-graph:
+	python3 scripts/module_graph.py
+
 doc:
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --quiet
 
@@ -44,6 +49,7 @@ test: oracle lint
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --all-targets --quiet
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --doc --quiet
 	$(MAKE) --no-print-directory doc
+	$(MAKE) --no-print-directory module-graph
 
 bench: setup
 	$(CARGO) bench
