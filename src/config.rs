@@ -167,7 +167,14 @@ pub struct PublishConfig {
     pub gradients: bool,
     /// Keep every n-th gradient pixel in x and y (`1..=64`).
     pub gradients_decimation: usize,
+    /// The directory iceoryx2 keeps its files in (an absolute path; created `0750` when missing;
+    /// one of another user is refused). Subscribers (`mosaicd listen --root`, the Python client's
+    /// `--root`) must use the same. Default [`DEFAULT_IOX2_ROOT`].
+    pub root: PathBuf,
 }
+
+/// The default `publish.root`: under the systemd units' `RuntimeDirectory=mosaicd`.
+pub const DEFAULT_IOX2_ROOT: &str = "/run/mosaicd/iceoryx2";
 
 impl Default for PublishConfig {
     fn default() -> Self {
@@ -177,6 +184,7 @@ impl Default for PublishConfig {
             subscriber_buffer: 64,
             gradients: false,
             gradients_decimation: 4,
+            root: PathBuf::from(DEFAULT_IOX2_ROOT),
         }
     }
 }
@@ -602,6 +610,13 @@ impl Config {
                 key: "publish.service_prefix".into(),
                 value: format!("{:?}", p.service_prefix),
                 allowed: format!("1..=64 characters from {NAME_CHARS}"),
+            });
+        }
+        if !p.root.is_absolute() {
+            return Err(ConfigError::OutOfRange {
+                key: "publish.root".into(),
+                value: format!("{:?}", p.root),
+                allowed: "an absolute path".into(),
             });
         }
         range("record.preview_decimation", self.record.preview_decimation, 0, 16)?;

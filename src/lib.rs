@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod capture;
+pub mod clock;
 pub mod config;
 pub mod data;
 pub mod detect;

@@ -1,12 +1,52 @@
-//! `systemd-analyze verify` passes on the shipped units.
+//! `systemd-analyze verify` passes on the shipped units, and `systemd-analyze security
+//! --offline=yes` rates both at an exposure of at most [`MAX_EXPOSURE`].
 //!
 //! verify insists that ExecStart names an existing executable, so the units are copied to a
 //! temporary directory with `/usr/local/bin/mosaicd` replaced by the binary cargo just built; the
-//! template is verified through an instance name. The test fails (does not skip) when
-//! `systemd-analyze` is missing: it is part of the CI image.
+//! template is checked through an instance name. The tests fail (do not skip) when
+//! `systemd-analyze` is missing: it is part of the CI image (scripts/setup.sh installs systemd).
 
 use std::path::Path;
 use std::process::Command;
+
+/// The highest exposure score (0 = safest, 10 = unprotected) the units may have.
+const MAX_EXPOSURE: f64 = 2.0;
+
+/// The shipped units, copied to `dir` with ExecStart pointing at the built binary.
+fn install(dir: &Path) {
+    let bin = env!("CARGO_BIN_EXE_mosaicd");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd");
+    for unit in ["mosaicd.service", "mosaicd@.service"] {
+        let text = std::fs::read_to_string(src.join(unit)).unwrap();
+        std::fs::write(dir.join(unit), text.replace("/usr/local/bin/mosaicd", bin)).unwrap();
+    }
+}
+
+/// The overall exposure `systemd-analyze security --offline=yes` gives `unit`.
+fn exposure(dir: &Path, unit: &str) -> f64 {
+    let out = Command::new("systemd-analyze")
+        .args(["security", "--offline=yes", "--no-pager"])
+        .arg(dir.join(unit))
+        .current_dir(dir)
+        .output()
+        .expect("systemd-analyze must be installed (apt-get install systemd)");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.contains("Overall exposure level"))
+        .unwrap_or_else(|| {
+            panic!(
+                "{unit}: no overall exposure in: {text}{}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        });
+    // "→ Overall exposure level for mosaicd.service: 0.6 SAFE 😀"
+    line.rsplit(": ")
+        .next()
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{unit}: cannot read the score in {line:?}"))
+}
 
 fn verify(dir: &Path, unit: &str) {
     let out = Command::new("systemd-analyze")
@@ -35,10 +75,35 @@ fn units_verify() {
             text.contains("ExecReload=/bin/kill -HUP $MAINPID"),
             "{unit}: reload sends SIGHUP"
         );
+        // iceoryx2 lives in the runtime directory (publish.root's default), not in /tmp.
+        assert!(
+            text.contains("RuntimeDirectory=mosaicd\n") && text.contains("PrivateTmp=yes"),
+            "{unit}"
+        );
+        let rw = text.lines().find(|l| l.starts_with("ReadWritePaths=")).unwrap();
+        assert!(
+            !rw.split_whitespace().any(|p| p.ends_with("/tmp")),
+            "{unit}: {rw}"
+        );
+        assert!(
+            text.contains("UMask=0027") && text.contains("PrivateNetwork=yes"),
+            "{unit}"
+        );
         std::fs::write(dir.path().join(unit), text.replace("/usr/local/bin/mosaicd", bin)).unwrap();
     }
     verify(dir.path(), "mosaicd.service");
     verify(dir.path(), "mosaicd@front.service");
+}
+
+#[test]
+fn units_are_hardened_to_an_exposure_of_at_most_2() {
+    let dir = tempfile::tempdir().unwrap();
+    install(dir.path());
+    for unit in ["mosaicd.service", "mosaicd@front.service"] {
+        let score = exposure(dir.path(), unit);
+        eprintln!("{unit}: exposure {score}");
+        assert!(score <= MAX_EXPOSURE, "{unit}: exposure {score} > {MAX_EXPOSURE}");
+    }
 }
 
 #[test]

@@ -10,7 +10,12 @@ use mosaicd::publish::service::{create_node, detections_service, subscriber};
 #[test]
 fn a_stalled_subscriber_does_not_block_publishing() {
     let (prefix, camera) = (format!("st{}", std::process::id()), "stall".to_string());
-    let node = create_node(&format!("stalltest{}", std::process::id()), false).unwrap();
+    let node = create_node(
+        &format!("stalltest{}", std::process::id()),
+        false,
+        std::path::Path::new(mosaicd::config::DEFAULT_IOX2_ROOT),
+    )
+    .unwrap();
     let svc = detections_service(&node, &prefix, &camera, 2).unwrap();
     let sub = subscriber(&svc, 2, "stalled").unwrap();
     let dir = tempfile::tempdir().unwrap();

@@ -212,7 +212,12 @@ fn a_python_process_reads_what_the_daemon_publishes() {
 fn an_incompatible_service_is_a_clear_error() {
     use mosaicd::publish::service::{create_node, detections_service};
     let prefix = format!("pyx{}", std::process::id());
-    let node = create_node(&format!("pyx-test-{}", std::process::id()), false).unwrap();
+    let node = create_node(
+        &format!("pyx-test-{}", std::process::id()),
+        false,
+        std::path::Path::new(mosaicd::config::DEFAULT_IOX2_ROOT),
+    )
+    .unwrap();
     let _det = detections_service(&node, &prefix, "c", 4).unwrap();
     let err = refused(&["--camera", "c", "--prefix", &prefix, "--buffer", "64"]);
     assert!(

@@ -27,11 +27,13 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mosaicd_subscriber import (  # noqa: E402  (the sibling module, wherever this runs from)
+    DEFAULT_ROOT,
     DESCRIPTOR_BYTES,
     MAX_KEYPOINTS,
     DescriptorsMsg,
     KeypointsMsg,
     StatsMsg,
+    create_node,
     open_service,
 )
 
@@ -67,17 +69,14 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--camera", required=True)
     p.add_argument("--prefix", default="mosaicd")
+    p.add_argument("--root", default=DEFAULT_ROOT, help="the daemon's iceoryx2 root (publish.root)")
     p.add_argument("--buffer", type=int, default=64)
     p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")
     p.add_argument("--timeout-s", type=float, help="exit with an error after this many seconds")
     a = p.parse_args(argv)
 
     iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
-    node = (
-        iox2.NodeBuilder.new()
-        .name(iox2.NodeName.new(f"mosaicd-py-match-{os.getpid()}"))
-        .create(iox2.ServiceType.Ipc)
-    )
+    node = create_node(f"mosaicd-py-match-{os.getpid()}", a.root)
 
     def subscribe(topic: str, payload: type):
         try:

@@ -15,10 +15,9 @@ JSON lines, one object per sample with a ``"topic"`` key, in the same form::
 
 Used as a module::
 
-    import iceoryx2 as iox2
-    from mosaicd_subscriber import DetectionsMsg, open_service
+    from mosaicd_subscriber import DetectionsMsg, create_node, open_service
 
-    node = iox2.NodeBuilder.new().create(iox2.ServiceType.Ipc)
+    node = create_node("my-subscriber")       # under the daemon's root, DEFAULT_ROOT
     sub = open_service(node, "mosaicd", "front", "detections", DetectionsMsg, 64)
     sub = sub.subscriber_builder().buffer_size(64).create()
     sample = sub.receive()          # None when nothing is waiting
@@ -56,9 +55,14 @@ DESCRIPTOR_BYTES = 128
 #: ``DetectionsMsg.sensor_sequence`` when the source has none.
 NO_SENSOR_SEQUENCE = 2**64 - 1
 
+#: The daemon's iceoryx2 root by default (``publish.root``, src/config.rs ``DEFAULT_IOX2_ROOT``).
+DEFAULT_ROOT = "/run/mosaicd/iceoryx2"
+#: Prefix of the daemon's iceoryx2 file and segment names (``SHM_PREFIX``).
+SHM_PREFIX = "mosaicd_"
+
 # The daemon's service settings (src/publish/service.rs); a subscriber opens with the same ones.
 _HISTORY = 1
-_MAX_PUBLISHERS = 2
+_MAX_PUBLISHERS = 1  # only the daemon publishes
 _MAX_SUBSCRIBERS = 16
 
 
@@ -221,6 +225,19 @@ def _with_daemon_settings(builder: Any, buffer: int) -> Any:
     )
 
 
+def create_node(name: str, root: str = DEFAULT_ROOT) -> Any:
+    """An iceoryx2 node under the daemon's root (``publish.root``), with the daemon's segment prefix.
+
+    The config is built here, so no ``config/iceoryx2.toml`` of the working directory (or of the
+    user) is read. Subscribers run as the daemon's user: iceoryx2 0.10 keeps a service's shared
+    memory readable by its creator only (docs/daemon.md).
+    """
+    cfg = iox2.config.default()
+    cfg.global_cfg.root_path = iox2.Path.new(root)
+    cfg.global_cfg.prefix = iox2.FileName.new(SHM_PREFIX)
+    return iox2.NodeBuilder.new().name(iox2.NodeName.new(name)).config(cfg).create(iox2.ServiceType.Ipc)
+
+
 def open_service(node: Any, prefix: str, camera: str, topic: str, payload: type, buffer: int) -> Any:
     """Open (or create, if this process is first) a fixed-size service with the daemon's settings.
 
@@ -327,6 +344,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--camera", help="camera name (as in the daemon's config)")
     p.add_argument("--prefix", default="mosaicd", help="service name prefix (publish.service_prefix)")
+    p.add_argument("--root", default=DEFAULT_ROOT, help="the daemon's iceoryx2 root (publish.root)")
     p.add_argument("--buffer", type=int, default=64, help="samples buffered per service")
     p.add_argument("--count", type=int, help="exit after this many detections messages")
     p.add_argument("--until-final", action="store_true", help="exit after the daemon's final stats")
@@ -345,11 +363,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--buffer must be at least 1")
 
     iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
-    node = (
-        iox2.NodeBuilder.new()
-        .name(iox2.NodeName.new(f"mosaicd-py-listen-{os.getpid()}"))
-        .create(iox2.ServiceType.Ipc)
-    )
+    node = create_node(f"mosaicd-py-listen-{os.getpid()}", a.root)
 
     def subscribe(topic: str, payload: type | None) -> Any:
         # iceoryx2 refuses a service whose settings or message layout differ from ours (another

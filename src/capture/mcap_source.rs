@@ -3,9 +3,18 @@
 //! Frames come back exactly as recorded (pixels, pattern, bit depth, levels, gains, sensor
 //! sequence, capture timestamp, source name), with `meta.sequence` renumbered densely from 0 for
 //! this source. Options: as fast as possible or at the recorded rate (times a speed factor, on an
-//! injected [`Clock`]), looped (timestamps keep increasing across loops: each pass is shifted by
+//! injected [`Clock`]; "Pacing" below), looped (timestamps keep increasing across loops: each pass is shifted by
 //! the recording's span plus one frame interval), and starting `start_offset_ns` after the first
 //! frame. `SourceKind::Replay`: the daemon back-pressures it and never drops.
+//!
+//! Pacing: each frame waits until its recorded time (relative to the first paced frame, divided
+//! by the speed) on the clock. The wait is interruptible: it ends at once when the pipeline's
+//! [`Stop`] is raised ([`Source::set_stop`]), and the frame is then delivered without waiting. A
+//! step between two consecutive timestamps whose wait would exceed [`MAX_PACED_GAP_NS`] (10 s of
+//! wall time), or a step backwards, is not slept through: it is logged as a warning, counted
+//! ([`McapSource::pacing_jumps`]), and pacing restarts from that frame (it is delivered at once and
+//! the next ones follow it at the recorded rate). So a recording whose timestamps jump by
+//! centuries (`[0, u64::MAX, 5]`) replays, and stops, promptly.
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
 //! used, the data section, the summary) and record lengths limited to the file size.
@@ -43,13 +52,16 @@ use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind};
+use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind, Stop};
 use crate::raw::RawFrame;
 use crate::wire::read::{read_summary, strict_reader_options};
 use crate::wire::schema::{decode_raw_frame, RAW_FRAME_SCHEMA};
 
 /// Frame interval assumed when looping a one-frame recording (30 fps), ns.
 const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;
+/// The longest wait between two consecutive paced frames (wall time, after the speed factor): a
+/// longer step in the recorded timestamps is a jump, logged and counted, not slept through.
+pub const MAX_PACED_GAP_NS: u64 = 10_000_000_000;
 /// Read buffer in front of the file (bytes).
 const READ_BUFFER: usize = 1 << 20;
 
@@ -87,7 +99,7 @@ impl Default for McapSourceOptions {
             pacing: Pacing::AsFastAsPossible,
             looped: false,
             start_offset_ns: 0,
-            clock: Arc::new(MonotonicClock::new()),
+            clock: Arc::new(MonotonicClock),
         }
     }
 }
@@ -115,8 +127,15 @@ pub struct McapSource {
     pass_frames: u64,
     /// Added to recorded timestamps (grows each loop).
     loop_offset: u64,
-    /// Pacing anchor: (clock time, output timestamp) of the first paced frame.
+    /// Pacing anchor: (clock time, output timestamp) of the first paced frame (or of the frame
+    /// after the last jump).
     anchor: Option<(u64, u64)>,
+    /// Output timestamp of the previous paced frame.
+    prev_paced: Option<u64>,
+    /// Timestamp jumps not slept through (see the module overview).
+    pacing_jumps: u64,
+    /// The pipeline's stop flag: pacing waits end when it is raised.
+    stop: Stop,
 }
 
 impl std::fmt::Debug for McapSource {
@@ -227,6 +246,9 @@ impl McapSource {
             pass_frames: 0,
             loop_offset: 0,
             anchor: None,
+            prev_paced: None,
+            pacing_jumps: 0,
+            stop: Stop::new(),
         })
     }
 
@@ -280,15 +302,41 @@ impl McapSource {
         }
     }
 
+    /// Timestamp jumps that pacing did not sleep through (steps longer than
+    /// [`MAX_PACED_GAP_NS`] of wall time, or backwards) so far.
+    pub fn pacing_jumps(&self) -> u64 {
+        self.pacing_jumps
+    }
+
+    /// Wait for the frame stamped `ts` (see "Pacing" in the module overview).
     fn pace(&mut self, ts: u64) {
         let Pacing::Recorded { speed } = self.opts.pacing else {
             return;
         };
+        let clock = &self.opts.clock;
+        // `as` saturates a float that exceeds u64 (a huge step at a slow speed).
+        let wall = |dt: u64| (dt as f64 / speed) as u64;
+        if let Some(prev) = self.prev_paced.replace(ts) {
+            let step = ts.checked_sub(prev).map(wall);
+            if step.is_none_or(|w| w > MAX_PACED_GAP_NS) {
+                self.pacing_jumps += 1;
+                tracing::warn!(
+                    path = %self.path.display(),
+                    from_ns = prev,
+                    to_ns = ts,
+                    jumps = self.pacing_jumps,
+                    "recording timestamps jump (backwards, or more than {} s of replay time): not waited for; pacing restarts at this frame",
+                    MAX_PACED_GAP_NS / 1_000_000_000
+                );
+                self.anchor = None;
+            }
+        }
         match self.anchor {
-            None => self.anchor = Some((self.opts.clock.now_ns(), ts)),
+            None => self.anchor = Some((clock.now_ns(), ts)),
             Some((wall0, ts0)) => {
-                let dt = (ts.saturating_sub(ts0) as f64 / speed) as u64;
-                self.opts.clock.sleep_until_ns(wall0.saturating_add(dt));
+                // An interrupted wait (the pipeline stops) delivers the frame at once; the
+                // capture loop sees the stop before asking for another.
+                clock.wait_until_ns(wall0.saturating_add(wall(ts.saturating_sub(ts0))), &self.stop);
             }
         }
     }
@@ -403,5 +451,9 @@ impl Source for McapSource {
 
     fn is_finished(&self) -> bool {
         self.finished
+    }
+
+    fn set_stop(&mut self, stop: Stop) {
+        self.stop = stop;
     }
 }

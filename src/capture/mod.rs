@@ -9,14 +9,13 @@ use std::path::PathBuf;
 
 use crate::raw::RawFrame;
 
-pub mod clock;
 pub mod files;
 pub mod mcap_source;
 pub mod synthetic;
 pub mod v4l2;
 pub mod v4l2_formats;
 
-pub use clock::{Clock, FakeClock, MonotonicClock};
+pub use crate::clock::{Clock, FakeClock, MonotonicClock, Stop};
 pub use files::{FileSource, FileSourceOptions};
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 
@@ -216,4 +215,9 @@ pub trait Source: Send {
     fn is_finished(&self) -> bool {
         false
     }
+
+    /// The pipeline's stop flag, given before the first frame: a source that waits (pacing, a
+    /// back-off) waits on it, so raising it ends the wait at once. Default: the source does not
+    /// wait long enough to need it.
+    fn set_stop(&mut self, _stop: Stop) {}
 }

@@ -211,7 +211,7 @@ impl Source for SyntheticSource {
         let mut f = self.render(n)?;
         if self.spec.live {
             // A live camera stamps frames with the monotonic clock at capture.
-            f.meta.timestamp_ns = crate::pipeline::clock::monotonic_ns();
+            f.meta.timestamp_ns = crate::clock::monotonic_ns();
         }
         Ok(Some(f))
     }

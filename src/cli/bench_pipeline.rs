@@ -8,10 +8,10 @@ use std::sync::Arc;
 use serde_json::json;
 
 use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
+use mosaicd::clock::ReplayClock;
 use mosaicd::config::Config;
 use mosaicd::config::PublishConfig;
 use mosaicd::detect::ScorePrecision;
-use mosaicd::pipeline::clock::ReplayClock;
 use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
 use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
@@ -152,7 +152,11 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     if !a.no_stalled {
         // A subscriber that never reads, held for the whole second run.
         let cam2 = format!("{cam}s");
-        let node = create_node(&format!("mosaicd-bench-stall-{}", std::process::id()), true)?;
+        let node = create_node(
+            &format!("mosaicd-bench-stall-{}", std::process::id()),
+            true,
+            &PublishConfig::default().root,
+        )?;
         let svc = detections_service(
             &node,
             "mosaicd-bench",

@@ -31,6 +31,9 @@ pub struct ListenArgs {
     /// Service name prefix (`publish.service_prefix`).
     #[arg(long, default_value = "mosaicd")]
     prefix: String,
+    /// The daemon's iceoryx2 root (`publish.root`).
+    #[arg(long, default_value = mosaicd::config::DEFAULT_IOX2_ROOT)]
+    root: std::path::PathBuf,
     /// Samples buffered per service (must not exceed the daemon's `publish.subscriber_buffer`).
     #[arg(long, default_value_t = 64)]
     buffer: usize,
@@ -102,7 +105,11 @@ fn detections_json(m: &DetectionsMsg) -> serde_json::Value {
 
 /// Run `mosaicd listen`.
 pub fn run(args: ListenArgs) -> anyhow::Result<()> {
-    let node = create_node(&format!("mosaicd-listen-{}", std::process::id()), false)?;
+    let node = create_node(
+        &format!("mosaicd-listen-{}", std::process::id()),
+        false,
+        &args.root,
+    )?;
     let det = detections_service(&node, &args.prefix, &args.camera, args.buffer)?;
     let st = stats_service(&node, &args.prefix, &args.camera, args.buffer)?;
     let det_sub = subscriber(&det, args.buffer, "detections")?;

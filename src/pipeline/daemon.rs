@@ -8,8 +8,15 @@
 //!   frames progressed** since the last pet (a stuck pipeline lets systemd restart the service).
 //! * **Shutdown** (SIGTERM/SIGINT, or every source ended): capture stops, queued and in-flight frames
 //!   are drained, final stats are published, sinks finish (MCAP summary + index), iceoryx2 ports and
-//!   nodes are dropped (shared memory released); a drain longer than `daemon.shutdown_timeout_ms`
-//!   is an error.
+//!   nodes are dropped (shared memory released).
+//! * **Shutdown always ends within `daemon.shutdown_timeout_ms`** (measured from the signal, or
+//!   from the end of the input). Sources wake from any wait on the stop flag at once. If the drain
+//!   has not finished when [`abort_grace`] of the timeout is left, it is cut short
+//!   ([`AbortHandle::abort`]: frames still queued or computing are abandoned, every sink skips what
+//!   it still has queued and finishes, so recordings are closed with their summary); at the timeout
+//!   the daemon returns [`DaemonError::ShutdownTimeout`] whatever is still running (a sink stuck in
+//!   one write is left behind: the process exits). The drain runs on a plain thread, so nothing
+//!   waits for it when the runtime is dropped.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -17,20 +24,28 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::clock::{Clock, MonotonicClock, ReplayClock};
-use super::engine::{Pipeline, PipelineReport, PipelineSpec, SinkError, SinkFactory};
+use super::engine::{AbortHandle, Pipeline, PipelineReport, PipelineSpec, SinkError, SinkFactory};
 use super::pool::BufferPool;
 use super::sinks::JsonlSink;
 use super::sources::{open_source, SourceOpenError};
 use super::stage::{Stage, StageSpec};
 use super::stats::StatsSnapshot;
 use crate::capture::SourceKind;
+use crate::clock::{Clock, MonotonicClock, ReplayClock};
 use crate::config::{CameraConfig, Config};
 use crate::detect::score::{ProductKernel, ScorePrecision};
 use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
 
 /// How often the daemon checks whether every pipeline has finished.
 const FINISH_POLL: Duration = Duration::from_millis(10);
+/// The most of the shutdown timeout kept for the sinks to finish after a drain is cut short.
+const ABORT_GRACE_MAX: Duration = Duration::from_secs(1);
+
+/// How long before the shutdown timeout a drain still running is cut short: a quarter of the
+/// timeout, at most 1 s (the sinks' time to finish their files).
+pub fn abort_grace(timeout: Duration) -> Duration {
+    (timeout / 4).min(ABORT_GRACE_MAX)
+}
 
 /// Errors that stop the daemon.
 #[derive(Debug, thiserror::Error)]
@@ -38,14 +53,14 @@ pub enum DaemonError {
     /// A source could not be opened.
     #[error(transparent)]
     Source(#[from] SourceOpenError),
-    /// A sink could not be started.
-    #[error("camera {camera:?}: {source}")]
+    /// A sink could not be started (the cause is the sink's error: printed once, by its own
+    /// `Display`, not again as a source).
+    #[error("camera {camera:?}: {error}")]
     Sink {
         /// Camera.
         camera: String,
         /// Cause.
-        #[source]
-        source: SinkError,
+        error: SinkError,
     },
     /// The compute pool or runtime could not be built.
     #[error("cannot start {what}: {message}")]
@@ -290,7 +305,7 @@ pub fn run(
         let p = Pipeline::start(spec, source, pool.clone(), clock, sinks, frame_pool).map_err(|e| {
             DaemonError::Sink {
                 camera: cam.name.clone(),
-                source: e,
+                error: e,
             }
         })?;
         pipelines.push(p);
@@ -449,18 +464,52 @@ async fn supervise(
     for p in &pipelines {
         p.stop();
     }
-    let drain =
-        tokio::task::spawn_blocking(move || pipelines.into_iter().map(Pipeline::join).collect::<Vec<_>>());
-    // A second signal during the drain does not cut it short: the timeout bounds it.
-    match tokio::time::timeout(timeout, drain).await {
-        Ok(Ok(reports)) => Ok((reports, interrupted)),
-        Ok(Err(e)) => Err(DaemonError::Start {
-            what: "drain",
+    let aborts: Vec<AbortHandle> = pipelines.iter().map(Pipeline::abort_handle).collect();
+    let (tx, mut rx) = tokio::sync::oneshot::channel();
+    // A plain thread, not `spawn_blocking`: dropping the runtime waits for blocking tasks, and a
+    // drain that overran the timeout must not hold the process.
+    std::thread::Builder::new()
+        .name("mosaicd-drain".into())
+        .spawn(move || {
+            let _ = tx.send(pipelines.into_iter().map(Pipeline::join).collect::<Vec<_>>());
+        })
+        .map_err(|e| DaemonError::Start {
+            what: "drain thread",
             message: e.to_string(),
-        }),
-        Err(_) => Err(DaemonError::ShutdownTimeout {
-            timeout_ms: timeout.as_millis() as u64,
-        }),
+        })?;
+    // A second signal during the drain does not cut it short: the timeout bounds it.
+    let grace = abort_grace(timeout);
+    let timed_out = || DaemonError::ShutdownTimeout {
+        timeout_ms: timeout.as_millis() as u64,
+    };
+    let lost = |_| DaemonError::Start {
+        what: "drain",
+        message: "the drain thread ended without a report".into(),
+    };
+    match tokio::time::timeout(timeout - grace, &mut rx).await {
+        Ok(reports) => return reports.map(|r| (r, interrupted)).map_err(lost),
+        Err(_) => {
+            tracing::error!(
+                "the drain did not finish within {} ms of daemon.shutdown_timeout_ms = {} ms: cutting it short; sinks get {} ms to finish",
+                (timeout - grace).as_millis(),
+                timeout.as_millis(),
+                grace.as_millis()
+            );
+            for a in &aborts {
+                a.abort();
+            }
+        }
+    }
+    match tokio::time::timeout(grace, &mut rx).await {
+        Ok(Ok(_)) => {
+            tracing::warn!("the sinks finished after the drain was cut short");
+            Err(timed_out())
+        }
+        Ok(Err(e)) => Err(lost(e)),
+        Err(_) => {
+            tracing::error!("a sink is still busy at the shutdown timeout: leaving it behind");
+            Err(timed_out())
+        }
     }
 }
 
@@ -468,6 +517,29 @@ async fn supervise(
 mod tests {
     use super::*;
     use crate::features::hog::MosaicTaps;
+
+    #[test]
+    fn a_drain_is_cut_short_a_quarter_of_the_timeout_before_it_at_most_1_s() {
+        assert_eq!(
+            abort_grace(Duration::from_millis(2000)),
+            Duration::from_millis(500)
+        );
+        assert_eq!(abort_grace(Duration::from_secs(10)), Duration::from_secs(1));
+        assert_eq!(abort_grace(Duration::from_millis(1)), Duration::from_micros(250));
+    }
+
+    #[test]
+    fn a_sink_error_is_printed_once_in_the_error_chain() {
+        let e = DaemonError::Sink {
+            camera: "c".into(),
+            error: SinkError::Start {
+                sink: "iceoryx2 p/c".into(),
+                message: "iceoryx2 root /x: exists and is not a directory".into(),
+            },
+        };
+        let chain = format!("{:#}", anyhow::Error::from(e));
+        assert_eq!(chain.matches("not a directory").count(), 1, "{chain}");
+    }
 
     #[test]
     fn the_status_line_shows_sink_losses_once_there_are_any() {

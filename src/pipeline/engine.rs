@@ -17,9 +17,15 @@
 //!   its own thread by a [`SinkFactory`]).
 //! * Pixel buffers go back to the frame pool once computed, gradient maps once every sink dropped
 //!   the result.
-//! * Shutdown: [`Pipeline::stop`] ends capture; everything already queued or in flight is still
-//!   computed and emitted ("drained"); then the final stats go to the sinks, which finish (an MCAP
-//!   writer writes its summary and index).
+//! * Shutdown: [`Pipeline::stop`] ends capture (it raises the [`Stop`] the source waits on, so a
+//!   source pacing a recording stops waiting at once); everything already queued or in flight is
+//!   still computed and emitted ("drained"); then the final stats go to the sinks, which finish (an
+//!   MCAP writer writes its summary and index).
+//! * When a drain takes too long, [`AbortHandle::abort`] cuts it short: the frames still queued,
+//!   computing or waiting to be emitted are abandoned (logged with their number), the orderer
+//!   stops waiting for them and never blocks on a full sink queue again, every sink skips the
+//!   frames still in its queue (counted in `sink_frames_lost`), receives the final stats and
+//!   finishes — so recordings get their summary, unless a sink is stuck inside one call.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -29,7 +35,6 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
 
-use super::clock::{monotonic_ns, Clock};
 use super::pool::BufferPool;
 use super::queue::{FrameQueue, Push};
 /// Re-exported from [`super::sinks`], where they live.
@@ -37,6 +42,7 @@ pub use super::sinks::{FrameResult, PooledMaps, Sink, SinkError, SinkEvent, Sink
 use super::stage::{GradientMaps, Stage, StageError, StageOutput};
 use super::stats::{Stats, StatsSnapshot};
 use crate::capture::{Source, SourceKind};
+use crate::clock::{monotonic_ns, Clock, Stop};
 use crate::raw::{FrameMeta, RawFrame, RawPixels};
 
 /// What a sink thread reports when it ends.
@@ -96,6 +102,7 @@ enum Event {
     DispatchFinished(u64),
     Stats,
     Reopen,
+    Abort,
 }
 
 struct Computed {
@@ -110,7 +117,8 @@ struct Computed {
 /// A running pipeline.
 pub struct Pipeline {
     camera: String,
-    stop: Arc<AtomicBool>,
+    stop: Stop,
+    abort: Arc<AtomicBool>,
     stats: Arc<Stats>,
     events: Sender<Event>,
     /// The last source error and whether the source ended on it.
@@ -136,16 +144,17 @@ impl Pipeline {
     ) -> Result<Self, SinkError> {
         let camera: Arc<str> = Arc::from(spec.camera.as_str());
         let stats = Arc::new(Stats::default());
+        let abort = Arc::new(AtomicBool::new(false));
         // Sink threads.
         let mut sink_txs = Vec::new();
         let mut sink_joins = Vec::new();
         for factory in sinks {
-            let sink_stats = stats.clone();
-            let (tx, rx) = bounded::<SinkEvent>(256);
+            let (sink_stats, sink_abort) = (stats.clone(), abort.clone());
+            let (tx, rx) = bounded::<SinkEvent>(SINK_QUEUE);
             let (ready_tx, ready_rx) = bounded::<Result<(), SinkError>>(1);
             let join = std::thread::Builder::new()
                 .name(format!("mosaicd-sink-{}", spec.camera))
-                .spawn(move || sink_thread(factory, rx, ready_tx, &sink_stats))
+                .spawn(move || sink_thread(factory, rx, ready_tx, &sink_stats, &sink_abort))
                 .map_err(|e| SinkError::Start {
                     sink: "thread".into(),
                     message: e.to_string(),
@@ -168,7 +177,8 @@ impl Pipeline {
             sink_joins.push(join);
         }
 
-        let stop = Arc::new(AtomicBool::new(false));
+        let stop = Stop::new();
+        source.set_stop(stop.clone());
         let source_error = Arc::new(Mutex::new(None));
         let kind = source.kind();
         let queue = Arc::new(FrameQueue::<Item>::new(spec.queue_depth, kind));
@@ -237,11 +247,17 @@ impl Pipeline {
 
         // Orderer thread.
         let orderer = {
-            let (stats, camera, mpool) = (stats.clone(), camera.clone(), maps_pool.clone());
+            let (stats, camera, mpool, abort) =
+                (stats.clone(), camera.clone(), maps_pool.clone(), abort.clone());
             std::thread::Builder::new()
                 .name(format!("mosaicd-order-{}", spec.camera))
                 .spawn(move || {
-                    order_loop(ev_rx, permit_tx, &stats, &*clock, camera, mpool, &sink_txs, kind);
+                    let out = Outputs {
+                        sinks: &sink_txs,
+                        abort: &abort,
+                        stats: &stats,
+                    };
+                    order_loop(ev_rx, permit_tx, &*clock, camera, mpool, &out);
                     drop(sink_txs);
                     let mut all = SinkOutcome::default();
                     for j in sink_joins {
@@ -264,6 +280,7 @@ impl Pipeline {
         Ok(Self {
             camera: spec.camera,
             stop,
+            abort,
             stats,
             events: ev_tx,
             source_error,
@@ -276,9 +293,21 @@ impl Pipeline {
         })
     }
 
-    /// Stop capturing; queued and in-flight frames are still processed.
+    /// Stop capturing (a waiting source wakes at once); queued and in-flight frames are still
+    /// processed.
     pub fn stop(&self) {
-        self.stop.store(true, Ordering::Release);
+        self.stop.stop();
+    }
+
+    /// A handle that can cut this pipeline's drain short from another thread, once the pipeline
+    /// itself was moved away to be joined.
+    pub fn abort_handle(&self) -> AbortHandle {
+        AbortHandle {
+            stop: self.stop.clone(),
+            abort: self.abort.clone(),
+            events: self.events.clone(),
+            queue: self.queue.clone(),
+        }
     }
 
     /// Ask the orderer to send a stats snapshot to the sinks.
@@ -347,6 +376,73 @@ impl Pipeline {
     }
 }
 
+/// Cuts a pipeline's drain short ([`Pipeline::abort_handle`]; see the module overview).
+pub struct AbortHandle {
+    stop: Stop,
+    abort: Arc<AtomicBool>,
+    events: Sender<Event>,
+    queue: Arc<FrameQueue<Item>>,
+}
+
+impl AbortHandle {
+    /// Abandon the frames not yet emitted and let the sinks finish with what they have. Stops
+    /// capture too. Returns at once; [`Pipeline::join`] then returns as soon as the sinks are done.
+    pub fn abort(&self) {
+        self.stop.stop();
+        self.abort.store(true, Ordering::Release);
+        self.queue.close();
+        let _ = self.events.send(Event::Abort);
+    }
+}
+
+impl std::fmt::Debug for AbortHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AbortHandle")
+            .field("aborted", &self.abort.load(Ordering::Relaxed))
+            .finish_non_exhaustive()
+    }
+}
+
+/// Events queued for one sink thread at most (the orderer waits when a sink is this far behind).
+const SINK_QUEUE: usize = 256;
+/// How often the orderer, waiting on a full sink queue, looks whether the drain was aborted.
+const ABORT_POLL: Duration = Duration::from_millis(20);
+
+/// Where the orderer's output goes, and the flag that tells it to stop waiting for slow sinks.
+struct Outputs<'a> {
+    sinks: &'a [Sender<SinkEvent>],
+    abort: &'a AtomicBool,
+    stats: &'a Stats,
+}
+
+impl Outputs<'_> {
+    fn aborted(&self) -> bool {
+        self.abort.load(Ordering::Acquire)
+    }
+
+    /// Hand `ev` to every sink, waiting while a sink's queue is full, unless the drain is
+    /// aborted: then a full queue loses the event (a frame counted in `sink_frames_lost`).
+    fn send_all(&self, ev: SinkEvent) {
+        for s in self.sinks {
+            let mut ev = ev.clone();
+            loop {
+                match s.send_timeout(ev, ABORT_POLL) {
+                    Ok(()) | Err(crossbeam_channel::SendTimeoutError::Disconnected(_)) => break,
+                    Err(crossbeam_channel::SendTimeoutError::Timeout(back)) => {
+                        if self.aborted() {
+                            if matches!(back, SinkEvent::Frame(_)) {
+                                self.stats.sink_frames_lost.fetch_add(1, Ordering::Relaxed);
+                            }
+                            break;
+                        }
+                        ev = back;
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Count the frames missing between the last sensor sequence number and `cur` as driver drops,
 /// then remember `cur`. A sequence that goes backwards (a driver restart, a looped recording)
 /// counts nothing.
@@ -366,14 +462,14 @@ const SOURCE_ERROR_BACKOFF: Duration = Duration::from_millis(20);
 fn capture_loop(
     source: &mut dyn Source,
     kind: SourceKind,
-    stop: &AtomicBool,
+    stop: &Stop,
     stats: &Stats,
     queue: &FrameQueue<Item>,
     err: &Mutex<Option<(String, bool)>>,
     frame_pool: &BufferPool<RawPixels>,
 ) {
     let mut last_sensor_seq: Option<u64> = None;
-    while !stop.load(Ordering::Acquire) {
+    while !stop.is_stopped() {
         match source.next_frame() {
             Ok(Some(frame)) => {
                 Stats::inc(&stats.captured);
@@ -407,7 +503,9 @@ fn capture_loop(
                 if ended {
                     break;
                 }
-                std::thread::sleep(SOURCE_ERROR_BACKOFF);
+                if stop.wait_timeout(SOURCE_ERROR_BACKOFF) {
+                    break;
+                }
             }
         }
         if source.is_finished() {
@@ -461,26 +559,20 @@ fn compute_one(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn order_loop(
     events: Receiver<Event>,
     permits: Sender<()>,
-    stats: &Stats,
     clock: &dyn Clock,
     camera: Arc<str>,
     mpool: BufferPool<GradientMaps>,
-    sinks: &[Sender<SinkEvent>],
-    _kind: SourceKind,
+    out: &Outputs<'_>,
 ) {
+    let stats = out.stats;
     let mut pending: BTreeMap<u64, Box<Computed>> = BTreeMap::new();
     let mut next = 0u64;
     let mut total: Option<u64> = None;
     let mut last_tick = (Instant::now(), 0u64);
-    let send_all = |ev: SinkEvent| {
-        for s in sinks {
-            let _ = s.send(ev.clone());
-        }
-    };
+    let send_all = |ev: SinkEvent| out.send_all(ev);
     let stats_msg = |last_tick: &mut (Instant, u64), is_final: bool| {
         let snap = stats.snapshot();
         let dt = last_tick.0.elapsed().as_secs_f64();
@@ -496,11 +588,22 @@ fn order_loop(
         if total == Some(next) {
             break;
         }
+        if out.aborted() {
+            let s = stats.snapshot();
+            let accounted = s.processed + s.failed_compute + s.dropped_queue_full;
+            tracing::warn!(
+                camera = %camera,
+                "shutdown timeout: {} frame(s) still queued or computing are abandoned; the sinks finish with what they have",
+                s.captured.saturating_sub(accounted)
+            );
+            break;
+        }
         let ev = match events.recv() {
             Ok(ev) => ev,
             Err(_) => break,
         };
         match ev {
+            Event::Abort => continue,
             Event::Done(i, c) => {
                 pending.insert(i, c);
             }
@@ -563,6 +666,7 @@ fn sink_thread(
     rx: Receiver<SinkEvent>,
     ready: Sender<Result<(), SinkError>>,
     stats: &Stats,
+    abort: &AtomicBool,
 ) -> SinkOutcome {
     let mut sink = match factory() {
         Ok(s) => {
@@ -587,6 +691,11 @@ fn sink_thread(
         }
     };
     for ev in rx {
+        if abort.load(Ordering::Acquire) && matches!(ev, SinkEvent::Frame(_)) {
+            // The drain was cut short: skip to the final stats and `finish`.
+            stats.sink_frames_lost.fetch_add(1, Ordering::Relaxed);
+            continue;
+        }
         if failed {
             // keep draining so the pipeline never blocks on a dead sink
             if matches!(ev, SinkEvent::Frame(_)) {

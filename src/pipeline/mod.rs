@@ -9,7 +9,7 @@
 //! [`daemon`] wraps the pipelines in a tokio runtime for signals, timers, sd_notify and shutdown.
 //!
 //! Every frame is accounted for ([`stats::Stats`]): processed, dropped (queue full; driver gaps) or
-//! failed (source, compute, sink). Time is injected ([`clock::Clock`]): a replay stamps outputs
+//! failed (source, compute, sink). Time is injected ([`crate::clock::Clock`]): a replay stamps outputs
 //! with recorded timestamps, so its outputs are byte-identical for any thread count; wall-clock
 //! values (latency, fps) are kept apart and named as such. Buffers are pooled ([`crate::pool::BufferPool`]):
 //! a steady stream allocates nothing per frame.
@@ -17,8 +17,8 @@
 //! ```
 //! use std::sync::Arc;
 //! use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
-//! use mosaicd::pipeline::{clock::ReplayClock, engine::{Pipeline, PipelineSpec}, sinks::CollectSink,
-//!     stage::{Stage, StageSpec}};
+//! use mosaicd::clock::ReplayClock;
+//! use mosaicd::pipeline::{engine::{Pipeline, PipelineSpec}, sinks::CollectSink, stage::{Stage, StageSpec}};
 //! use mosaicd::pool::BufferPool;
 //! let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
 //! let frames = BufferPool::new(8);
@@ -34,7 +34,6 @@
 //! assert_eq!(records[4]["index"], 4);
 //! ```
 
-pub mod clock;
 pub mod daemon;
 pub mod engine;
 pub mod queue;

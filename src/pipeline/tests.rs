@@ -2,11 +2,11 @@
 
 use std::sync::Arc;
 
-use super::clock::ReplayClock;
 use super::engine::{Pipeline, PipelineSpec};
 use super::sinks::{strip_wall_clock, CollectSink};
 use super::stage::{Stage, StageSpec};
 use crate::capture::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::clock::ReplayClock;
 use crate::pool::BufferPool;
 
 fn run(
@@ -183,7 +183,7 @@ fn live_source_drops_oldest_when_compute_is_slow_and_counts_it() {
         },
         Box::new(src),
         pool,
-        Arc::new(super::clock::MonotonicClock),
+        Arc::new(crate::clock::MonotonicClock),
         vec![sink.factory("live")],
         frames,
     )
@@ -332,16 +332,18 @@ fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
     );
 }
 
-/// A sink that panics on frame `at`.
-struct PanicAt(u64);
+/// A sink named `name` whose `frame` is `f` (stats and finish do nothing).
+struct FnSink<F>(&'static str, F);
 
-impl super::engine::Sink for PanicAt {
+impl<F> super::engine::Sink for FnSink<F>
+where
+    F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError>,
+{
     fn name(&self) -> String {
-        "panic-at".into()
+        self.0.into()
     }
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
-        assert!(r.index != self.0, "a bug in a sink (frame {})", r.index);
-        Ok(())
+        (self.1)(r)
     }
     fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
@@ -349,6 +351,14 @@ impl super::engine::Sink for PanicAt {
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
+}
+
+/// A factory of [`FnSink`].
+fn fn_sink<F>(name: &'static str, f: F) -> super::engine::SinkFactory
+where
+    F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError> + Send + 'static,
+{
+    Box::new(move || Ok(Box::new(FnSink(name, f)) as Box<dyn super::engine::Sink>))
 }
 
 #[test]
@@ -359,8 +369,10 @@ fn a_sink_that_panics_stops_like_a_failed_one_and_its_frames_are_counted() {
         frames: 12,
         ..Default::default()
     };
-    let panicking: super::engine::SinkFactory =
-        Box::new(|| Ok(Box::new(PanicAt(3)) as Box<dyn super::engine::Sink>));
+    let panicking = fn_sink("panic-at", |r| {
+        assert!(r.index != 3, "a bug in a sink (frame {})", r.index);
+        Ok(())
+    });
     let (report, records) = run_with(2, 2, spec, vec![panicking]);
     assert_eq!(report.stats.processed, 12);
     assert_eq!(report.stats.failed_sink, 1);
@@ -447,4 +459,69 @@ fn a_failed_buffer_is_not_also_counted_as_a_driver_drop() {
     assert_eq!((s.captured, s.processed), (6, 6), "{s:?}");
     assert_eq!(s.failed_source, 2, "{s:?}");
     assert_eq!(s.dropped_driver, 2, "13 and 14 only: {s:?}");
+}
+
+#[test]
+fn an_aborted_drain_lets_the_other_sinks_finish_while_one_is_stuck() {
+    use std::time::{Duration, Instant};
+    let (entered_tx, entered) = crossbeam_channel::bounded(1);
+    let (release, release_rx) = crossbeam_channel::bounded::<()>(0);
+    // A sink that blocks in its first frame until released (a write that never returns).
+    let stuck = fn_sink("stuck", move |_| {
+        let _ = entered_tx.try_send(());
+        let _ = release_rx.recv();
+        Ok(())
+    });
+    let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
+    let frames = BufferPool::new(16);
+    let n = 100_000;
+    let spec = SyntheticSpec {
+        width: 16,
+        height: 16,
+        frames: n,
+        ..Default::default()
+    };
+    let src = SyntheticSource::with_pool(spec, frames.clone());
+    let sink = CollectSink::default();
+    let p = Pipeline::start(
+        PipelineSpec {
+            camera: "t".into(),
+            queue_depth: 3,
+            max_in_flight: 2,
+            stage: Stage::new(StageSpec::default(), None).unwrap(),
+            keep_frames: false,
+        },
+        Box::new(src),
+        pool,
+        Arc::new(ReplayClock::default()),
+        vec![stuck, sink.factory("t")],
+        frames,
+    )
+    .unwrap();
+    entered.recv_timeout(Duration::from_secs(10)).unwrap();
+    // Let the stuck sink's queue fill and the pipeline behind it stop.
+    std::thread::sleep(Duration::from_millis(300));
+    p.stop();
+    let abort = p.abort_handle();
+    let join = std::thread::spawn(move || p.join());
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(!join.is_finished(), "a stuck sink holds the drain");
+    abort.abort();
+    // The collecting sink gets the final stats and finishes although the stuck one never returns.
+    let t0 = Instant::now();
+    let is_final = |r: &serde_json::Value| r["type"] == "final_stats";
+    while !sink.records.lock().unwrap().iter().any(is_final) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "the other sink never finished"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    release.send(()).unwrap();
+    let report = join.join().unwrap();
+    assert!(report.stats.processed < n, "the drain was cut short");
+    assert!(
+        report.stats.sink_frames_lost > 0,
+        "the stuck sink's queued frames are counted as lost"
+    );
 }

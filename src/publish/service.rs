@@ -4,20 +4,51 @@
 //! first creates the service and the other opens it; a subscriber asking for a larger buffer than
 //! the service offers gets a clear incompatibility error.
 //!
+//! **The iceoryx2 root.** Every node is built from an iceoryx2 config made here ([`iox_config`]),
+//! never from a file: iceoryx2 would otherwise read `./config/iceoryx2.toml` from the working
+//! directory first, then the user's and the system's. The config puts iceoryx2's files under
+//! `publish.root` (default [`crate::config::DEFAULT_IOX2_ROOT`], inside the units' `RuntimeDirectory=mosaicd`) and
+//! names its shared-memory segments in `/dev/shm` with the prefix [`SHM_PREFIX`], apart from other
+//! iceoryx2 applications. Before a node is created ([`create_node`]) the root is checked: it is
+//! created `0750` when missing, and an existing root (or the `/dev/shm` management segment) that
+//! belongs to another user is refused with one line naming the path and its owner — another user
+//! cannot make the daemon use, or fail on, files it planted. The management segment, which
+//! iceoryx2 creates `0666` for every user, is set to `0600`.
+//!
+//! **Who can publish and subscribe.** Each service admits one publisher ([`MAX_PUBLISHERS`]): the
+//! daemon. A second publisher (another process of the same user) is refused. iceoryx2 0.10 sets
+//! the modes of what it creates itself (`fchmod`, the umask does not apply): services' shared
+//! memory `0600`, their static files `0400`, directories `0750`. So subscribers run as the
+//! daemon's user (`mosaicd` under systemd); members of the group `mosaicd` can traverse the root
+//! but not open services (docs/daemon.md, "Shared memory and subscribers").
+//!
 //! ```
 //! use mosaicd::publish::service::service_name;
 //! assert_eq!(service_name("mosaicd", "front", "detections"), "mosaicd/front/detections");
 //! ```
 
-use iceoryx2::port::publisher::Publisher;
+use std::os::unix::ffi::OsStrExt;
+use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+use std::path::{Path, PathBuf};
+
+use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
+use iceoryx2::service::port_factory::PortFactory as _;
 
 use super::messages::{DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 
-/// Publishers per service (one daemon, plus room for a restarted one while the old is cleaned).
-const MAX_PUBLISHERS: usize = 2;
+/// Publishers per service: only the daemon publishes. A daemon killed with SIGKILL leaves its
+/// publisher behind; the next start's node creation removes it (dead-node clean-up) before the new
+/// publisher takes the slot.
+pub const MAX_PUBLISHERS: usize = 1;
+/// Prefix of every file and shared-memory segment name iceoryx2 creates for mosaicd.
+pub const SHM_PREFIX: &str = "mosaicd_";
+/// Mode of the root directory the daemon creates (owner all, group traverse and list).
+const ROOT_MODE: u32 = 0o750;
+/// Mode the `/dev/shm` management segment is set to (iceoryx2 creates it `0666`).
+const MGMT_SEGMENT_MODE: u32 = 0o600;
 /// Subscribers per service.
 const MAX_SUBSCRIBERS: usize = 16;
 /// Samples kept for late subscribers.
@@ -27,18 +58,193 @@ const GRADIENTS_INITIAL_SLICE: usize = 1 << 16;
 
 /// Errors of the iceoryx2 layer, with what was being done.
 #[derive(Debug, thiserror::Error)]
-#[error("iceoryx2: {context}: {message}")]
-pub struct PublishError {
-    /// What was being done (service name, operation).
-    pub context: String,
-    /// iceoryx2's error.
-    pub message: String,
+pub enum PublishError {
+    /// An iceoryx2 call failed.
+    #[error("iceoryx2: {context}: {message}")]
+    Iceoryx {
+        /// What was being done (service name, operation).
+        context: String,
+        /// iceoryx2's error.
+        message: String,
+    },
+    /// A path of the iceoryx2 root (or its `/dev/shm` segment) belongs to another user.
+    #[error("iceoryx2 root: {path} belongs to {owner}, not to this process's user {user}: another user created it; remove it, or set publish.root to a directory of this user")]
+    ForeignOwner {
+        /// The path.
+        path: PathBuf,
+        /// Its owner (`name (uid)`).
+        owner: String,
+        /// This process's effective user (`name (uid)`).
+        user: String,
+    },
+    /// The root cannot be created or used.
+    #[error("iceoryx2 root {path}: {what}: {source}")]
+    Root {
+        /// The path.
+        path: PathBuf,
+        /// What failed.
+        what: &'static str,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The root is not a usable path (not absolute, too long for iceoryx2, not a directory).
+    #[error("iceoryx2 root {path}: {why}")]
+    BadRoot {
+        /// The path.
+        path: PathBuf,
+        /// What is wrong.
+        why: String,
+    },
+    /// Another process already publishes on a service: only the daemon may.
+    #[error("iceoryx2: {service}: another process already publishes on this service (one publisher per service: only the daemon publishes)")]
+    PublisherTaken {
+        /// The service.
+        service: String,
+    },
 }
 
 fn err(context: impl Into<String>, e: impl std::fmt::Display) -> PublishError {
-    PublishError {
+    PublishError::Iceoryx {
         context: context.into(),
         message: e.to_string(),
+    }
+}
+
+/// `name (uid)` of a user id (just the uid when it has no name).
+fn user_label(uid: u32) -> String {
+    let mut buf = vec![0 as libc::c_char; 4096];
+    // SAFETY: an all-zero passwd is a valid value to be overwritten by getpwuid_r.
+    let mut pwd: libc::passwd = unsafe { std::mem::zeroed() };
+    let mut out: *mut libc::passwd = std::ptr::null_mut();
+    // SAFETY: every pointer is valid for the call and `buf.len()` is the buffer's size; on
+    // success `out` points to `pwd`, whose strings live in `buf`.
+    let rc = unsafe { libc::getpwuid_r(uid, &mut pwd, buf.as_mut_ptr(), buf.len(), &mut out) };
+    if rc == 0 && !out.is_null() && !pwd.pw_name.is_null() {
+        // SAFETY: getpwuid_r succeeded, so `pw_name` is a NUL-terminated string inside `buf`.
+        let name = unsafe { std::ffi::CStr::from_ptr(pwd.pw_name) };
+        format!("{} (uid {uid})", name.to_string_lossy())
+    } else {
+        format!("uid {uid}")
+    }
+}
+
+fn euid() -> u32 {
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    unsafe { libc::geteuid() }
+}
+
+/// Refuse `path` when it exists and another user owns it.
+fn check_owner(path: &Path, meta: &std::fs::Metadata) -> Result<(), PublishError> {
+    if meta.uid() != euid() {
+        return Err(PublishError::ForeignOwner {
+            path: path.to_path_buf(),
+            owner: user_label(meta.uid()),
+            user: user_label(euid()),
+        });
+    }
+    Ok(())
+}
+
+/// The iceoryx2 config of every mosaicd node: files under `root`, segment names with
+/// [`SHM_PREFIX`]. Built here, so no config file is read (not `./config/iceoryx2.toml`).
+pub fn iox_config(root: &Path) -> Result<Config, PublishError> {
+    let bad = |why: String| PublishError::BadRoot {
+        path: root.to_path_buf(),
+        why,
+    };
+    if !root.is_absolute() {
+        return Err(bad("publish.root must be an absolute path".into()));
+    }
+    let iox_root = iceoryx2::prelude::Path::new(root.as_os_str().as_bytes())
+        .map_err(|e| bad(format!("not a path iceoryx2 accepts ({e:?})")))?;
+    let prefix = FileName::new(SHM_PREFIX.as_bytes()).map_err(|e| bad(format!("segment prefix: {e:?}")))?;
+    let mut cfg = Config::default();
+    cfg.global.set_root_path(&iox_root);
+    cfg.global.prefix = prefix;
+    Ok(cfg)
+}
+
+/// Where POSIX shared memory lives on Linux.
+const SHM_DIR: &str = "/dev/shm";
+/// Name ending of iceoryx2's management segment (`<prefix><type hash>_node.<version>.global_mgmt`).
+const MGMT_SUFFIX: &str = ".global_mgmt";
+
+/// Our segments in `/dev/shm` (names starting with [`SHM_PREFIX`]), with their metadata.
+fn our_segments() -> Vec<(PathBuf, std::fs::Metadata)> {
+    let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
+        return Vec::new();
+    };
+    dir.filter_map(Result::ok)
+        .filter(|e| e.file_name().as_bytes().starts_with(SHM_PREFIX.as_bytes()))
+        .filter_map(|e| Some((e.path(), std::fs::symlink_metadata(e.path()).ok()?)))
+        .collect()
+}
+
+/// Create `root` (mode 0750) when it is missing, and refuse it when it is not a directory. With
+/// `owned` (the daemon, which publishes): also refuse a root another user owns, and a segment of
+/// ours in `/dev/shm` ([`SHM_PREFIX`]) that another user (other than root) created. Subscribers
+/// skip the ownership checks: they read what the daemon's user owns, and root may read anything.
+pub fn prepare_root(root: &Path, owned: bool) -> Result<(), PublishError> {
+    let io = |what| {
+        move |source| PublishError::Root {
+            path: root.to_path_buf(),
+            what,
+            source,
+        }
+    };
+    match std::fs::symlink_metadata(root) {
+        Ok(meta) => {
+            if owned {
+                check_owner(root, &meta)?;
+            }
+            if !meta.is_dir() {
+                return Err(PublishError::BadRoot {
+                    path: root.to_path_buf(),
+                    why: "exists and is not a directory".into(),
+                });
+            }
+            if meta.uid() == euid() && meta.mode() & 0o7777 != ROOT_MODE {
+                std::fs::set_permissions(root, std::fs::Permissions::from_mode(ROOT_MODE))
+                    .map_err(io("cannot set its mode to 0750"))?;
+            }
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            std::fs::DirBuilder::new()
+                .recursive(true)
+                .mode(ROOT_MODE)
+                .create(root)
+                .map_err(io(
+                    "cannot create it (set publish.root to a directory this user may create)",
+                ))?;
+            // The umask may have narrowed the mode; the group keeps its traverse right.
+            std::fs::set_permissions(root, std::fs::Permissions::from_mode(ROOT_MODE))
+                .map_err(io("cannot set its mode to 0750"))?;
+        }
+        Err(e) => return Err(io("cannot inspect it")(e)),
+    }
+    if owned {
+        for (path, meta) in our_segments() {
+            // root's segments (an administrator's `mosaicd listen`) are not planted by a user
+            if meta.uid() != 0 {
+                check_owner(&path, &meta)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Narrow the management segment to its owner (iceoryx2 creates it `0666`, for every user).
+fn narrow_mgmt_segment() {
+    for (path, meta) in our_segments() {
+        let mgmt = path.as_os_str().as_bytes().ends_with(MGMT_SUFFIX.as_bytes());
+        if mgmt && meta.uid() == euid() && meta.mode() & 0o777 != MGMT_SEGMENT_MODE {
+            if let Err(e) =
+                std::fs::set_permissions(&path, std::fs::Permissions::from_mode(MGMT_SEGMENT_MODE))
+            {
+                tracing::warn!("cannot set {} to mode 0600: {e}", path.display());
+            }
+        }
     }
 }
 
@@ -47,9 +253,13 @@ pub fn service_name(prefix: &str, camera: &str, topic: &str) -> String {
     format!("{prefix}/{camera}/{topic}")
 }
 
-/// Create an ipc node (`daemon = true`: signals are left to the daemon's own handlers). Dead nodes
-/// of crashed processes, and their services' shared memory, are cleaned up here.
-pub fn create_node(name: &str, daemon: bool) -> Result<Node<ipc::Service>, PublishError> {
+/// Create an ipc node under `root` (`publish.root`). `daemon = true`: the publishing side, whose
+/// root and segments must be its own ([`prepare_root`]), and whose signals are left to the
+/// daemon's own handlers; `false`: a subscriber. Dead nodes of crashed processes, and their
+/// services' shared memory, are cleaned up here.
+pub fn create_node(name: &str, daemon: bool, root: &Path) -> Result<Node<ipc::Service>, PublishError> {
+    let config = iox_config(root)?;
+    prepare_root(root, daemon)?;
     let node_name: NodeName = name
         .try_into()
         .map_err(|e| err(format!("node name {name:?}"), format!("{e:?}")))?;
@@ -58,14 +268,30 @@ pub fn create_node(name: &str, daemon: bool) -> Result<Node<ipc::Service>, Publi
     } else {
         SignalHandlingMode::HandleTerminationRequests
     };
-    // iceoryx2 warns on stderr that no config file was loaded (its defaults are what we want);
-    // keep its log to errors unless IOX2_LOG_LEVEL says otherwise.
-    set_log_level_from_env_or(LogLevel::Error);
+    // iceoryx2 logs its failures on stderr itself, and ours names them again (with the path):
+    // keep its log to fatal errors unless IOX2_LOG_LEVEL says otherwise, so a failure is one line.
+    set_log_level_from_env_or(LogLevel::Fatal);
     let node = NodeBuilder::new()
         .name(&node_name)
+        .config(&config)
         .signal_handling_mode(mode)
         .create::<ipc::Service>()
-        .map_err(|e| err("create node", e))?;
+        .map_err(|e| {
+            // A subscriber of another user fails inside iceoryx2 (its files are its owner's only).
+            let hint = match std::fs::metadata(root) {
+                Ok(m) if m.uid() != euid() => format!(
+                    " ({} belongs to {}: subscribers run as the daemon's user)",
+                    root.display(),
+                    user_label(m.uid())
+                ),
+                _ => String::new(),
+            };
+            err(
+                format!("create node under {}", root.display()),
+                format!("{e}{hint}"),
+            )
+        })?;
+    narrow_mgmt_segment();
     let cleaned = node.try_cleanup_dead_nodes();
     if cleaned.cleanups > 0 || cleaned.failed_cleanups > 0 {
         tracing::info!(
@@ -163,14 +389,23 @@ pub fn gradients_service(
         .map_err(|e| err(service_name(prefix, camera, "gradients"), e))
 }
 
-/// A publisher on a fixed-size service.
+fn publisher_error(service: &ServiceName, what: &str, e: PublisherCreateError) -> PublishError {
+    match e {
+        PublisherCreateError::ExceedsMaxSupportedPublishers => PublishError::PublisherTaken {
+            service: service.to_string(),
+        },
+        e => err(format!("{what} publisher"), e),
+    }
+}
+
+/// A publisher on a fixed-size service (refused when another process publishes on it).
 pub fn publisher<T: std::fmt::Debug + ZeroCopySend>(
     svc: &PortFactory<ipc::Service, T, ()>,
     what: &str,
 ) -> Result<Publisher<ipc::Service, T, ()>, PublishError> {
     svc.publisher_builder()
         .create()
-        .map_err(|e| err(format!("{what} publisher"), e))
+        .map_err(|e| publisher_error(svc.name(), what, e))
 }
 
 /// A publisher of gradient slices (grows its slices on demand).
@@ -181,7 +416,7 @@ pub fn gradients_publisher(
         .initial_max_slice_len(GRADIENTS_INITIAL_SLICE)
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()
-        .map_err(|e| err("gradients publisher", e))
+        .map_err(|e| publisher_error(svc.name(), "gradients", e))
 }
 
 /// A subscriber on a fixed-size service.
@@ -194,4 +429,43 @@ pub fn subscriber<T: std::fmt::Debug + ZeroCopySend>(
         .buffer_size(buffer)
         .create()
         .map_err(|e| err(format!("{what} subscriber"), e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_config_puts_files_under_the_root_with_our_prefix() {
+        let cfg = iox_config(Path::new("/run/x/iox")).unwrap();
+        assert_eq!(cfg.global.root_path().to_string(), "/run/x/iox");
+        assert_eq!(cfg.global.prefix.to_string(), SHM_PREFIX);
+        assert!(matches!(
+            iox_config(Path::new("rel")),
+            Err(PublishError::BadRoot { .. })
+        ));
+    }
+
+    #[test]
+    fn a_missing_root_is_created_0750_and_a_second_publisher_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("a/b");
+        let node = create_node(&format!("unit-pub-{}", std::process::id()), true, &root).unwrap();
+        assert_eq!(std::fs::metadata(&root).unwrap().mode() & 0o7777, 0o750);
+        let prefix = format!("u{}", std::process::id());
+        let svc = detections_service(&node, &prefix, "c", 4).unwrap();
+        let _first = publisher(&svc, "detections").unwrap();
+        match publisher(&svc, "detections") {
+            Err(e @ PublishError::PublisherTaken { .. }) => {
+                assert!(e.to_string().contains(&format!("{prefix}/c/detections")), "{e}")
+            }
+            other => panic!("second publisher: {:?}", other.map(|_| ())),
+        }
+        // No segment of ours is open to other users.
+        for (path, meta) in our_segments() {
+            if path.to_string_lossy().ends_with(MGMT_SUFFIX) && meta.uid() == euid() {
+                assert_eq!(meta.mode() & 0o777, MGMT_SEGMENT_MODE, "{}", path.display());
+            }
+        }
+    }
 }

@@ -55,7 +55,7 @@ impl IceoryxSink {
         keypoints: bool,
         descriptors: bool,
     ) -> Result<Self, crate::publish::service::PublishError> {
-        let node = create_node(&format!("mosaicd-{camera}"), true)?;
+        let node = create_node(&format!("mosaicd-{camera}"), true, &cfg.root)?;
         let p = &cfg.service_prefix;
         let det_svc = detections_service(&node, p, camera, cfg.subscriber_buffer)?;
         let stats_svc = stats_service(&node, p, camera, cfg.subscriber_buffer)?;
