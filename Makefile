@@ -49,6 +49,11 @@ lint:
 	$(CARGO) fmt --check
 	$(CARGO) clippy --all-targets --quiet -- -D warnings
 
+# No import circle between the files of src/, nor between its top-level modules (scripts/module_graph.py).
+.PHONY: module-graph
+module-graph:
+	python3 scripts/module_graph.py
+
 doc:
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --quiet
 
@@ -59,6 +64,7 @@ test: oracle lint
 	$(MAKE) --no-print-directory doc
 	$(MAKE) --no-print-directory fuzz-smoke
 	$(MAKE) --no-print-directory cross-test
+	$(MAKE) --no-print-directory module-graph
 
 # The aarch64 build: only what cross-test runs, in one cargo call so that everything shares one build
 # of the dependencies (a separate `cargo build` resolves features without the dev-dependencies and

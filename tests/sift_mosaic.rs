@@ -18,7 +18,7 @@ const MAX_SHORTFALL: f64 = 0.15;
 #[test]
 fn mosaic_repeatability_is_close_to_grey_on_kodim09() {
     let path = mosaicd::data::require("kodak/kodim09.png");
-    let rgb = image::open(&path).unwrap().to_rgb8();
+    let rgb = mosaicd::image_io::load_rgb8(&path).unwrap();
     let grey = grey_from_rgb8(&rgb);
     let mosaic = rggb_mosaic_from_rgb8(&rgb);
     let (gs, ms) = (SiftSpec::grey(), SiftSpec::mosaic());
@@ -137,7 +137,7 @@ fn quarter_turn(img: &Image<f32>) -> Image<f32> {
 #[test]
 fn centred_octaves_make_mosaic_keypoints_turn_exactly_with_the_frame() {
     let path = mosaicd::data::require("kodak/kodim09.png");
-    let mosaic = rggb_mosaic_from_rgb8(&image::open(&path).unwrap().to_rgb8());
+    let mosaic = rggb_mosaic_from_rgb8(&mosaicd::image_io::load_rgb8(&path).unwrap());
     let h = mosaic.height();
     let turned = quarter_turn(&mosaic);
     // Fraction of the keypoints of octave >= 1 whose turned position is a keypoint of the

@@ -2,7 +2,7 @@
 """A mosaicd subscriber in Python: the daemon's iceoryx2 messages as ctypes structures.
 
 mosaicd publishes fixed-layout ``#[repr(C)]`` messages over iceoryx2 shared memory
-(``src/publish/messages.rs``). This module declares the same layouts with :mod:`ctypes`, under
+(``src/wire/messages.rs``). This module declares the same layouts with :mod:`ctypes`, under
 the same iceoryx2 type names, so a Python process reads them without copies or a serialisation
 step, and a layout that does not match (another message version) is refused by iceoryx2 when the
 service is opened instead of being misread. It needs the ``iceoryx2`` wheel of the same version

@@ -57,8 +57,8 @@ use std::sync::Arc;
 
 use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind, Stop};
 use crate::raw::{FrameLimits, RawError, RawFrame};
-use crate::record::read::{read_summary, strict_reader_options};
-use crate::record::schema::{decode_raw_frame, decode_raw_frame_header, RAW_FRAME_SCHEMA};
+use crate::wire::read::{read_summary, strict_reader_options};
+use crate::wire::schema::{decode_raw_frame, decode_raw_frame_header, RAW_FRAME_SCHEMA};
 
 /// Frame interval assumed when looping a one-frame recording (30 fps), ns.
 const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;

@@ -11,6 +11,7 @@ use crate::raw::RawFrame;
 
 pub mod files;
 pub mod mcap_source;
+pub mod synthetic;
 pub mod v4l2;
 pub mod v4l2_formats;
 
@@ -43,7 +44,7 @@ pub enum CaptureError {
         source: std::io::Error,
     },
     /// A recording ends in the middle of a record: every complete frame before was delivered.
-    #[error("{path} is truncated after {frames} complete frame(s) (an interrupted recording?): {}", crate::record::read::mcap_detail(.source))]
+    #[error("{path} is truncated after {frames} complete frame(s) (an interrupted recording?): {}", crate::wire::read::mcap_detail(.source))]
     Truncated {
         /// File.
         path: PathBuf,
@@ -190,11 +191,11 @@ impl CaptureError {
 #[derive(Debug, thiserror::Error)]
 pub enum Damage {
     /// The MCAP structure (magic, CRC, record, compression).
-    #[error("{}", crate::record::read::mcap_detail(.0))]
+    #[error("{}", crate::wire::read::mcap_detail(.0))]
     Mcap(#[from] mcap::McapError),
     /// A raw-frame message that does not decode.
     #[error(transparent)]
-    Message(#[from] crate::record::schema::SchemaError),
+    Message(#[from] crate::wire::schema::SchemaError),
 }
 
 /// A producer of raw frames.

@@ -8,10 +8,12 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
+use mosaicd::detect::input::MosaicPrep;
 use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfile};
-use mosaicd::features::hog::{mosaic_from_raw_toned_into, mosaic_from_raw_with, HogInput, MosaicTone};
+use mosaicd::features::hog::{HogInput, MosaicTone};
 use mosaicd::image::ImageView;
 use mosaicd::raw::levels::Gains;
+use mosaicd::raw::tone::mosaic_from_raw_toned_into;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 use super::detect::SvmArg;
@@ -145,7 +147,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         svm: a.svm.into(),
         ..Default::default()
     };
-    let tone = model.mosaic_tone;
+    let prep = MosaicPrep::for_model(&model, Gains::Auto);
     let det = Detector::new(model, &opts)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
 
@@ -164,8 +166,8 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
             // the daemon's way: the model's tone, `auto` gains (this frame has none: grey world);
             // srgb tables are built every frame here, where the daemon keeps them while the
             // gains stay the same (they do for this repeated frame), so srgb is timed pessimistically
-            let gains = tone.gains_for(&frame, Gains::Auto)?;
-            mosaic_from_raw_toned_into(&frame, tone, gains, strip_rows, &mut buf);
+            let gains = prep.gains_for(&frame)?;
+            mosaic_from_raw_toned_into(&frame, prep.tone, gains, strip_rows, &mut buf);
             let m = ImageView::new(&buf, frame.width(), frame.height(), frame.width())?;
             let t_norm = t0.elapsed();
             let (b, s) = det.detect(&HogInput::Mosaic(m))?;
@@ -193,7 +195,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         for _ in 0..a.profile_frames {
             p += pool1
                 .install(|| -> anyhow::Result<_> {
-                    let m = mosaic_from_raw_with(&frame, tone, Gains::Auto)?;
+                    let m = prep.mosaic(&frame)?;
                     Ok(det.stage_profile(&HogInput::Mosaic(m.view()))?)
                 })?
                 .1;

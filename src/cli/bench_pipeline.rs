@@ -9,16 +9,16 @@ use std::sync::Arc;
 
 use serde_json::json;
 
+use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
 use mosaicd::clock::ReplayClock;
 use mosaicd::config::Config;
 use mosaicd::config::PublishConfig;
 use mosaicd::detect::ScorePrecision;
 use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
-use mosaicd::pipeline::pool::BufferPool;
+use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 use mosaicd::pipeline::stage::Stage;
-use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
-use mosaicd::publish::publisher::IceoryxSink;
+use mosaicd::pool::BufferPool;
 use mosaicd::publish::service::{create_node, detections_service, subscriber};
 
 use super::detect::SvmArg;

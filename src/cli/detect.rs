@@ -3,8 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
-use mosaicd::features::hog::{mosaic_from_raw_with, HogInput, MosaicTaps, MosaicTone};
+use mosaicd::detect::input::{with_overrides, MosaicPrep};
+use mosaicd::detect::{Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
+use mosaicd::eval::draw::draw_boxes;
+use mosaicd::features::hog::{HogInput, MosaicTaps, MosaicTone};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
 use mosaicd::raw::levels::Gains;
@@ -165,19 +167,15 @@ impl From<DomainArg> for Domain {
 
 impl DetectorArgs {
     /// `model` with `--mosaic-taps` and `--mosaic-tone` applied.
-    pub fn model(&self, mut model: LinearModel) -> LinearModel {
-        if let Some(t) = self.mosaic_taps {
-            model.mosaic_taps = t;
-        }
-        if let Some(t) = self.mosaic_tone {
-            model.mosaic_tone = t;
-        }
-        model
+    pub fn model(&self, model: LinearModel) -> LinearModel {
+        with_overrides(model, self.mosaic_taps, self.mosaic_tone)
     }
 
     /// The mosaic of a raw frame for `model` (its tone, `--wb-gains`).
     pub fn mosaic(&self, model: &LinearModel, frame: &RawFrame) -> anyhow::Result<Image<f32>> {
-        mosaic_from_raw_with(frame, model.mosaic_tone, self.wb_gains).context("--wb-gains")
+        MosaicPrep::for_model(model, self.wb_gains)
+            .mosaic(frame)
+            .context("--wb-gains")
     }
 
     /// To library options.
@@ -204,11 +202,8 @@ impl DetectorArgs {
 
 /// Load a model by name (`opencv-default` or a path).
 pub fn load_model(name: &str, domain_for_opencv: Domain) -> anyhow::Result<LinearModel> {
-    if name == "opencv-default" {
-        let p = mosaicd::data::data_path("opencv_hog/default_people_detector_64x128.npy")?;
-        return Ok(LinearModel::load(&p, domain_for_opencv)?);
-    }
-    Ok(LinearModel::load(Path::new(name), domain_for_opencv)?)
+    let path = mosaicd::detect::model_path(name)?;
+    Ok(LinearModel::load(&path, domain_for_opencv)?)
 }
 
 /// A decoded input frame in the domain it will be detected in.
@@ -336,9 +331,8 @@ pub fn load_frame(
         img.color(),
         image::ColorType::L8 | image::ColorType::L16 | image::ColorType::La8
     );
-    let rgb = img.to_rgb8();
-    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
-    let colour = Image::from_vec(w, h, rgb.pixels().map(|p| p.0).collect())?;
+    let colour = mosaicd::image_io::rgb8_from_buffer(&img.to_rgb8());
+    let (w, h) = colour.dimensions();
     match want.unwrap_or(if is_grey { Domain::Grey } else { Domain::Colour }) {
         Domain::Colour => Ok(Frame::Colour(colour)),
         Domain::Grey => Ok(Frame::Grey(grey_from_rgb_u8(&colour.view()))),
@@ -356,33 +350,6 @@ pub fn load_frame(
                 }
             });
             Ok(Frame::Mosaic(m, cfa))
-        }
-    }
-}
-
-/// Draw box outlines (2 px, green) on an RGB image.
-pub fn draw_boxes(img: &mut Image<[u8; 3]>, dets: &[Detection]) {
-    let (w, h) = img.dimensions();
-    for d in dets {
-        let x0 = d.x.max(0.0) as usize;
-        let y0 = d.y.max(0.0) as usize;
-        let x1 = ((d.x + d.width) as usize).min(w.saturating_sub(1));
-        let y1 = ((d.y + d.height) as usize).min(h.saturating_sub(1));
-        for t in 0..2 {
-            for x in x0..=x1 {
-                for y in [y0 + t, y1.saturating_sub(t)] {
-                    if y < h && x < w {
-                        img.set(x, y, [0, 255, 0]);
-                    }
-                }
-            }
-            for y in y0..=y1 {
-                for x in [x0 + t, x1.saturating_sub(t)] {
-                    if y < h && x < w {
-                        img.set(x, y, [0, 255, 0]);
-                    }
-                }
-            }
         }
     }
 }

@@ -6,13 +6,13 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use plotters::prelude::*;
 
+use mosaicd::eval::draw::{draw_keypoints, draw_line, paint_grey};
 use mosaicd::eval::sift::{
     default_transforms, evaluate, ground_truth, mosaic_transformed, rggb_mosaic_from_rgb8, score_pair,
     summarise, EvalRow, LevelSummary, PlaneWarp, Transform, MATCH_THRESHOLD_PX,
 };
 use mosaicd::features::sift::matching::apply;
-use mosaicd::features::sift::{detect_and_compute, SiftFeatures, SiftSpec};
-use mosaicd::image::Image;
+use mosaicd::features::sift::{detect_and_compute, SiftSpec};
 
 /// Font used by the plots.
 const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
@@ -292,7 +292,7 @@ fn fig12b(rows: &[EvalRow], path: &Path) -> anyhow::Result<()> {
 
 /// Fig. 10: mosaic SIFT matches between kodim09 and its rotation (planes rotated separately).
 fn fig10(path: &Path, angle: f64, spec: &SiftSpec, warp: PlaneWarp, out: &Path) -> anyhow::Result<()> {
-    let rgb = mosaicd::raw::load::decode_image(path)?.to_rgb8();
+    let rgb = mosaicd::image_io::load_rgb8(path)?;
     let m1 = rggb_mosaic_from_rgb8(&rgb);
     let t = Transform::Rotate(angle);
     let m2 = mosaic_transformed(&m1, t, warp);
@@ -302,16 +302,8 @@ fn fig10(path: &Path, angle: f64, spec: &SiftSpec, warp: PlaneWarp, out: &Path) 
     let (score, matches) = score_pair(&f1, m1.dimensions(), &f2, m2.dimensions(), &h, MATCH_THRESHOLD_PX);
     let (w, hgt) = m1.dimensions();
     let mut canvas = image::RgbImage::new((2 * w) as u32, hgt as u32);
-    let paint = |canvas: &mut image::RgbImage, img: &Image<f32>, ox: usize| {
-        for y in 0..img.height() {
-            for x in 0..img.width() {
-                let v = img.get(x, y).clamp(0.0, 255.0) as u8;
-                canvas.put_pixel((x + ox) as u32, y as u32, image::Rgb([v, v, v]));
-            }
-        }
-    };
-    paint(&mut canvas, &m1, 0);
-    paint(&mut canvas, &m2, w);
+    paint_grey(&mut canvas, &m1, 0);
+    paint_grey(&mut canvas, &m2, w);
     draw_keypoints(&mut canvas, &f1, 0);
     draw_keypoints(&mut canvas, &f2, w);
     for m in &matches {
@@ -340,27 +332,4 @@ fn fig10(path: &Path, angle: f64, spec: &SiftSpec, warp: PlaneWarp, out: &Path) 
         score.repeatability
     );
     Ok(())
-}
-
-/// Draw each keypoint as a small yellow cross.
-pub(crate) fn draw_keypoints(canvas: &mut image::RgbImage, f: &SiftFeatures, ox: usize) {
-    for k in &f.keypoints {
-        let (x, y) = (k.x as f64 + ox as f64, k.y as f64);
-        let r = (k.size as f64 * 0.5).clamp(2.0, 12.0);
-        let c = image::Rgb([255, 220, 0]);
-        draw_line(canvas, (x - r, y), (x + r, y), c);
-        draw_line(canvas, (x, y - r), (x, y + r), c);
-    }
-}
-
-/// Straight line by uniform sampling (clipped to the canvas).
-pub(crate) fn draw_line(canvas: &mut image::RgbImage, a: (f64, f64), b: (f64, f64), c: image::Rgb<u8>) {
-    let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
-    for i in 0..=n {
-        let t = i as f64 / n as f64;
-        let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
-        if x >= 0.0 && y >= 0.0 && (x as u32) < canvas.width() && (y as u32) < canvas.height() {
-            canvas.put_pixel(x as u32, y as u32, c);
-        }
-    }
 }

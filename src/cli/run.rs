@@ -14,7 +14,7 @@ use anyhow::Context;
 use mosaicd::config::{CameraConfig, Config, SourceType};
 use mosaicd::pipeline::daemon::{self, DaemonError, RunOptions, RunSummary};
 use mosaicd::pipeline::engine::SinkFactory;
-use mosaicd::publish::publisher::IceoryxSink;
+use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 
 /// Default config file.
 const DEFAULT_CONFIG: &str = "config/mosaicd.toml";
@@ -116,7 +116,7 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
             ));
         }
         if cfg.record.enabled {
-            v.push(mosaicd::pipeline::record_sink::recorder_sink(cfg, cam)?);
+            v.push(mosaicd::pipeline::sinks::mcap::recorder_sink(cfg, cam)?);
         }
         Ok(v)
     }

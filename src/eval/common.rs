@@ -39,6 +39,9 @@ pub enum EvalError {
     /// A raw file could not be loaded.
     #[error(transparent)]
     Raw(#[from] crate::raw::RawError),
+    /// A raw scene of the shared data could not be found or loaded.
+    #[error(transparent)]
+    RawScene(#[from] crate::data::RawSceneError),
     /// A gradient computation failed.
     #[error(transparent)]
     Gradient(#[from] crate::features::gradient::GradientError),
@@ -98,148 +101,14 @@ pub fn load_kodak(name: &str) -> Result<Image<[f32; 3]>> {
 
 /// Any 8-bit RGB image file as RGB on [0, 1].
 pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
-    let img = crate::raw::load::decode_image(path)
-        .map_err(|e| EvalError::Decode {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?
-        .to_rgb8();
-    let (w, h) = img.dimensions();
-    let px = img
-        .pixels()
-        .map(|p| {
-            [
-                p.0[0] as f32 / 255.0,
-                p.0[1] as f32 / 255.0,
-                p.0[2] as f32 / 255.0,
-            ]
-        })
-        .collect();
-    Ok(Image::from_vec(w as usize, h as usize, px).expect("size from decoder"))
+    let rgb = crate::image_io::load_rgb8(path).map_err(|e| EvalError::Decode {
+        path: e.path,
+        reason: e.source.to_string(),
+    })?;
+    Ok(rgb.map(|p| p.map(|c| c as f32 / 255.0)))
 }
 
-/// A real raw frame of the shared data set.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RawInput {
-    /// Short name.
-    pub name: &'static str,
-    /// Path under the data root.
-    pub rel: &'static str,
-    /// Width.
-    pub width: usize,
-    /// Height.
-    pub height: usize,
-    /// Pattern.
-    pub cfa: Cfa,
-    /// Significant bits (8 → `u8` container, else little-endian `u16`).
-    pub bit_depth: u8,
-    /// Black level.
-    pub black: u16,
-    /// White level.
-    pub white: u16,
-    /// The sensor's tuning (white balance, colour matrix) is the shipped Infinite-ISP profile;
-    /// otherwise the forward ISP uses unit gains and an identity matrix (no tuning is known).
-    pub infinite_isp_profile: bool,
-}
-
-/// One of the Infinite-ISP sensor's 2592x1536 8-bit GRBG scenes.
-const fn infinite_isp(name: &'static str, rel: &'static str) -> RawInput {
-    RawInput {
-        name,
-        rel,
-        width: 2592,
-        height: 1536,
-        cfa: Cfa::Grbg,
-        bit_depth: 8,
-        // 50/1023 of the 10-bit original, cut to 8 bits.
-        black: 12,
-        white: 255,
-        infinite_isp_profile: true,
-    }
-}
-
-/// The five Infinite-ISP scenes (indoor, park, playground, wall, car park); none shows a person,
-/// so they are real-sensor negatives for the detector (`mosaicd train --raw-negatives`).
-pub const INFINITE_ISP_SCENES: [RawInput; 5] = [
-    infinite_isp(
-        "infinite_indoor1",
-        "raw/infinite_isp_8bit/Indoor1_2592x1536_8bit_GRBG.raw",
-    ),
-    infinite_isp(
-        "infinite_outdoor1",
-        "raw/infinite_isp_8bit/Outdoor1_2592x1536_8bit_GRBG.raw",
-    ),
-    infinite_isp(
-        "infinite_outdoor2",
-        "raw/infinite_isp_8bit/Outdoor2_2592x1536_8bit_GRBG.raw",
-    ),
-    infinite_isp(
-        "infinite_outdoor3",
-        "raw/infinite_isp_8bit/Outdoor3_2592x1536_8bit_GRBG.raw",
-    ),
-    infinite_isp(
-        "infinite_outdoor4",
-        "raw/infinite_isp_8bit/Outdoor4_2592x1536_8bit_GRBG.raw",
-    ),
-];
-
-/// The real raw frames used by the experiments (see `../shared/data/README.md`).
-pub const RAW_INPUTS: [RawInput; 3] = [
-    RawInput {
-        name: "nikon_rose",
-        rel: "raw/nikon_dsc1339_isp/DSC_1339_768x512_rggb.raw",
-        width: 768,
-        height: 512,
-        cfa: Cfa::Rggb,
-        bit_depth: 14,
-        black: 600,
-        white: 15520,
-        infinite_isp_profile: false,
-    },
-    INFINITE_ISP_SCENES[1],
-    INFINITE_ISP_SCENES[0],
-];
-
-/// The first `limit` raw inputs (all when `None`).
-pub fn raw_inputs(limit: Option<usize>) -> &'static [RawInput] {
-    &RAW_INPUTS[..limit.unwrap_or(RAW_INPUTS.len()).min(RAW_INPUTS.len())]
-}
-
-/// Loads a raw input as a [`RawFrame`](crate::raw::RawFrame) with `raw::load::load_headerless`.
-pub fn load_raw_frame(input: &RawInput) -> Result<crate::raw::RawFrame> {
-    use crate::raw::{Container, Endian, Levels, RawFormat};
-    let path = crate::data::data_path(input.rel)?;
-    let container = if input.bit_depth == 8 {
-        Container::U8
-    } else {
-        Container::U16
-    };
-    let fmt = RawFormat::new(
-        input.width,
-        input.height,
-        input.bit_depth,
-        input.cfa,
-        container,
-        Endian::Little,
-        Levels::uniform(input.black, input.white),
-    );
-    Ok(crate::raw::load::load_headerless(&path, &fmt)?)
-}
-
-/// The camera profile the forward ISP uses for a raw input.
-pub fn raw_profile(input: &RawInput) -> crate::isp::CameraProfile {
-    let mut p = crate::isp::CameraProfile::default();
-    if !input.infinite_isp_profile {
-        p.name = format!("{}-untuned", input.name);
-        p.wb_gains = [1.0; 3];
-        p.ccm = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    }
-    p.black_level = input.black;
-    p.white_level = input.white;
-    p.bit_depth = input.bit_depth;
-    p.cfa = input.cfa;
-    p
-}
+pub use crate::data::{load_raw_frame, raw_inputs, raw_profile, RawInput, INFINITE_ISP_SCENES, RAW_INPUTS};
 
 /// Samples an RGB image through a CFA (both greens take G): `raw::sample::mosaic_from_rgb`.
 pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {

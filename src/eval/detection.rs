@@ -51,7 +51,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::detect::train::{DomainImage, InputPipeline, MosaicPrep};
+use crate::detect::input::MosaicPrep;
+use crate::detect::train::{DomainImage, InputPipeline};
 use crate::detect::{Detection, Detector, Domain};
 use crate::eval::plot::{line_plot, Legend, LinePlot, Scale, Series};
 use crate::image::Image;
@@ -59,6 +60,8 @@ use crate::metrics::detection::{
     average_precision, log_average_miss_rate, match_detections, mr_fppi_curve, ApMethod, DetPoint,
     ImageDetections, MatchedDetections, Rect,
 };
+/// Re-exported from [`crate::metrics::interval`], where it lives.
+pub use crate::metrics::interval::Interval;
 use crate::raw::levels::Gains;
 use crate::raw::Cfa;
 
@@ -126,6 +129,9 @@ pub enum DetEvalError {
     /// Bringing an image into the model's domain failed.
     #[error(transparent)]
     Input(#[from] crate::detect::train::TrainError),
+    /// A model file does not load.
+    #[error(transparent)]
+    Model(#[from] crate::detect::model::ModelError),
     /// A metric failed.
     #[error(transparent)]
     Metrics(#[from] crate::metrics::MetricsError),
@@ -573,9 +579,9 @@ impl Shrink {
 /// Decode an image file as RGB (grey images are replicated into three channels); the trainer's
 /// loader, with its error as [`DetEvalError::Decode`].
 pub fn load_image_rgb(path: &Path) -> Result<Image<[u8; 3]>> {
-    crate::detect::train::load_rgb(path).map_err(|e| match e {
-        crate::detect::train::TrainError::Data { path, what } => DetEvalError::Decode { path, reason: what },
-        e => DetEvalError::Input(e),
+    crate::image_io::load_rgb8(path).map_err(|e| DetEvalError::Decode {
+        path: e.path,
+        reason: e.source.to_string(),
     })
 }
 
@@ -592,10 +598,7 @@ pub fn detect_images(
     wb: Gains,
     progress: &mut dyn FnMut(usize, &str),
 ) -> Result<Vec<ImageDetections>> {
-    let prep = MosaicPrep {
-        tone: det.model().mosaic_tone,
-        gains: wb,
-    };
+    let prep = MosaicPrep::for_model(det.model(), wb);
     let mut out = Vec::with_capacity(images.len());
     for (i, g) in images.iter().enumerate() {
         progress(i, &g.key);
@@ -838,27 +841,6 @@ impl PerImageMatches {
         let ap = average_precision(&m, ApMethod::AllPoints)?.ap;
         let lamr = log_average_miss_rate(&mr_fppi_curve(&m)?);
         Ok((ap, lamr))
-    }
-}
-
-/// A percentile interval `[lo, hi]`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Interval {
-    /// 2.5th percentile.
-    pub lo: f64,
-    /// 97.5th percentile.
-    pub hi: f64,
-}
-
-impl Interval {
-    /// The 2.5–97.5 % percentile interval of `v` (not empty).
-    pub(crate) fn of(mut v: Vec<f64>) -> Self {
-        v.sort_by(f64::total_cmp);
-        let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
-        Self {
-            lo: q(0.025),
-            hi: q(0.975),
-        }
     }
 }
 

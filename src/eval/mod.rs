@@ -19,6 +19,8 @@ pub mod channels;
 pub mod common;
 pub mod demosaic;
 pub mod detection;
+pub mod detection_runs;
+pub mod draw;
 pub mod gradients;
 pub mod noise;
 pub mod pipeline;

@@ -42,6 +42,7 @@ use serde::Serialize;
 use crate::features::sift::matching::{apply, match_descriptors, Match, LOWE_RATIO};
 use crate::features::sift::{detect_and_compute, SiftError, SiftFeatures, SiftSpec};
 use crate::image::Image;
+use crate::isp::grey::grey_f32;
 
 /// Correctness threshold on the reprojection error, pixels (the paper's `t`).
 pub const MATCH_THRESHOLD_PX: f64 = 3.0;
@@ -277,19 +278,17 @@ pub fn mosaic_transformed(src: &Image<f32>, t: Transform, warp: PlaneWarp) -> Im
     }
 }
 
-/// `round(0.299 R + 0.587 G + 0.114 B)` per pixel (OpenCV `COLOR_RGB2GRAY` weights).
-pub fn grey_from_rgb8(rgb: &image::RgbImage) -> Image<f32> {
-    Image::from_fn(rgb.width() as usize, rgb.height() as usize, |x, y| {
-        let p = rgb.get_pixel(x as u32, y as u32).0;
-        (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32).round()
-    })
+/// `round(0.299 R + 0.587 G + 0.114 B)` per pixel (OpenCV `COLOR_RGB2GRAY` weights): the float
+/// form of [`crate::isp::grey`], rounded.
+pub fn grey_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
+    rgb.map(|p| grey_f32(p.map(f32::from)).round())
 }
 
 /// RGGB mosaic sampled from an RGB image (cropped to even size).
-pub fn rggb_mosaic_from_rgb8(rgb: &image::RgbImage) -> Image<f32> {
-    let (w, h) = (rgb.width() as usize / 2 * 2, rgb.height() as usize / 2 * 2);
+pub fn rggb_mosaic_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
+    let (w, h) = (rgb.width() / 2 * 2, rgb.height() / 2 * 2);
     Image::from_fn(w, h, |x, y| {
-        let p = rgb.get_pixel(x as u32, y as u32).0;
+        let p = rgb.get(x, y);
         let ch = match (x % 2, y % 2) {
             (0, 0) => 0,
             (1, 1) => 2,
@@ -445,7 +444,7 @@ pub enum EvalSiftError {
         /// Path.
         path: String,
         /// Cause (the decoder's, or the frame-size limit's).
-        source: crate::raw::RawError,
+        source: image::ImageError,
     },
     /// SIFT failed.
     #[error(transparent)]
@@ -460,12 +459,10 @@ pub fn evaluate_image(
     mosaic_spec: &SiftSpec,
     warp: PlaneWarp,
 ) -> Result<Vec<EvalRow>, EvalSiftError> {
-    let rgb = crate::raw::load::decode_image(path)
-        .map_err(|source| EvalSiftError::Image {
-            path: path.display().to_string(),
-            source,
-        })?
-        .to_rgb8();
+    let rgb = crate::image_io::load_rgb8(path).map_err(|e| EvalSiftError::Image {
+        path: path.display().to_string(),
+        source: e.source,
+    })?;
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

@@ -84,12 +84,7 @@
 //! | `grid` | the entry points from an input ([`block_grid`], [`cell_grid`], …) and stage timing |
 //! | [`approx`] | micro-cells and approximated pyramid levels |
 //! | `kernels` | the choice of kernel per [`crate::kernels::isa`], and the AVX2, AVX-512 and NEON builds (`kernels/{avx2,avx512,neon}.rs`, the only files here with intrinsics) |
-//! | [`tone`] | raw → mosaic in a model's tone |
-
-use rayon::prelude::*;
-
-use crate::image::Image;
-use crate::raw::{RawFrame, RawView};
+//! | [`tone`] | raw → mosaic in a model's tone (re-exported from `crate::raw::tone`, its home) |
 
 /// Cell side in pixels (OpenCV `cellSize` default; fixed here).
 pub const CELL_SIZE: usize = 8;
@@ -125,8 +120,11 @@ mod grid;
 mod input;
 mod kernels;
 mod spec;
-pub mod tone;
 
+pub use crate::raw::tone::{
+    self, mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
+    mosaic_from_raw_with, MosaicTone, ToneTables,
+};
 pub use approx::{
     block_and_micro_grids_from_gamma_planes, blocks_from_micro_grid, micro_grid_from_gamma_planes, MicroGrid,
     MICRO_CELL,
@@ -142,60 +140,6 @@ pub use grid::{
 };
 pub use input::{gamma_in_place, gamma_plane_into, GammaPlanes, HogInput};
 pub use spec::{HogOptions, HogSpec, MosaicTaps, MAX_NBINS, MAX_WINDOW_SIDE};
-pub use tone::{
-    mosaic_from_raw_toned, mosaic_from_raw_toned_into, mosaic_from_raw_with, MosaicTone, ToneTables,
-};
-
-/// A raw frame as a float mosaic in 8-bit units: `(v − black(x,y)) · 255 / (white − black(x,y))`,
-/// clamped at 0. This is the [`HogInput::Mosaic`] domain.
-pub fn mosaic_from_raw(frame: &RawFrame) -> Image<f32> {
-    let mut v = Vec::new();
-    mosaic_from_raw_into(frame, 16, &mut v);
-    Image::from_vec(frame.width(), frame.height(), v).expect("sized by mosaic_from_raw_into")
-}
-
-/// [`mosaic_from_raw`] into a reused buffer (resized to `width · height`), parallel over strips of
-/// `strip_rows` rows (`≥ 1`); the values do not depend on the strip size or thread count. Each
-/// row's sample type is matched once, so the pixel loop is a plain map the compiler vectorises.
-pub fn mosaic_from_raw_into(frame: &RawFrame, strip_rows: usize, dst: &mut Vec<f32>) {
-    let (w, h) = (frame.width(), frame.height());
-    dst.resize(w * h, 0.0);
-    if w == 0 || h == 0 {
-        return;
-    }
-    let levels = *frame.levels();
-    let mut scale = [0.0f32; 4];
-    for (i, s) in scale.iter_mut().enumerate() {
-        *s = UNIT_RANGE / levels.white.saturating_sub(levels.black[i]).max(1) as f32;
-    }
-    let view = frame.view();
-    let rows = strip_rows.max(1);
-    dst.par_chunks_mut(rows * w).enumerate().for_each(|(s, chunk)| {
-        for (r, row) in chunk.chunks_mut(w).enumerate() {
-            let y = s * rows + r;
-            let i = (y & 1) * 2;
-            let black = [levels.black[i] as f32, levels.black[i + 1] as f32];
-            let scale = [scale[i], scale[i + 1]];
-            match view {
-                RawView::U8(v) => linear_row(v.row(y), row, black, scale),
-                RawView::U16(v) => linear_row(v.row(y), row, black, scale),
-            }
-        }
-    });
-}
-
-/// One row of [`mosaic_from_raw_into`]: even and odd columns take their tile position's black and
-/// scale.
-fn linear_row<T: Copy + Into<f32>>(src: &[T], dst: &mut [f32], black: [f32; 2], scale: [f32; 2]) {
-    for (o, p) in dst.chunks_exact_mut(2).zip(src.chunks_exact(2)) {
-        o[0] = ((p[0].into() - black[0]) * scale[0]).max(0.0);
-        o[1] = ((p[1].into() - black[1]) * scale[1]).max(0.0);
-    }
-    if dst.len() % 2 == 1 {
-        let x = dst.len() - 1;
-        dst[x] = ((src[x].into() - black[0]) * scale[0]).max(0.0);
-    }
-}
 
 #[cfg(test)]
 mod tests;

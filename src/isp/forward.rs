@@ -35,10 +35,10 @@ use rayon::prelude::*;
 use super::demosaic::{demosaic_into, DemosaicMethod};
 use super::noise::linear_from_raw;
 use super::profile::CameraProfile;
-use super::reverse::srgb_from_linear;
 use super::IspError;
 use crate::image::Image;
 use crate::raw::{Colour, RawFrame};
+use crate::srgb::srgb_from_linear;
 
 /// Rows per parallel strip.
 const STRIP_ROWS: usize = 32;

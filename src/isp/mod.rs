@@ -17,6 +17,7 @@ pub mod forward;
 pub mod grey;
 pub mod noise;
 pub mod profile;
+pub mod quantise;
 pub mod reverse;
 
 use std::path::PathBuf;

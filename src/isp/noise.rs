@@ -55,7 +55,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-use super::reverse::raw_from_linear_mosaic;
+/// Re-exported from [`super::quantise`], where it lives.
+pub use super::quantise::linear_from_raw;
+use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
 use crate::image::Image;
 use crate::raw::{CfaChannel, RawFrame};
@@ -194,15 +196,6 @@ fn add_noise_serial(img: &mut Image<f32>, params: NoiseParams, seed: u64) {
     for (i, rows) in img.as_mut_slice().chunks_mut(w * NOISE_STRIP_ROWS).enumerate() {
         noise_strip(rows, i, params, seed);
     }
-}
-
-/// The frame's pixels as linear signal `y = (v − black) / (white − black)` (per tile-position black).
-pub fn linear_from_raw(frame: &RawFrame) -> Image<f32> {
-    let white = frame.levels().white as f32;
-    Image::from_fn(frame.width(), frame.height(), |x, y| {
-        let b = frame.black_at(x, y) as f32;
-        (frame.value(x, y) as f32 - b) / (white - b)
-    })
 }
 
 /// A copy of `frame` with `N(0, a·y + b)` noise added on its linear signal, re-quantised to the

@@ -44,43 +44,17 @@ use rayon::prelude::*;
 
 use super::noise::{add_noise, NoiseParams};
 use super::profile::CameraProfile;
+use super::quantise::check_bit_depth;
+/// Re-exported from [`super::quantise`], where it lives.
+pub use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
 use crate::image::{Image, ImageView};
-use crate::raw::{Cfa, Colour, Levels, RawFrame, RawPixels};
+use crate::raw::{Cfa, Colour, Levels, RawFrame};
+/// Re-exported from [`crate::srgb`], where the transfer function lives.
+pub use crate::srgb::{linear_from_srgb, srgb_from_linear};
 
 /// Rows per parallel strip.
 const STRIP_ROWS: usize = 32;
-
-/// sRGB transfer function: linear segment threshold on the encoded value.
-const SRGB_ENC_THRESHOLD: f32 = 0.040_45;
-/// sRGB transfer function: linear segment threshold on the linear value.
-const SRGB_LIN_THRESHOLD: f32 = 0.003_130_8;
-/// Slope of the linear segment.
-const SRGB_SLOPE: f32 = 12.92;
-/// Offset of the power segment.
-const SRGB_ALPHA: f32 = 0.055;
-/// Exponent of the power segment.
-const SRGB_GAMMA: f32 = 2.4;
-
-/// Inverse sRGB transfer function: encoded `c ∈ [0, 1]` → linear.
-#[inline]
-pub fn linear_from_srgb(c: f32) -> f32 {
-    if c <= SRGB_ENC_THRESHOLD {
-        c / SRGB_SLOPE
-    } else {
-        ((c + SRGB_ALPHA) / (1.0 + SRGB_ALPHA)).powf(SRGB_GAMMA)
-    }
-}
-
-/// sRGB transfer function: linear `v ∈ [0, 1]` → encoded.
-#[inline]
-pub fn srgb_from_linear(v: f32) -> f32 {
-    if v <= SRGB_LIN_THRESHOLD {
-        v * SRGB_SLOPE
-    } else {
-        (1.0 + SRGB_ALPHA) * v.powf(1.0 / SRGB_GAMMA) - SRGB_ALPHA
-    }
-}
 
 /// Linear value of each sRGB `u8` code.
 pub fn srgb_u8_to_linear_lut() -> [f32; 256] {
@@ -122,18 +96,6 @@ impl Default for ReverseIspOptions {
     }
 }
 
-fn check_bit_depth(bit_depth: u8) -> Result<(), IspError> {
-    if (8..=16).contains(&bit_depth) {
-        Ok(())
-    } else {
-        Err(IspError::Param {
-            name: "bit_depth",
-            value: bit_depth as f64,
-            why: "must be in 8..=16",
-        })
-    }
-}
-
 /// The per-channel rows of `diag(1/gains) · M⁻¹`: camera value of channel c = row[c] · rgb_lin.
 fn inverse_rows(profile: &CameraProfile) -> Result<[[f32; 3]; 3], IspError> {
     profile.validate()?;
@@ -171,56 +133,6 @@ fn colour_index(c: Colour) -> usize {
         Colour::Green => 1,
         Colour::Blue => 2,
     }
-}
-
-/// Quantise a linear mosaic (`0` = black, `1` = white) into a raw frame:
-/// `v = round(black + y·(white − black))`, clipped to `[0, white]`.
-pub fn raw_from_linear_mosaic(
-    mosaic: &Image<f32>,
-    cfa: Cfa,
-    bit_depth: u8,
-    levels: Levels,
-) -> Result<RawFrame, IspError> {
-    check_bit_depth(bit_depth)?;
-    let (w, h) = mosaic.dimensions();
-    if w == 0 || h == 0 {
-        return Err(IspError::Empty { width: w, height: h });
-    }
-    let white = levels.white as f32;
-    let quant = |x: usize, y: usize, v: f32| -> u16 {
-        let b = levels.black[(y & 1) * 2 + (x & 1)] as f32;
-        let q = (b + v * (white - b)).round();
-        if q.is_nan() {
-            0
-        } else {
-            q.clamp(0.0, white) as u16
-        }
-    };
-    let chunk = w * STRIP_ROWS;
-    let pixels = if bit_depth == 8 {
-        let mut out = vec![0u8; w * h];
-        out.par_chunks_mut(chunk)
-            .zip(mosaic.as_slice().par_chunks(chunk))
-            .enumerate()
-            .for_each(|(s, (o, m))| {
-                for (i, (d, v)) in o.iter_mut().zip(m).enumerate() {
-                    *d = quant(i % w, s * STRIP_ROWS + i / w, *v) as u8;
-                }
-            });
-        RawPixels::U8(out)
-    } else {
-        let mut out = vec![0u16; w * h];
-        out.par_chunks_mut(chunk)
-            .zip(mosaic.as_slice().par_chunks(chunk))
-            .enumerate()
-            .for_each(|(s, (o, m))| {
-                for (i, (d, v)) in o.iter_mut().zip(m).enumerate() {
-                    *d = quant(i % w, s * STRIP_ROWS + i / w, *v);
-                }
-            });
-        RawPixels::U16(out)
-    };
-    Ok(RawFrame::new(w, h, w, pixels, cfa, bit_depth, levels)?)
 }
 
 /// The linear mosaic (steps 1–4) of an sRGB image, before noise and quantisation.
@@ -278,6 +190,7 @@ pub fn raw_from_srgb(
 mod tests {
     use super::*;
     use crate::isp::noise::NoiseLevel;
+    use crate::raw::RawPixels;
 
     #[test]
     fn srgb_curve_round_trips_and_matches_known_values() {

@@ -37,7 +37,9 @@
 //! the Art", PAMI 2012.
 
 use super::{MetricsError, Result};
-use crate::detect::types::Detection;
+use crate::geometry::Detection;
+/// Re-exported from [`crate::geometry`], where it lives.
+pub use crate::geometry::Rect;
 use serde::{Deserialize, Serialize};
 
 /// PASCAL's overlap threshold for a true positive.
@@ -117,30 +119,6 @@ pub fn miss_rate_at_fppw(curve: &[DetPoint], target: f64) -> f64 {
         .filter(|p| p.fppw <= target)
         .map(|p| p.miss_rate)
         .fold(1.0, f64::min)
-}
-
-/// An axis-aligned box (ground truth), top-left corner and size in pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Rect {
-    /// Left edge.
-    pub x: f32,
-    /// Top edge.
-    pub y: f32,
-    /// Width.
-    pub width: f32,
-    /// Height.
-    pub height: f32,
-}
-
-impl From<&Detection> for Rect {
-    fn from(d: &Detection) -> Self {
-        Rect {
-            x: d.x,
-            y: d.y,
-            width: d.width,
-            height: d.height,
-        }
-    }
 }
 
 /// Intersection over union of two boxes (0 when either is empty).

@@ -25,6 +25,7 @@
 
 pub mod detection;
 pub mod gmsd;
+pub mod interval;
 pub mod psnr;
 pub mod ssim;
 

@@ -191,8 +191,8 @@ pub fn stage_spec(cfg: &Config) -> Result<StageSpec, crate::config::ConfigError>
     })
 }
 
-/// Path of the `opencv-default` model inside the shared data directory.
-const OPENCV_DEFAULT_MODEL: &str = "opencv_hog/default_people_detector_64x128.npy";
+#[cfg(test)]
+use crate::detect::OPENCV_DEFAULT_MODEL;
 
 /// Load the detector a config asks for (once; shared by every camera and task).
 pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError> {
@@ -200,13 +200,9 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
     if !c.detect {
         return Ok(None);
     }
-    let path = if c.model == "opencv-default" {
-        crate::data::data_path(OPENCV_DEFAULT_MODEL).map_err(|e| DaemonError::Model {
-            message: format!("compute.model = \"opencv-default\": {e}"),
-        })?
-    } else {
-        PathBuf::from(&c.model)
-    };
+    let path = crate::detect::model_path(&c.model).map_err(|e| DaemonError::Model {
+        message: format!("compute.model = \"opencv-default\": {e}"),
+    })?;
     let mut model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
         message: format!("compute.model = {:?}: {e}", c.model),
     })?;

@@ -11,14 +11,15 @@
 //! Every frame is accounted for ([`stats::Stats`]): processed, dropped (queue full; driver gaps) or
 //! failed (source, compute, sink). Time is injected ([`crate::clock::Clock`]): a replay stamps outputs
 //! with recorded timestamps, so its outputs are byte-identical for any thread count; wall-clock
-//! values (latency, fps) are kept apart and named as such. Buffers are pooled ([`pool::BufferPool`]):
+//! values (latency, fps) are kept apart and named as such. Buffers are pooled ([`crate::pool::BufferPool`]):
 //! a steady stream allocates nothing per frame.
 //!
 //! ```
 //! use std::sync::Arc;
+//! use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
 //! use mosaicd::clock::ReplayClock;
-//! use mosaicd::pipeline::{engine::{Pipeline, PipelineSpec}, pool::BufferPool,
-//!     sinks::CollectSink, stage::{Stage, StageSpec}, synthetic::{SyntheticSource, SyntheticSpec}};
+//! use mosaicd::pipeline::{engine::{Pipeline, PipelineSpec}, sinks::CollectSink, stage::{Stage, StageSpec}};
+//! use mosaicd::pool::BufferPool;
 //! let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap());
 //! let frames = BufferPool::new(8);
 //! let src = SyntheticSource::with_pool(SyntheticSpec { width: 64, height: 48, frames: 5, ..Default::default() }, frames.clone());
@@ -35,14 +36,14 @@
 
 pub mod daemon;
 pub mod engine;
-pub mod pool;
 pub mod queue;
-pub mod record_sink;
 pub mod sinks;
 pub mod sources;
 pub mod stage;
 pub mod stats;
-pub mod synthetic;
+
+/// Re-exported from their homes: the pool is a leaf, the synthetic source a capture source.
+pub use crate::{capture::synthetic, pool};
 
 #[cfg(test)]
 mod tests;

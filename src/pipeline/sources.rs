@@ -6,12 +6,12 @@
 
 use std::path::PathBuf;
 
-use super::pool::BufferPool;
-use super::synthetic::{SyntheticSource, SyntheticSpec};
 use crate::capture::files::{FileSource, FileSourceOptions};
+use crate::capture::synthetic::{SyntheticSource, SyntheticSpec};
 use crate::capture::v4l2::{V4l2Options, V4l2Source};
 use crate::capture::{McapSource, McapSourceOptions, Pacing, Source};
 use crate::config::{CameraConfig, ConfigError, SourceType};
+use crate::pool::BufferPool;
 use crate::raw::RawPixels;
 
 /// Errors opening a source.

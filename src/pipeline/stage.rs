@@ -39,17 +39,17 @@
 //! assert!(out.detections.is_empty());
 //! ```
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use crate::detect::types::Detection;
+use crate::detect::input::{MosaicInput, MosaicPrep};
 use crate::detect::Detector;
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
-use crate::features::hog::{mosaic_from_raw_into, MosaicTone, ToneTables};
 use crate::features::sift::{
     features_from_frame, keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec, DESCRIPTOR_LEN,
 };
+use crate::geometry::Detection;
 use crate::image::{Image, ImageViewMut};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
 use crate::raw::RawFrame;
@@ -119,7 +119,7 @@ pub struct StageSpec {
     /// mosaic).
     pub keypoints_double: bool,
     /// White-balance gains of the detector's mosaic when the model's tone is
-    /// [`MosaicTone::Srgb`] (`compute.wb_gains`; [`Gains::Auto`]: the frame's own, else grey
+    /// [`crate::raw::tone::MosaicTone::Srgb`] (`compute.wb_gains`; [`Gains::Auto`]: the frame's own, else grey
     /// world).
     pub wb_gains: Gains,
 }
@@ -171,8 +171,8 @@ pub struct Stage {
     gradient: MagBinSpec,
     detector: Option<Arc<Detector>>,
     sift: Option<SiftSpec>,
-    /// The detector's last tone tables, kept while frames' levels and gains stay the same.
-    tone_tables: Arc<Mutex<Option<Arc<ToneTables>>>>,
+    /// The detector's input in its model's tone (tone tables kept between frames).
+    input: Option<Arc<MosaicInput>>,
 }
 
 impl Stage {
@@ -199,9 +199,12 @@ impl Stage {
         Ok(Self {
             spec,
             gradient,
+            input: detector
+                .as_ref()
+                .filter(|_| spec.detect)
+                .map(|d| Arc::new(MosaicInput::new(MosaicPrep::for_model(d.model(), spec.wb_gains)))),
             detector: if spec.detect { detector } else { None },
             sift,
-            tone_tables: Arc::default(),
         })
     }
 
@@ -251,19 +254,8 @@ impl Stage {
                 if ew < ww || eh < wh {
                     Vec::new()
                 } else {
-                    match det.model().mosaic_tone {
-                        MosaicTone::Linear => {
-                            mosaic_from_raw_into(part, self.spec.strip_rows, &mut maps.mosaic)
-                        }
-                        tone => {
-                            let gains = tone.gains_for(part, self.spec.wb_gains)?;
-                            self.tone_tables_for(part, tone, gains).apply_into(
-                                part,
-                                self.spec.strip_rows,
-                                &mut maps.mosaic,
-                            );
-                        }
-                    }
+                    let input = self.input.as_ref().expect("built with the detector");
+                    input.mosaic_into(part, self.spec.strip_rows, &mut maps.mosaic)?;
                     let img = std::mem::take(&mut maps.mosaic);
                     let image = Image::from_vec(ew, eh, img)?;
                     let r = det.detect(&crate::features::hog::HogInput::Mosaic(image.view()));
@@ -291,23 +283,6 @@ impl Stage {
             descriptors,
             mean_magnitude: mean as f32,
         })
-    }
-}
-
-impl Stage {
-    /// The tone tables for `frame`, `tone` and `gains`: the kept ones when they were built for
-    /// the same levels, bit depth and gains, else new ones (which are kept instead).
-    fn tone_tables_for(&self, frame: &RawFrame, tone: MosaicTone, gains: [f32; 3]) -> Arc<ToneTables> {
-        // The lock is held only to look and to store, never while building, so frames in flight
-        // with other gains (grey world) build theirs side by side. A poisoned lock only means
-        // another frame panicked while holding it; the slot is always a complete value.
-        let slot = || self.tone_tables.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(t) = slot().as_ref().filter(|t| t.built_for(frame, tone, gains)) {
-            return Arc::clone(t);
-        }
-        let t = Arc::new(ToneTables::new(frame, tone, gains));
-        *slot() = Some(Arc::clone(&t));
-        t
     }
 }
 
@@ -394,6 +369,7 @@ pub struct StageOutput {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raw::tone::{MosaicTone, ToneTables};
     use crate::raw::{Cfa, Levels};
 
     fn stage() -> Stage {
@@ -674,7 +650,8 @@ mod tests {
     #[test]
     fn the_detector_reads_the_mosaic_in_the_models_tone_with_the_configured_gains() {
         use crate::detect::{DetectorOptions, Domain, LinearModel, NmsMethod};
-        use crate::features::hog::{mosaic_from_raw, mosaic_from_raw_toned, HogInput};
+        use crate::features::hog::HogInput;
+        use crate::raw::tone::{mosaic_from_raw, mosaic_from_raw_toned};
         // a textured 12-bit GBRG frame, dark like raw (values in the lower quarter)
         let (w, h) = (80, 144);
         let px: Vec<u16> = (0..(w * h) as u32)
@@ -736,7 +713,8 @@ mod tests {
     #[test]
     fn tone_tables_are_kept_while_levels_and_gains_stay_and_rebuilt_when_they_change() {
         use crate::detect::{DetectorOptions, Domain, LinearModel};
-        use crate::features::hog::{mosaic_from_raw_toned, HogInput};
+        use crate::features::hog::HogInput;
+        use crate::raw::tone::mosaic_from_raw_toned;
         let (w, h) = (64, 128);
         let px: Vec<u16> = (0..(w * h) as u32)
             .map(|i| 64 + ((i.wrapping_mul(2654435761) >> 22) as u16 & 1023))
@@ -760,10 +738,9 @@ mod tests {
         let mut maps = GradientMaps::default();
         let kept = || {
             stage
-                .tone_tables
-                .lock()
-                .unwrap()
-                .clone()
+                .input
+                .as_ref()
+                .and_then(|i| i.kept_tables())
                 .expect("tables after a frame")
         };
         let mut last: Option<Arc<ToneTables>> = None;

@@ -21,7 +21,7 @@ use std::sync::Mutex;
 
 use serde::Serialize;
 
-use crate::publish::messages::StatsMsg;
+use crate::wire::messages::StatsMsg;
 
 /// Buckets per octave of the latency histogram.
 const SUB_BUCKETS: usize = 8;

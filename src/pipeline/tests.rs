@@ -3,11 +3,11 @@
 use std::sync::Arc;
 
 use super::engine::{Pipeline, PipelineSpec};
-use super::pool::BufferPool;
 use super::sinks::{strip_wall_clock, CollectSink};
 use super::stage::{Stage, StageSpec};
-use super::synthetic::{SyntheticSource, SyntheticSpec};
+use crate::capture::synthetic::{SyntheticSource, SyntheticSpec};
 use crate::clock::ReplayClock;
+use crate::pool::BufferPool;
 
 fn run(
     threads: usize,
@@ -263,7 +263,7 @@ impl super::engine::Sink for FailAt {
     fn frames_not_written(&self) -> u64 {
         self.not_written
     }
-    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+    fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {
@@ -345,7 +345,7 @@ where
     fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
         (self.1)(r)
     }
-    fn stats(&mut self, _: &crate::publish::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+    fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
         Ok(())
     }
     fn finish(&mut self) -> Result<(), super::engine::SinkError> {

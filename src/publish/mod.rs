@@ -17,6 +17,8 @@
 //! ([`publisher::IceoryxSink`]). `mosaicd listen` ([`service`] helpers) is a subscriber in another
 //! process that only needs [`messages`].
 
-pub mod messages;
-pub mod publisher;
+/// The iceoryx2 sink moved to [`crate::pipeline::sinks::iceoryx`]; this path stays for callers.
+pub use crate::pipeline::sinks::iceoryx as publisher;
+/// Re-exported from [`crate::wire`], where the message types live.
+pub use crate::wire::messages;
 pub mod service;

@@ -12,6 +12,7 @@ pub mod levels;
 pub mod limits;
 pub mod load;
 pub mod sample;
+pub mod tone;
 
 use std::path::PathBuf;
 

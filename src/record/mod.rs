@@ -32,87 +32,13 @@
 //! ```
 
 pub mod preview;
-pub mod read;
 pub mod recipe;
 pub mod recorder;
-pub mod schema;
 
-use std::path::PathBuf;
+/// Re-exported from [`crate::wire`], where they live (what other processes read).
+pub use crate::wire::{read, schema, RecordError, Topics};
 
 pub use recorder::{
     Compression, FlushPolicy, McapRecorder, PreviewOptions, RecordSink, RecorderOptions, RecordingSummary,
-    RotatePolicy, Topics,
+    RotatePolicy,
 };
-
-/// Errors from recording and reading recordings.
-#[derive(Debug, thiserror::Error)]
-pub enum RecordError {
-    /// Invalid recorder options.
-    #[error("invalid recorder option {name} = {value}: {why}")]
-    Option {
-        /// Option name.
-        name: &'static str,
-        /// Offending value.
-        value: String,
-        /// Allowed values.
-        why: &'static str,
-    },
-    /// The output file could not be created.
-    #[error("cannot create recording {path}: {source}")]
-    Create {
-        /// File.
-        path: PathBuf,
-        /// Cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Writing failed (disk full, I/O error); the recorder has stopped.
-    #[error("recording to {path} failed, recording stopped: {}", read::mcap_detail(.source))]
-    Write {
-        /// File (or `<writer>`).
-        path: PathBuf,
-        /// Cause.
-        #[source]
-        source: Box<mcap::McapError>,
-    },
-    /// The recorder stopped after an earlier write error (reported once as [`RecordError::Write`]).
-    #[error("recorder stopped after an earlier error: {first}")]
-    Stopped {
-        /// The first error, as text.
-        first: String,
-    },
-    /// The recorder was already finished.
-    #[error("recorder already finished")]
-    Finished,
-    /// Reading a recording failed.
-    #[error("cannot read recording {path}: {}", read::mcap_detail(.source))]
-    Read {
-        /// File.
-        path: PathBuf,
-        /// Cause.
-        #[source]
-        source: Box<mcap::McapError>,
-    },
-    /// I/O error opening a recording.
-    #[error("cannot open recording {path}: {source}")]
-    Open {
-        /// File.
-        path: PathBuf,
-        /// Cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A message in a recording does not decode.
-    #[error("{path}: message {sequence} on {topic}: {source}")]
-    Decode {
-        /// File.
-        path: PathBuf,
-        /// Topic.
-        topic: String,
-        /// MCAP message sequence.
-        sequence: u32,
-        /// Cause.
-        #[source]
-        source: Box<schema::SchemaError>,
-    },
-}

@@ -10,11 +10,11 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use super::preview::preview_from_raw;
-use super::schema::{self, DetectionsMessage, FoxgloveTime, RawImageMessage};
-use super::RecordError;
 use crate::detect::Detection;
 use crate::features::sift::Keypoint;
 use crate::raw::RawFrame;
+use crate::wire::schema::{self, DetectionsMessage, FoxgloveTime, RawImageMessage};
+use crate::wire::{RecordError, Topics};
 
 /// Default uncompressed chunk size target (bytes): a few 1080p frames per chunk at most.
 pub const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
@@ -156,7 +156,7 @@ impl RecorderOptions {
                 "a non-empty name without '/' or spaces",
             );
         }
-        if self.chunk_size == 0 || self.chunk_size > super::read::MAX_RECORD_BYTES / 4 {
+        if self.chunk_size == 0 || self.chunk_size > crate::wire::read::MAX_RECORD_BYTES / 4 {
             return bad("chunk_size", self.chunk_size.to_string(), "1 byte ..= 64 MiB");
         }
         if self.flush.every_frames == Some(0) {
@@ -190,40 +190,6 @@ impl RecorderOptions {
             return bad("compression_level", self.compression_level.to_string(), "0..=22");
         }
         Ok(())
-    }
-}
-
-/// Topic names for one camera.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Topics {
-    /// `/<camera>/raw` (`mosaicd.RawFrame`).
-    pub raw: String,
-    /// `/<camera>/preview` (`foxglove.RawImage`).
-    pub preview: String,
-    /// `/<camera>/annotations` (`foxglove.ImageAnnotations`).
-    pub annotations: String,
-    /// `/<camera>/detections` (`mosaicd.Detections`).
-    pub detections: String,
-    /// `/<camera>/stats` (`mosaicd.Stats`).
-    pub stats: String,
-    /// `/<camera>/keypoints` (`foxglove.ImageAnnotations`, POINTS).
-    pub keypoints: String,
-    /// `/<camera>/sift` (`mosaicd.SiftFeatures`).
-    pub sift: String,
-}
-
-impl Topics {
-    /// The topics of camera `camera`.
-    pub fn new(camera: &str) -> Self {
-        Self {
-            raw: format!("/{camera}/raw"),
-            preview: format!("/{camera}/preview"),
-            annotations: format!("/{camera}/annotations"),
-            detections: format!("/{camera}/detections"),
-            stats: format!("/{camera}/stats"),
-            keypoints: format!("/{camera}/keypoints"),
-            sift: format!("/{camera}/sift"),
-        }
     }
 }
 

@@ -5,7 +5,8 @@ use super::cells::{cell_len, cells_from_planes_with};
 use super::input::{gamma_in_place_generic, planes_from_input};
 use super::kernels::{self, CellKernel};
 use super::*;
-use crate::image::ImageView;
+use crate::image::{Image, ImageView};
+use crate::raw::RawFrame;
 use crate::kernels::Isa;
 
 fn spec() -> HogSpec {

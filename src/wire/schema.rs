@@ -32,7 +32,7 @@
 //!
 //! ```
 //! use mosaicd::raw::{Cfa, Levels, RawFrame};
-//! use mosaicd::record::schema::{decode_raw_frame, encode_raw_frame};
+//! use mosaicd::wire::schema::{decode_raw_frame, encode_raw_frame};
 //! let f = RawFrame::from_u16(2, 2, vec![1, 2, 3, 4095], Cfa::Grbg, 12, Levels::uniform(64, 4095)).unwrap();
 //! let mut buf = Vec::new();
 //! encode_raw_frame(&f, &mut buf);

@@ -5,7 +5,7 @@
 //! live at once) the allocation count stops growing — a test checks it.
 //!
 //! ```
-//! use mosaicd::pipeline::pool::BufferPool;
+//! use mosaicd::pool::BufferPool;
 //! let pool: BufferPool<Vec<u8>> = BufferPool::new(4);
 //! let a = pool.take(|| vec![0u8; 16]);
 //! pool.give(a);

@@ -13,7 +13,7 @@
 //! | `<prefix>/<camera>/descriptors` | [`DescriptorsMsg`] | with `compute.keypoint_descriptors = true`: their 128-byte SIFT descriptors, same order, published right after the keypoints |
 //!
 //! ```
-//! use mosaicd::publish::messages::{DetectionsMsg, BoxMsg, MAX_BOXES};
+//! use mosaicd::wire::messages::{DetectionsMsg, BoxMsg, MAX_BOXES};
 //! let mut m = DetectionsMsg::default();
 //! m.set_boxes(&[BoxMsg { x: 1.0, y: 2.0, width: 64.0, height: 128.0, score: 0.5 }; 3]);
 //! assert_eq!(m.boxes().len(), 3);
@@ -31,8 +31,8 @@
 use iceoryx2::prelude::ZeroCopySend;
 use serde::Serialize;
 
-use crate::detect::types::Detection;
 use crate::features::sift::Keypoint;
+use crate::geometry::Detection;
 
 /// Capacity of [`DetectionsMsg::boxes`]. More boxes in one frame are counted in
 /// [`DetectionsMsg::overflow`] (highest scores are kept: the detector sorts by score).

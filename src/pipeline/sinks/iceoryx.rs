@@ -8,13 +8,13 @@
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
 
-use super::messages::{BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
-use super::service::{
+use super::{FrameResult, Sink, SinkError, SinkFactory};
+use crate::config::PublishConfig;
+use crate::publish::service::{
     create_node, descriptors_service, detections_service, gradients_publisher, gradients_service,
     keypoints_service, publisher, root_dir, stats_service,
 };
-use crate::config::PublishConfig;
-use crate::pipeline::engine::{FrameResult, Sink, SinkError, SinkFactory};
+use crate::wire::messages::{BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsMsg, StatsMsg};
 
 /// The gradients publisher, its decimation and a reusable staging buffer.
 type GradientsPort = (Publisher<ipc::Service, [u8], GradientsHeader>, usize, Vec<u8>);
@@ -54,7 +54,7 @@ impl IceoryxSink {
         cfg: &PublishConfig,
         keypoints: bool,
         descriptors: bool,
-    ) -> Result<Self, super::service::PublishError> {
+    ) -> Result<Self, crate::publish::service::PublishError> {
         let node = create_node(&format!("mosaicd-{camera}"), true, &root_dir(&cfg.root)?)?;
         let p = &cfg.service_prefix;
         let det_svc = detections_service(&node, p, camera, cfg.subscriber_buffer)?;

@@ -4,8 +4,8 @@
 //! (log time = the frame's capture timestamp), the mosaic SIFT keypoints when `compute.keypoints`
 //! is on (Foxglove points on `/<camera>/keypoints`, and full-frame keypoints with their
 //! descriptors, when computed, as `mosaicd.SiftFeatures` on `/<camera>/sift`), optionally the raw frame (lossless) and an 8-bit preview; stats as JSON on `/<camera>/stats` with wall-clock values grouped under `"wall"`
-//! ([`super::sinks::stats_json`]; with `daemon.deterministic_outputs` only the final stats,
-//! without that group: [`super::sinks::stats_record`]). Chunks are flushed every `record.flush_frames` frames, so a crash
+//! ([`super::jsonl::stats_json`]; with `daemon.deterministic_outputs` only the final stats,
+//! without that group: [`super::jsonl::stats_record`]). Chunks are flushed every `record.flush_frames` frames, so a crash
 //! loses at most that many; [`Sink::finish`] writes the summary and index.
 //!
 //! A write error (disk full, I/O error) never stops detection or publishing. With
@@ -19,12 +19,12 @@
 use std::time::{Duration, Instant};
 
 use crate::config::{CameraConfig, Config};
-use crate::publish::messages::StatsMsg;
 use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
+use crate::wire::messages::StatsMsg;
 
-use super::daemon::DaemonError;
-use super::engine::{FrameResult, Sink, SinkError, SinkFactory};
-use super::sinks::stats_record;
+use super::jsonl::stats_record;
+use super::{FrameResult, Sink, SinkError, SinkFactory};
+use crate::pipeline::daemon::DaemonError;
 
 /// The recorder sink.
 pub struct McapSink {

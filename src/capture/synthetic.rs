@@ -12,7 +12,7 @@
 //!
 //! ```
 //! use mosaicd::capture::Source;
-//! use mosaicd::pipeline::synthetic::{SyntheticSource, SyntheticSpec};
+//! use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
 //! let mut s = SyntheticSource::new(SyntheticSpec { width: 32, height: 16, frames: 2, ..Default::default() });
 //! let f = s.next_frame().unwrap().unwrap();
 //! assert_eq!((f.width(), f.height(), f.meta.sequence), (32, 16, 0));
@@ -23,8 +23,8 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::pool::BufferPool;
-use crate::capture::{CaptureError, Source, SourceKind};
+use super::{CaptureError, Source, SourceKind};
+use crate::pool::BufferPool;
 use crate::raw::{Cfa, CfaChannel, FrameMeta, Levels, RawFrame, RawPixels};
 
 /// Black level of synthetic frames, as a fraction of full scale (a typical sensor pedestal).

@@ -1,6 +1,6 @@
 //! How a raw frame's values become the detector's mosaic: [`MosaicTone`].
 //!
-//! HOG reads a mosaic in 8-bit units ([`super::HogInput::Mosaic`]). Two tones are defined, per
+//! HOG reads a mosaic in 8-bit units ([`crate::features::hog::HogInput::Mosaic`]). Two tones are defined, per
 //! CFA site, with `l = clamp((v − black) / (white − black), 0, 1)` (black of the site's tile
 //! position, `v` the raw value):
 //!
@@ -37,10 +37,10 @@
 
 use rayon::prelude::*;
 
+use super::levels::{Compression, Gains, NormaliseOptions};
+use super::{Cfa, Colour, Levels, RawError, RawFrame, RawView};
 use crate::image::Image;
-use crate::isp::reverse::srgb_from_linear;
-use crate::raw::levels::{Compression, Gains, NormaliseOptions};
-use crate::raw::{Cfa, Colour, Levels, RawError, RawFrame, RawView};
+use crate::srgb::srgb_from_linear;
 
 /// Full scale of the mosaic (8-bit units, as OpenCV's HOG).
 const UNIT_RANGE: f32 = 255.0;
@@ -216,8 +216,59 @@ impl ToneTables {
     }
 }
 
+/// A raw frame as a float mosaic in 8-bit units: `(v − black(x,y)) · 255 / (white − black(x,y))`,
+/// clamped at 0. This is the [`crate::features::hog::HogInput::Mosaic`] domain.
+pub fn mosaic_from_raw(frame: &RawFrame) -> Image<f32> {
+    let mut v = Vec::new();
+    mosaic_from_raw_into(frame, 16, &mut v);
+    Image::from_vec(frame.width(), frame.height(), v).expect("sized by mosaic_from_raw_into")
+}
+
+/// [`mosaic_from_raw`] into a reused buffer (resized to `width · height`), parallel over strips of
+/// `strip_rows` rows (`≥ 1`); the values do not depend on the strip size or thread count. Each
+/// row's sample type is matched once, so the pixel loop is a plain map the compiler vectorises.
+pub fn mosaic_from_raw_into(frame: &RawFrame, strip_rows: usize, dst: &mut Vec<f32>) {
+    let (w, h) = (frame.width(), frame.height());
+    dst.resize(w * h, 0.0);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let levels = *frame.levels();
+    let mut scale = [0.0f32; 4];
+    for (i, s) in scale.iter_mut().enumerate() {
+        *s = UNIT_RANGE / levels.white.saturating_sub(levels.black[i]).max(1) as f32;
+    }
+    let view = frame.view();
+    let rows = strip_rows.max(1);
+    dst.par_chunks_mut(rows * w).enumerate().for_each(|(s, chunk)| {
+        for (r, row) in chunk.chunks_mut(w).enumerate() {
+            let y = s * rows + r;
+            let i = (y & 1) * 2;
+            let black = [levels.black[i] as f32, levels.black[i + 1] as f32];
+            let scale = [scale[i], scale[i + 1]];
+            match view {
+                RawView::U8(v) => linear_row(v.row(y), row, black, scale),
+                RawView::U16(v) => linear_row(v.row(y), row, black, scale),
+            }
+        }
+    });
+}
+
+/// One row of [`mosaic_from_raw_into`]: even and odd columns take their tile position's black and
+/// scale.
+fn linear_row<T: Copy + Into<f32>>(src: &[T], dst: &mut [f32], black: [f32; 2], scale: [f32; 2]) {
+    for (o, p) in dst.chunks_exact_mut(2).zip(src.chunks_exact(2)) {
+        o[0] = ((p[0].into() - black[0]) * scale[0]).max(0.0);
+        o[1] = ((p[1].into() - black[1]) * scale[1]).max(0.0);
+    }
+    if dst.len() % 2 == 1 {
+        let x = dst.len() - 1;
+        dst[x] = ((src[x].into() - black[0]) * scale[0]).max(0.0);
+    }
+}
+
 /// `frame` as the detector's mosaic in `tone` with white-balance `gains` (`[r, g, b]`, used by
-/// [`MosaicTone::Srgb`] only). [`MosaicTone::Linear`] equals [`super::mosaic_from_raw`].
+/// [`MosaicTone::Srgb`] only). [`MosaicTone::Linear`] equals [`mosaic_from_raw`].
 pub fn mosaic_from_raw_toned(frame: &RawFrame, tone: MosaicTone, gains: [f32; 3]) -> Image<f32> {
     let mut v = Vec::new();
     mosaic_from_raw_toned_into(frame, tone, gains, 16, &mut v);
@@ -225,7 +276,7 @@ pub fn mosaic_from_raw_toned(frame: &RawFrame, tone: MosaicTone, gains: [f32; 3]
 }
 
 /// [`mosaic_from_raw_toned`] into a reused buffer, parallel over strips of `strip_rows` rows:
-/// [`super::mosaic_from_raw_into`] for [`MosaicTone::Linear`], tables built for this frame
+/// [`mosaic_from_raw_into`] for [`MosaicTone::Linear`], tables built for this frame
 /// otherwise (a caller that sees many frames with the same levels and gains can keep a
 /// [`ToneTables`] instead, as the daemon's stage does).
 pub fn mosaic_from_raw_toned_into(
@@ -236,7 +287,7 @@ pub fn mosaic_from_raw_toned_into(
     dst: &mut Vec<f32>,
 ) {
     match tone {
-        MosaicTone::Linear => super::mosaic_from_raw_into(frame, strip_rows, dst),
+        MosaicTone::Linear => mosaic_from_raw_into(frame, strip_rows, dst),
         _ => ToneTables::new(frame, tone, gains).apply_into(frame, strip_rows, dst),
     }
 }
@@ -253,6 +304,56 @@ pub fn mosaic_from_raw_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mosaic_from_raw_is_the_per_site_formula_for_any_strip_size() {
+        use crate::raw::{Cfa, Levels};
+        // 12-bit with a black level per tile position, even width; 8-bit with an odd width
+        let px: Vec<u16> = (0..32 * 20u32)
+            .map(|i| (i.wrapping_mul(2654435761) >> 20) as u16 & 4095)
+            .collect();
+        let levels16 = Levels {
+            black: [60, 64, 62, 66],
+            white: 4000,
+        };
+        let f16 = RawFrame::from_u16(32, 20, px, Cfa::Gbrg, 12, levels16).unwrap();
+        let px8: Vec<u8> = (0..31 * 21u32)
+            .map(|i| (i.wrapping_mul(2654435761) >> 24) as u8)
+            .collect();
+        let levels8 = Levels {
+            black: [16, 12, 14, 10],
+            white: 250,
+        };
+        let f8 = RawFrame::from_u8(31, 21, px8, Cfa::Rggb, levels8).unwrap();
+        for f in [&f16, &f8] {
+            let l = *f.levels();
+            let want: Vec<f32> = (0..f.height())
+                .flat_map(|y| (0..f.width()).map(move |x| (x, y)))
+                .map(|(x, y)| {
+                    let i = (y & 1) * 2 + (x & 1);
+                    let scale = 255.0 / (l.white - l.black[i]) as f32;
+                    ((f.value(x, y) as f32 - l.black[i] as f32) * scale).max(0.0)
+                })
+                .collect();
+            assert!(want.contains(&0.0) && want.iter().any(|&v| v > 200.0));
+            // the form this function had before (clamped before the scale) gives the same bits
+            let clamp_first: Vec<f32> = (0..f.height())
+                .flat_map(|y| (0..f.width()).map(move |x| (x, y)))
+                .map(|(x, y)| {
+                    let i = (y & 1) * 2 + (x & 1);
+                    let scale = 255.0 / (l.white - l.black[i]) as f32;
+                    (f.value(x, y) as f32 - l.black[i] as f32).max(0.0) * scale
+                })
+                .collect();
+            assert_eq!(clamp_first, want);
+            assert_eq!(mosaic_from_raw(f).as_slice(), want.as_slice());
+            let mut got = vec![7.0; 3];
+            for strip in [1, 2, 3, 8, 64] {
+                mosaic_from_raw_into(f, strip, &mut got);
+                assert_eq!(got, want, "strip {strip}");
+            }
+        }
+    }
 
     fn frame() -> RawFrame {
         // 12-bit, black 256, white 4095; RGGB
@@ -306,7 +407,7 @@ mod tests {
         let f = frame();
         let mut v = Vec::new();
         ToneTables::new(&f, MosaicTone::Linear, [2.0, 1.0, 3.0]).apply_into(&f, 3, &mut v);
-        assert_eq!(v, super::super::mosaic_from_raw(&f).into_vec());
+        assert_eq!(v, super::mosaic_from_raw(&f).into_vec());
     }
 
     #[test]

@@ -43,24 +43,8 @@ pub fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
         .with_record_length_limit(record_length_limit(FrameLimits::process()) as usize)
 }
 
-/// The message of an MCAP error including its I/O cause (which `McapError`'s own text omits).
-pub fn mcap_detail(e: &mcap::McapError) -> String {
-    match e {
-        mcap::McapError::Io(io) => format!("I/O error: {io}"),
-        other => {
-            // A write error while the writer encodes a record comes wrapped in a parse error
-            // ("Record parse failed"): name what is under it (the OS error).
-            let mut text = other.to_string();
-            let mut cause = std::error::Error::source(other);
-            while let Some(c) = cause {
-                text.push_str(": ");
-                text.push_str(&c.to_string());
-                cause = c.source();
-            }
-            text
-        }
-    }
-}
+/// Re-exported from [`super`], where the recording error uses it.
+pub use super::mcap_detail;
 
 /// One channel of a recording.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -15,8 +15,8 @@ use std::sync::{Arc, Mutex};
 
 use serde_json::json;
 
-use super::engine::{FrameResult, Sink, SinkError, SinkFactory};
-use crate::publish::messages::StatsMsg;
+use super::{FrameResult, Sink, SinkError, SinkFactory};
+use crate::wire::messages::StatsMsg;
 
 /// Key under which wall-clock (non-deterministic) values are grouped.
 pub const WALL_KEY: &str = "wall";
@@ -50,7 +50,7 @@ pub fn frame_json(r: &FrameResult) -> serde_json::Value {
 /// SIFT descriptors as a JSON array of base64 strings (128 bytes each, standard padded base64:
 /// the encoding Foxglove's JSON schemas use for bytes), one per keypoint.
 pub fn descriptors_json(d: &[[u8; crate::features::sift::DESCRIPTOR_LEN]]) -> serde_json::Value {
-    json!(crate::record::schema::descriptors_base64(d))
+    json!(crate::wire::schema::descriptors_base64(d))
 }
 
 /// The JSON record of a stats message.
