@@ -304,7 +304,9 @@ impl Default for RecordConfig {
 pub struct ComputeConfig {
     /// Run pedestrian detection (multi-scale HOG + linear SVM on the mosaic).
     pub detect: bool,
-    /// Detector model: `opencv-default` (OpenCV's people detector from the shared data directory,
+    /// Detector model: a built-in name ([`crate::detect::shipped::SHIPPED`]; default
+    /// [`crate::detect::DEFAULT_MODEL`], compiled into the binary), `opencv-default` (OpenCV's
+    /// people detector from the shared data directory,
     /// `opencv_hog/default_people_detector_64x128.npy`) or a model file (`.json` ours; `.npy`,
     /// `.yml`, text: OpenCV vectors).
     pub model: String,
@@ -319,13 +321,13 @@ pub struct ComputeConfig {
     pub upsample: f64,
     /// Feature-pyramid approximation (Dollár et al. 2014): every n-th level is computed exactly,
     /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
-    /// exact level per octave).
+    /// exact level per octave; default [`crate::detect::DEFAULT_APPROX_LEVELS`]).
     pub approx_levels: usize,
     /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6), `"i8"` (8-bit blocks and weights,
     /// exact integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, most
     /// with AVX-512 VNNI or AVX-VNNI; on aarch64 without the dot product it is not, which is
     /// warned about at start-up) or `"auto"` (`"i8"` where it was measured faster, `"f32"`
-    /// elsewhere: [`ScorePrecision::auto_for`]).
+    /// elsewhere: [`ScorePrecision::auto_for`]; the default).
     pub svm: String,
     /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
     /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or
@@ -362,13 +364,13 @@ impl Default for ComputeConfig {
     fn default() -> Self {
         Self {
             detect: true,
-            model: "opencv-default".into(),
+            model: crate::detect::DEFAULT_MODEL.into(),
             hit_threshold: 0.0,
             scale_step: 1.05,
             max_levels: 64,
             upsample: 1.0,
-            approx_levels: 1,
-            svm: "f32".into(),
+            approx_levels: crate::detect::DEFAULT_APPROX_LEVELS,
+            svm: "auto".into(),
             mosaic_taps: "model".into(),
             mosaic_tone: "model".into(),
             wb_gains: "auto".into(),

@@ -90,11 +90,17 @@ mod tests {
         let Command::Detect(d) = parse(&["detect", "f.raw", "--svm", "i8"]).unwrap().command else {
             panic!("detect")
         };
-        assert_eq!(d.det.svm, SvmArg::I8);
+        assert_eq!(d.det.svm, Some(SvmArg::I8));
         let Command::Detect(d) = parse(&["detect", "f.raw"]).unwrap().command else {
             panic!("detect")
         };
-        assert_eq!(d.det.options().unwrap().svm, mosaicd::detect::ScorePrecision::F32);
+        // detect's defaults are the daemon's: the approximate pyramid and the SVM this CPU runs
+        // fastest; eval's are the exact pyramid and f32.
+        let o = d.det.options().unwrap();
+        assert_eq!(o.svm, mosaicd::detect::ScorePrecision::auto());
+        assert_eq!(o.approx_levels, mosaicd::detect::DEFAULT_APPROX_LEVELS);
+        let e = d.det.options_with(1, SvmArg::F32).unwrap();
+        assert_eq!((e.svm, e.approx_levels), (mosaicd::detect::ScorePrecision::F32, 1));
         assert!(parse(&["bench", "detect", "--svm", "i8"]).is_ok());
         assert!(parse(&["eval", "detection", "m=mosaic", "--svm", "f32"]).is_ok());
         for bad in [

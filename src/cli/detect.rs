@@ -25,9 +25,11 @@ pub struct DetectArgs {
     /// --cfa into a mosaic, no ISP). Default: mosaic for raw input, colour for colour images.
     #[arg(long = "as", value_enum)]
     pub as_domain: Option<DomainArg>,
-    /// Model: a file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default`
-    /// (OpenCV's people detector from $MOSAICD_DATA/opencv_hog).
-    #[arg(long, default_value = "opencv-default")]
+    /// Model: a built-in name (`mosaic-raw-srgb`, the default; `mosaic-raw-srgb-low`,
+    /// `mosaic-raw`, `mosaic`, `colour`, `colour-raw`: the files under models/, compiled in), a
+    /// file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default` (OpenCV's people
+    /// detector from $MOSAICD_DATA/opencv_hog).
+    #[arg(long, default_value = mosaicd::detect::DEFAULT_MODEL)]
     pub model: String,
     #[command(flatten)]
     pub det: DetectorArgs,
@@ -85,15 +87,18 @@ pub struct DetectorArgs {
     pub nms: NmsArg,
     /// Feature-pyramid approximation: compute every N-th level exactly and approximate the levels
     /// in between from its 2x2-pixel micro-cells (1 = exact, OpenCV-equivalent; 14 ≈ one exact
-    /// level per octave at step 1.05).
-    #[arg(long, default_value_t = 1)]
-    pub approx: usize,
+    /// level per octave at step 1.05). Default: 14 for `mosaicd detect` (the daemon's default:
+    /// measured faster than exact on every path at unchanged quality, docs/detection.md,
+    /// "Defaults"), 1 for `mosaicd eval detection`.
+    #[arg(long)]
+    pub approx: Option<usize>,
     /// SVM arithmetic: `f32` (OpenCV's scores within 1e-6), `i8` (8-bit blocks and weights, exact
     /// integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, 2.6–4x with
     /// AVX-512 VNNI or AVX-VNNI) or `auto` (`i8` where it was measured faster, else `f32`;
-    /// docs/detection.md, "8-bit SVM").
-    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
-    pub svm: SvmArg,
+    /// docs/detection.md, "8-bit SVM"). Default: `auto` for `mosaicd detect` (the daemon's
+    /// default), `f32` for `mosaicd eval detection`.
+    #[arg(long, value_enum)]
+    pub svm: Option<SvmArg>,
     /// Derivative of mosaic features, overriding the model's: `same-site` (`(I(x+2) −
     /// I(x−2))/2`; OpenCV's weights and the shipped models) or `paper` (`I(x+1) − I(x−1)`, the
     /// paper's `[-1, 0, 1]` on the mosaic).
@@ -178,8 +183,15 @@ impl DetectorArgs {
             .context("--wb-gains")
     }
 
-    /// To library options.
+    /// To library options, with `--approx` and `--svm` defaulting to the daemon's defaults (what
+    /// `mosaicd detect` runs).
     pub fn options(&self) -> anyhow::Result<DetectorOptions> {
+        self.options_with(mosaicd::detect::DEFAULT_APPROX_LEVELS, SvmArg::Auto)
+    }
+
+    /// To library options, with `--approx` and `--svm` defaulting to `approx` and `svm` (the
+    /// experiments' exact pyramid and f32 SVM, for `eval detection`).
+    pub fn options_with(&self, approx: usize, svm: SvmArg) -> anyhow::Result<DetectorOptions> {
         let nms = match self.nms {
             NmsArg::Group => NmsMethod::Group {
                 threshold: 2,
@@ -194,16 +206,15 @@ impl DetectorArgs {
             upsample: self.upsample,
             hit_threshold: self.threshold,
             nms,
-            approx_levels: self.approx,
-            svm: self.svm.into(),
+            approx_levels: self.approx.unwrap_or(approx),
+            svm: self.svm.unwrap_or(svm).into(),
         })
     }
 }
 
-/// Load a model by name (`opencv-default` or a path).
+/// Load a model by name: a built-in name (`mosaic-raw-srgb`, …), `opencv-default` or a path.
 pub fn load_model(name: &str, domain_for_opencv: Domain) -> anyhow::Result<LinearModel> {
-    let path = mosaicd::detect::model_path(name)?;
-    Ok(LinearModel::load(&path, domain_for_opencv)?)
+    Ok(mosaicd::detect::load_named(name, domain_for_opencv)?)
 }
 
 /// A decoded input frame in the domain it will be detected in.

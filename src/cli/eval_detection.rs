@@ -22,7 +22,7 @@ use mosaicd::eval::detection_runs::{
 };
 use mosaicd::raw::Cfa;
 
-use super::detect::{DetectorArgs, DomainArg};
+use super::detect::{DetectorArgs, DomainArg, SvmArg};
 
 /// Arguments of `mosaicd eval detection`.
 #[derive(clap::Args, Debug)]
@@ -219,7 +219,7 @@ fn window_args(a: &EvalDetectionArgs) -> anyhow::Result<WindowProtocol> {
     Ok(WindowProtocol {
         split,
         fold: a.fold,
-        svm: a.det.svm.into(),
+        svm: a.det.svm.unwrap_or(SvmArg::F32).into(),
     })
 }
 
@@ -237,7 +237,7 @@ fn ap_args(a: &EvalDetectionArgs) -> anyhow::Result<ApProtocol> {
         width: a.shrink[2],
         height: a.shrink[3],
     };
-    let opts = a.det.options()?;
+    let opts = a.det.options_with(1, SvmArg::F32)?;
     // Phases: (text as given, factor).
     let phases: Vec<(String, f64)> = if a.upsample_phases.is_empty() {
         vec![(opts.upsample.to_string(), opts.upsample)]

@@ -8,6 +8,7 @@ pub mod model;
 pub mod nms;
 pub mod pyramid;
 pub mod score;
+pub mod shipped;
 pub mod svm;
 pub mod train;
 
@@ -15,6 +16,7 @@ pub use crate::geometry::Detection;
 pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod, StageProfile};
 pub use model::{Domain, LinearModel};
 pub use score::ScorePrecision;
+pub use shipped::{load_named, NamedModelError, DEFAULT_APPROX_LEVELS, DEFAULT_MODEL};
 
 /// The name of OpenCV's default people detector in configs and on the command line.
 pub const OPENCV_DEFAULT: &str = "opencv-default";
@@ -22,12 +24,3 @@ pub const OPENCV_DEFAULT: &str = "opencv-default";
 /// Path of the `opencv-default` model inside the shared data directory.
 pub const OPENCV_DEFAULT_MODEL: &str = "opencv_hog/default_people_detector_64x128.npy";
 
-/// The file of the model named `name`: [`OPENCV_DEFAULT`] is OpenCV's weights in the shared data
-/// (an error when that data is missing), anything else is a path.
-pub fn model_path(name: &str) -> Result<std::path::PathBuf, crate::data::DataMissing> {
-    if name == OPENCV_DEFAULT {
-        crate::data::data_path(OPENCV_DEFAULT_MODEL)
-    } else {
-        Ok(std::path::PathBuf::from(name))
-    }
-}

@@ -37,11 +37,13 @@ pub struct DetRun {
 }
 
 impl DetRun {
-    /// The model ([`crate::detect::model_path`]; OpenCV's weights read as `opencv_domain`) with the
+    /// The model ([`crate::detect::load_named`]; OpenCV's weights read as `opencv_domain`) with the
     /// settings' tap and tone overrides applied.
     fn model(&self, opencv_domain: Domain, s: &DetEvalSettings) -> Result<LinearModel> {
-        let path = crate::detect::model_path(&self.name)?;
-        let model = LinearModel::load(&path, opencv_domain)?;
+        let model = crate::detect::load_named(&self.name, opencv_domain).map_err(|e| match e {
+            crate::detect::NamedModelError::Model(m) => super::detection::DetEvalError::Model(m),
+            crate::detect::NamedModelError::DataMissing(d) => super::detection::DetEvalError::Data(d),
+        })?;
         Ok(with_overrides(model, s.mosaic_taps, s.mosaic_tone))
     }
 }

@@ -33,7 +33,7 @@ use super::stats::StatsSnapshot;
 use crate::capture::SourceKind;
 use crate::clock::{Clock, MonotonicClock, ReplayClock};
 use crate::config::{CameraConfig, Config};
-use crate::detect::{Detector, DetectorOptions, Domain, LinearModel};
+use crate::detect::{Detector, DetectorOptions, Domain};
 
 /// How often the daemon checks whether every pipeline has finished.
 const FINISH_POLL: Duration = Duration::from_millis(10);
@@ -200,10 +200,7 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError>
     if !c.detect {
         return Ok(None);
     }
-    let path = crate::detect::model_path(&c.model).map_err(|e| DaemonError::Model {
-        message: format!("compute.model = \"opencv-default\": {e}"),
-    })?;
-    let mut model = LinearModel::load(&path, Domain::Mosaic).map_err(|e| DaemonError::Model {
+    let mut model = crate::detect::load_named(&c.model, Domain::Mosaic).map_err(|e| DaemonError::Model {
         message: format!("compute.model = {:?}: {e}", c.model),
     })?;
     if let Some(t) = c.mosaic_taps_override().map_err(|e| DaemonError::Model {
