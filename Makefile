@@ -83,7 +83,7 @@ fuzz-smoke: fuzz-build
 		out=$$(timeout $$(( $(FUZZ_SMOKE_SECONDS) + 60 )) $(FUZZ_BIN)/$$t $(FUZZ_FLAGS) \
 			-max_total_time=$(FUZZ_SMOKE_SECONDS) -artifact_prefix=$(FUZZ_TARGET_DIR)/artifacts/$$t- \
 			$(FUZZ_TARGET_DIR)/smoke-corpus/$$t 2>&1); rc=$$?; \
-		echo "$$out" | grep -E '^Done' | sed "s/^/fuzz $$t: /"; \
+		echo "$$out" | grep -aE '^Done' | sed "s/^/fuzz $$t: /"; \
 		if [ $$rc -ne 0 ]; then echo "$$out" | tail -40; exit 1; fi; \
 	done
 
