@@ -415,11 +415,14 @@ impl LinearModel {
             origin: origin.into(),
             what: "SVMDetector is not a [ ] sequence".into(),
         })?;
-        let close = rest.find(']').ok_or_else(|| ModelError::Parse {
+        // The closing bracket after the opening one (a `]` before it made the slice panic: found
+        // by the model_files fuzz target).
+        let body = &rest[open + 1..];
+        let close = body.find(']').ok_or_else(|| ModelError::Parse {
             origin: origin.into(),
             what: "SVMDetector sequence not closed".into(),
         })?;
-        let v = parse_numbers(&rest[open + 1..close], origin)?;
+        let v = parse_numbers(&body[..close], origin)?;
         let mut m = Self::from_opencv_vector(&v, domain, origin)?;
         if let Some(g) = yaml_value(text, "gammaCorrection").and_then(|v| v.trim().parse::<i32>().ok()) {
             m.gamma_correction = g != 0;
@@ -626,5 +629,8 @@ mod tests {
         assert_eq!(y.weights, m.weights);
         let bad = yaml.replace("[ 64, 128 ]", "[ 48, 96 ]");
         assert!(LinearModel::from_opencv_yaml(&bad, Domain::Grey, "y").is_err());
+        // A `]` before the sequence's `[` (the fuzzer's crash) is an error, not a slice panic.
+        let e = LinearModel::from_opencv_yaml("SVMDetector: ] 1, 2 [ 3", Domain::Grey, "y").unwrap_err();
+        assert!(e.to_string().contains("not closed"), "{e}");
     }
 }
