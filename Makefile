@@ -62,7 +62,6 @@ test: oracle lint
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --all-targets --quiet
 	MOSAICD_ORACLE=$(abspath $(ORACLE_DIR)) $(CARGO) test --doc --quiet
 	$(MAKE) --no-print-directory doc
-	$(MAKE) --no-print-directory fuzz-smoke
 	$(MAKE) --no-print-directory cross-test
 	$(MAKE) --no-print-directory module-graph
 

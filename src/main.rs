@@ -100,7 +100,10 @@ mod tests {
         assert_eq!(o.svm, mosaicd::detect::ScorePrecision::auto());
         assert_eq!(o.approx_levels, mosaicd::detect::DEFAULT_APPROX_LEVELS);
         let e = d.det.options_with(1, SvmArg::F32).unwrap();
-        assert_eq!((e.svm, e.approx_levels), (mosaicd::detect::ScorePrecision::F32, 1));
+        assert_eq!(
+            (e.svm, e.approx_levels),
+            (mosaicd::detect::ScorePrecision::F32, 1)
+        );
         assert!(parse(&["bench", "detect", "--svm", "i8"]).is_ok());
         assert!(parse(&["eval", "detection", "m=mosaic", "--svm", "f32"]).is_ok());
         for bad in [

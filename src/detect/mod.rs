@@ -23,4 +23,3 @@ pub const OPENCV_DEFAULT: &str = "opencv-default";
 
 /// Path of the `opencv-default` model inside the shared data directory.
 pub const OPENCV_DEFAULT_MODEL: &str = "opencv_hog/default_people_detector_64x128.npy";
-

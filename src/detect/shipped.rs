@@ -132,7 +132,13 @@ mod tests {
         for m in SHIPPED {
             let built_in = m.load().unwrap_or_else(|e| panic!("{}: {e}", m.name));
             let file = LinearModel::load(&root.join(m.file), Domain::Mosaic).unwrap();
-            assert_eq!(built_in.to_json(), file.to_json(), "{} differs from {}", m.name, m.file);
+            assert_eq!(
+                built_in.to_json(),
+                file.to_json(),
+                "{} differs from {}",
+                m.name,
+                m.file
+            );
         }
     }
 
