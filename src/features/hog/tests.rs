@@ -6,8 +6,8 @@ use super::input::{gamma_in_place_generic, planes_from_input};
 use super::kernels::{self, CellKernel};
 use super::*;
 use crate::image::{Image, ImageView};
-use crate::raw::RawFrame;
 use crate::kernels::Isa;
+use crate::raw::RawFrame;
 
 fn spec() -> HogSpec {
     HogSpec::new(&HogOptions::default()).unwrap()
