@@ -1099,7 +1099,12 @@ mod tests {
 
     #[test]
     fn svm_precision_is_f32_i8_or_auto() {
+        // The defaults: the SVM this CPU runs fastest, the approximate pyramid, the built-in model.
         let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::auto());
+        assert_eq!(c.compute.approx_levels, crate::detect::DEFAULT_APPROX_LEVELS);
+        assert_eq!(c.compute.model, crate::detect::DEFAULT_MODEL);
+        let c = Config::from_toml_str(&format!("[compute]\nsvm = \"f32\"\n{MIN}")).unwrap();
         assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::F32);
         let c = Config::from_toml_str(&format!("[compute]\nsvm = \"i8\"\n{MIN}")).unwrap();
         assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::I8);

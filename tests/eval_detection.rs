@@ -525,6 +525,10 @@ fn mosaic_tone_and_wb_gains_on_a_raw_frame() {
             "RGGB",
             "--bit-depth",
             "12",
+            // OpenCV's linear-tone weights and f32 scores (detect's defaults are the built-in srgb
+            // model and the 8-bit SVM, whose quantised scores can hide a small change of tone)
+            "--svm",
+            "f32",
             "--threshold",
             "-1e9",
             "--nms",
@@ -533,6 +537,9 @@ fn mosaic_tone_and_wb_gains_on_a_raw_frame() {
             "1",
             "--json",
         ];
+        if !extra.contains(&"--model") {
+            a.extend_from_slice(&["--model", "opencv-default"]);
+        }
         a.extend_from_slice(extra);
         mosaicd(&a)
     };

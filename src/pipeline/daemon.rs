@@ -580,8 +580,13 @@ mod tests {
             .unwrap()
         };
         let tone = |line: &str| load_detector(&cfg(line)).unwrap().unwrap().model().mosaic_tone;
-        assert_eq!(tone(""), MosaicTone::Linear, "OpenCV's weights: linear");
-        assert_eq!(tone("mosaic_tone = \"srgb\""), MosaicTone::Srgb);
+        assert_eq!(tone(""), MosaicTone::Srgb, "the default built-in model: srgb");
+        let opencv = "model = \"opencv-default\"";
+        assert_eq!(tone(opencv), MosaicTone::Linear, "OpenCV's weights: linear");
+        assert_eq!(
+            tone(&format!("{opencv}\nmosaic_tone = \"srgb\"")),
+            MosaicTone::Srgb
+        );
         // the shipped srgb model says so itself
         let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/models/mosaic_raw_srgb.json");
         assert_eq!(tone(&format!("model = {shipped:?}")), MosaicTone::Srgb);
