@@ -76,11 +76,13 @@ pub struct BenchDetectArgs {
     /// Maximum pyramid levels (both sides).
     #[arg(long, default_value_t = 64)]
     pub max_levels: usize,
-    /// Feature-pyramid approximation for our side (1 = exact; see `mosaicd detect --approx`).
-    #[arg(long, default_value_t = 1)]
+    /// Feature-pyramid approximation for our side (1 = exact; see `mosaicd detect --approx`;
+    /// default the daemon's).
+    #[arg(long, default_value_t = mosaicd::detect::DEFAULT_APPROX_LEVELS)]
     pub approx: usize,
-    /// SVM arithmetic for our side (`f32` or `i8`; see `mosaicd detect --svm`).
-    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
+    /// SVM arithmetic for our side (`f32`, `i8` or `auto`; see `mosaicd detect --svm`; default the
+    /// daemon's, `auto`).
+    #[arg(long, value_enum, default_value_t = SvmArg::Auto)]
     pub svm: SvmArg,
     /// Skip the OpenCV peer.
     #[arg(long)]

@@ -47,11 +47,12 @@ pub struct BenchPipelineArgs {
     /// Gradients only (no pedestrian detection).
     #[arg(long)]
     no_detect: bool,
-    /// Detector feature-pyramid approximation (`compute.approx_levels`; 1 = exact).
-    #[arg(long, default_value_t = 1)]
+    /// Detector feature-pyramid approximation (`compute.approx_levels`; 1 = exact; default the
+    /// daemon's).
+    #[arg(long, default_value_t = mosaicd::detect::DEFAULT_APPROX_LEVELS)]
     approx_levels: usize,
-    /// SVM precision (`compute.svm`: `f32`, or `i8` for the 8-bit AVX-512 VNNI path).
-    #[arg(long, value_enum, default_value_t = SvmArg::F32)]
+    /// SVM precision (`compute.svm`: `f32`, `i8` or `auto`; default the daemon's, `auto`).
+    #[arg(long, value_enum, default_value_t = SvmArg::Auto)]
     svm: SvmArg,
     /// Also compute mosaic SIFT keypoints (`compute.keypoints`).
     #[arg(long)]
