@@ -12,6 +12,7 @@
 //! thin CLI over it.
 #![warn(missing_docs)]
 
+pub mod bounded_read;
 pub mod capture;
 pub mod clock;
 pub mod config;

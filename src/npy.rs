@@ -69,29 +69,19 @@ pub struct NpyArray {
 impl NpyArray {
     /// Read a file of at most [`MAX_FILE_BYTES`] (checked with `stat` before reading).
     pub fn read(path: impl AsRef<Path>) -> Result<Self, NpyError> {
-        use std::io::Read;
+        use crate::bounded_read::{read_at_most, ReadAtMostError};
         let path = path.as_ref();
-        let io = |source| NpyError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        let file = std::fs::File::open(path).map_err(io)?;
-        let size = file.metadata().map_err(io)?.len();
-        let too_big = |size| NpyError::TooLarge {
-            path: path.to_path_buf(),
-            size,
-            max: MAX_FILE_BYTES,
-        };
-        if size > MAX_FILE_BYTES {
-            return Err(too_big(size));
-        }
-        let mut bytes = Vec::with_capacity(size as usize);
-        file.take(MAX_FILE_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(io)?;
-        if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(too_big(bytes.len() as u64));
-        }
+        let bytes = read_at_most(path, MAX_FILE_BYTES).map_err(|e| match e {
+            ReadAtMostError::Io(source) => NpyError::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+            ReadAtMostError::TooLarge { size } => NpyError::TooLarge {
+                path: path.to_path_buf(),
+                size,
+                max: MAX_FILE_BYTES,
+            },
+        })?;
         Self::parse(&bytes, &path.display().to_string())
     }
 

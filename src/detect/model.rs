@@ -436,26 +436,20 @@ impl LinearModel {
 
 /// A text file of at most `max` bytes, `stat`ed before it is read.
 fn read_text_at_most(path: &Path, max: u64) -> Result<String, ModelError> {
-    use std::io::Read;
+    use crate::bounded_read::{read_at_most, ReadAtMostError};
     let io = |source| ModelError::Io {
         path: path.into(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let size = file.metadata().map_err(io)?.len();
-    let too_big = |size: u64| ModelError::Parse {
-        origin: path.display().to_string(),
-        what: format!("file is {size} bytes, more than the {max} bytes a model file may have"),
-    };
-    if size > max {
-        return Err(too_big(size));
-    }
-    let mut text = String::with_capacity(size as usize);
-    file.take(max + 1).read_to_string(&mut text).map_err(io)?;
-    if text.len() as u64 > max {
-        return Err(too_big(text.len() as u64));
-    }
-    Ok(text)
+    let bytes = read_at_most(path, max).map_err(|e| match e {
+        ReadAtMostError::Io(source) => io(source),
+        ReadAtMostError::TooLarge { size } => ModelError::Parse {
+            origin: path.display().to_string(),
+            what: format!("file is {size} bytes, more than the {max} bytes a model file may have"),
+        },
+    })?;
+    // As `read_to_string` reports text that is not UTF-8: an I/O error of kind InvalidData.
+    String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
 /// `key: value` on one line of a simple YAML document.

@@ -94,26 +94,16 @@ fn too_large(path: &Path, limit: super::FrameTooLarge) -> RawError {
 /// ([`RawError::FileTooLarge`], naming `what`), then read at most `max` bytes (a file that grows
 /// between the two is refused the same way).
 fn read_at_most(path: &Path, max: u64, what: &'static str) -> Result<Vec<u8>, RawError> {
-    use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
-    let size = file.metadata().map_err(|e| io_err(path, e))?.len();
-    let too_big = |size| RawError::FileTooLarge {
-        path: path.to_path_buf(),
-        size,
-        max,
-        what,
-    };
-    if size > max {
-        return Err(too_big(size));
-    }
-    let mut bytes = Vec::with_capacity(size as usize);
-    file.take(max.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(|e| io_err(path, e))?;
-    if bytes.len() as u64 > max {
-        return Err(too_big(bytes.len() as u64));
-    }
-    Ok(bytes)
+    use crate::bounded_read::ReadAtMostError;
+    crate::bounded_read::read_at_most(path, max).map_err(|e| match e {
+        ReadAtMostError::Io(e) => io_err(path, e),
+        ReadAtMostError::TooLarge { size } => RawError::FileTooLarge {
+            path: path.to_path_buf(),
+            size,
+            max,
+            what,
+        },
+    })
 }
 
 fn meta_for(origin: &Path) -> FrameMeta {
