@@ -810,10 +810,11 @@ mod tests {
     #[test]
     fn kernel_paths_fill_gives_the_same_bits() {
         // Integer-exact comparison: every fill makes the same fused multiply-adds in the same
-        // order. 4 and 16 bins are one and two AVX2 registers (one and four NEON), 18 is more
+        // order. AVX2 holds 4 bins in tail lanes only, 8 and 16 in one and two full registers,
+        // 9 and 12 in one register and tail lanes (NEON: one to four registers); 18 is more
         // than the register fills hold (the portable fill of the path).
         let img = plane(150, 170);
-        for nbins in [9, 4, 16, 18] {
+        for nbins in [9, 4, 8, 12, 16, 18] {
             let s = spec_nb(nbins);
             let mut m = MicroGrid::empty();
             micro_grid_with(
