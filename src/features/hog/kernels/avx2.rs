@@ -175,30 +175,6 @@ fn vote<const R: usize>(perm: &[__m256i; R], [w0, w1]: [f32; 2]) -> [__m256; R] 
     v
 }
 
-/// The `R` registers of the half floats `at .. at + 8R` of `data`, as `f32` (halves past its end
-/// read as +0).
-#[target_feature(enable = "avx2,fma,f16c")]
-#[inline]
-fn load_halves<const R: usize>(data: &[u16], at: usize) -> [__m256; R] {
-    let mut out = [_mm256_setzero_ps(); R];
-    for (r, o) in out.iter_mut().enumerate() {
-        let a = at + 8 * r;
-        let h = if a + 8 <= data.len() {
-            let h = &data[a..a + 8];
-            // SAFETY: `h` holds 8 half floats (16 bytes).
-            unsafe { _mm_loadu_si128(h.as_ptr() as *const __m128i) }
-        } else {
-            let mut t = [0u16; 8];
-            let n = data.len().saturating_sub(a).min(8);
-            t[..n].copy_from_slice(&data[a..a + n]);
-            // SAFETY: `t` holds 8 half floats.
-            unsafe { _mm_loadu_si128(t.as_ptr() as *const __m128i) }
-        };
-        *o = _mm256_cvtph_ps(h);
-    }
-    out
-}
-
 /// The cell rows from `cy0` on (as many as `chunk` holds) with each cell's votes in registers
 /// ([`cells_body`]).
 ///
@@ -213,10 +189,10 @@ pub(crate) unsafe fn cells_strip(
     chunk: &mut [f32],
     cs: &mut CellScratch,
 ) {
-    if spec.nbins() <= 8 {
-        cells_body::<false, 1>(spec, p, cy0, chunk, cs, &mut [])
-    } else {
-        cells_body::<false, 2>(spec, p, cy0, chunk, cs, &mut [])
+    match spec.nbins() {
+        DEFAULT_NBINS => cells_body::<false, 2, DEFAULT_NBINS>(spec, p, cy0, chunk, cs, &mut []),
+        ..=8 => cells_body::<false, 1, 0>(spec, p, cy0, chunk, cs, &mut []),
+        _ => cells_body::<false, 2, 0>(spec, p, cy0, chunk, cs, &mut []),
     }
 }
 
@@ -238,10 +214,10 @@ pub(crate) unsafe fn cells_micro_row(
     cs: &mut CellScratch,
     micro: &mut [u16],
 ) {
-    if spec.nbins() <= 8 {
-        cells_body::<true, 1>(spec, p, cy, chunk, cs, micro)
-    } else {
-        cells_body::<true, 2>(spec, p, cy, chunk, cs, micro)
+    match spec.nbins() {
+        DEFAULT_NBINS => cells_body::<true, 2, DEFAULT_NBINS>(spec, p, cy, chunk, cs, micro),
+        ..=8 => cells_body::<true, 1, 0>(spec, p, cy, chunk, cs, micro),
+        _ => cells_body::<true, 2, 0>(spec, p, cy, chunk, cs, micro),
     }
 }
 
@@ -262,10 +238,14 @@ pub(crate) unsafe fn cells_micro_row(
 /// With `MICRO`, the vote vectors of the cell's 64 pixels are kept (stack) and summed per 2x2
 /// micro-cell afterwards.
 ///
+/// `NB` is the bin count as a constant (the detector's 9), or 0 to read it from `spec`: with a
+/// constant, the histogram stores are fixed-length moves instead of calls to `memcpy`.
+///
 /// # Safety
-/// As [`cells_micro_row`] when `MICRO`, else as [`cells_strip`]; `nb ≤ 8R`.
+/// As [`cells_micro_row`] when `MICRO`, else as [`cells_strip`]; `nb ≤ 8R`; `NB` is 0 or
+/// `spec.nbins()`.
 #[target_feature(enable = "avx2,fma,f16c")]
-unsafe fn cells_body<const MICRO: bool, const R: usize>(
+unsafe fn cells_body<const MICRO: bool, const R: usize, const NB: usize>(
     spec: &HogSpec,
     p: &Planes,
     cy0: usize,
@@ -273,7 +253,8 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
     cs: &mut CellScratch,
     micro: &mut [u16],
 ) {
-    let nb = spec.nbins();
+    debug_assert!(NB == 0 || NB == spec.nbins());
+    let nb = if NB > 0 { NB } else { spec.nbins() };
     debug_assert!(nb <= 8 * R && R <= 2);
     let ncx = p.width / CELL_SIZE;
     let cl = cell_len(nb);
@@ -478,47 +459,58 @@ unsafe fn fill_body<const FULL: usize, const TAIL: usize>(
     let mut sums = vec![empty; rows.len()];
     for (cx, cell) in row.chunks_exact_mut(cl).enumerate().take(taps.ncx) {
         let (clo, chi) = taps.cols[cx];
-        // 1. x pass, one micro row at a time.
+        // 1. x pass, one micro row at a time, in registers (`$live` a literal list of
+        //    x-profiles, so every index below is a constant).
         for (rw, s) in rows.iter().zip(sums.iter_mut()) {
-            *s = empty;
-            let base = rw.my * stride;
-            let mut add = |mx: usize, profiles: &[usize]| {
-                let at = base + mx * nb;
-                let w = &taps.xw[mx];
-                let v = load_halves::<FULL>(data, at);
-                for &p in profiles {
-                    let wv = _mm256_set1_ps(w[p]);
-                    for r in 0..FULL {
-                        s.full[p][r] = _mm256_fmadd_ps(wv, v[r], s.full[p][r]);
+            // The micro-cells `clo..chi` of this row, and their x-profile weights: every load
+            // below is inside these two slices (a micro-cell is `nb = 8·FULL + TAIL` halves).
+            let cells = &data[rw.my * stride + clo * nb..rw.my * stride + chi * nb];
+            let xw = &taps.xw[clo..chi];
+            let mut full = [[zero; FULL]; PROFILES];
+            let mut tail = [_mm_setzero_ps(); TAIL];
+            macro_rules! add {
+                ($range:expr, [$($p:literal),*]) => {
+                    for mx in $range {
+                        let at = (mx - clo) * nb;
+                        let w = &xw[mx - clo];
+                        // SAFETY: `at + nb ≤ cells.len()` (mx < chi): the `FULL` 8-half loads
+                        // end at `at + 8·FULL ≤ at + nb`.
+                        let v: [__m256; FULL] = std::array::from_fn(|r| unsafe {
+                            _mm256_cvtph_ps(_mm_loadu_si128(cells.as_ptr().add(at + 8 * r).cast()))
+                        });
+                        $(
+                            let wv = _mm256_set1_ps(w[$p]);
+                            for r in 0..FULL {
+                                full[$p][r] = _mm256_fmadd_ps(wv, v[r], full[$p][r]);
+                            }
+                        )*
+                        if TAIL > 0 {
+                            // SAFETY: `w` holds the 4 x-profile weights (16 bytes).
+                            let wx = unsafe { _mm_loadu_ps(w.as_ptr()) };
+                            for (k, t) in tail.iter_mut().enumerate() {
+                                // SAFETY: `at + 8·FULL + k < at + nb ≤ cells.len()`.
+                                let h = unsafe { *cells.get_unchecked(at + 8 * FULL + k) };
+                                let v = _mm_cvtph_ps(_mm_set1_epi16(h as i16));
+                                *t = _mm_fmadd_ps(wx, v, *t);
+                            }
+                        }
                     }
-                }
-                if TAIL > 0 {
-                    // SAFETY: `w` holds the 4 x-profile weights (16 bytes).
-                    let wx = unsafe { _mm_loadu_ps(w.as_ptr()) };
-                    let tail = &data[at + 8 * FULL..][..TAIL];
-                    for (k, &h) in tail.iter().enumerate() {
-                        let v = _mm_cvtph_ps(_mm_set1_epi16(h as i16));
-                        s.tail[k] = _mm_fmadd_ps(wx, v, s.tail[k]);
-                    }
-                }
-            };
+                };
+            }
+            const _: () = assert!(
+                matches!(LEFT_PROFILES, [0, 1, 3]) && matches!(RIGHT_PROFILES, [0, 2, 3]),
+                "the literal profile lists below are LEFT_PROFILES and RIGHT_PROFILES"
+            );
             match taps.split[cx] {
                 // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is: adding
                 // `0·v` (+0) to a sum ≥ +0 changes no bit, so those products are skipped.
                 Some(mid) => {
-                    for mx in clo..mid {
-                        add(mx, &LEFT_PROFILES);
-                    }
-                    for mx in mid..chi {
-                        add(mx, &RIGHT_PROFILES);
-                    }
+                    add!(clo..mid, [0, 1, 3]);
+                    add!(mid..chi, [0, 2, 3]);
                 }
-                None => {
-                    for mx in clo..chi {
-                        add(mx, &[0, 1, 2, 3]);
-                    }
-                }
+                None => add!(clo..chi, [0, 1, 2, 3]),
             }
+            *s = RowSums { full, tail };
         }
         // 2. y pass, one y-profile at a time (a cell row without micro rows is all +0).
         for py in 0..PROFILES {
