@@ -645,3 +645,19 @@ fn sighup_finishes_the_recording_file_and_starts_the_next_without_losing_a_frame
         .unwrap_or_else(|| panic!("no frame count in {stdout}"));
     assert_eq!(all.len(), processed, "no processed frame lost between the files");
 }
+
+#[test]
+fn logs_to_a_pipe_have_no_colour_codes_and_print_values_not_options() {
+    // stderr is a pipe here, as under journald or in CI: plain text (colour only on a terminal).
+    let dir = tempfile::tempdir().unwrap();
+    let o = replay(&recording(), &dir.path().join("l.mcap"), &[])
+        .env("RUST_LOG", "info")
+        .env_remove("NO_COLOR")
+        .output()
+        .unwrap();
+    let err = stderr_of(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("INFO"), "{err}");
+    assert!(!err.contains('\x1b'), "ANSI escapes in a piped log: {err:?}");
+    assert!(!err.contains("Some("), "{err}");
+}

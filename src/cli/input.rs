@@ -111,7 +111,7 @@ impl InputArgs {
             bit_depth = f.bit_depth(),
             black = ?f.levels().black,
             white = f.levels().white,
-            wb_gains = ?f.wb_gains,
+            wb_gains = %f.wb_gains.map_or("none".to_string(), |[r, g, b]| format!("{r},{g},{b}")),
             rgb = loaded.rgb.is_some(),
             "loaded input"
         );

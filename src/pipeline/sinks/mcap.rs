@@ -115,7 +115,7 @@ impl McapSink {
         if let Some(o) = self.outage.take() {
             tracing::info!(
                 camera = %self.camera,
-                file = ?self.recorder.files().last(),
+                file = %self.recorder.files().last().map(|p| p.display().to_string()).unwrap_or_default(),
                 frames_not_recorded = o.frames_lost,
                 failed_attempts = o.failed_attempts,
                 "recording resumed in a new file"
@@ -296,7 +296,11 @@ impl Sink for McapSink {
             Ok(true) => {
                 // the file was finished with everything written to it
                 self.since_flush = 0;
-                tracing::info!(camera = %self.camera, file = ?closed, "recording file finished; the next frame starts a new one");
+                tracing::info!(
+                    camera = %self.camera,
+                    file = %closed.map(|p| p.display().to_string()).unwrap_or_default(),
+                    "recording file finished; the next frame starts a new one"
+                );
                 Ok(())
             }
             Ok(false) => {
