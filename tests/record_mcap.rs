@@ -855,3 +855,33 @@ fn looping_a_recording_whose_time_goes_backwards_does_not_overflow() {
         assert!(b > a && b - a < 10 * FRAME_NS, "pass 2 {ts:?}");
     }
 }
+
+/// A recorder of frames only (`results: false`, what `mosaicd record` uses) declares no result
+/// channel, so no channel in its file is empty, and refuses results with the option's name.
+#[test]
+fn a_frames_only_recording_declares_no_result_channels() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.mcap");
+    let opts = RecorderOptions {
+        results: false,
+        ..RecorderOptions::default()
+    };
+    let mut rec = McapRecorder::create(&p, opts).unwrap();
+    for i in 0..3 {
+        rec.write_frame(&frame(i, 64, 48)).unwrap();
+    }
+    for e in [
+        rec.write_detections(0, 0, 64, 48, &det(0)).unwrap_err(),
+        rec.write_stats(0, &serde_json::json!({})).unwrap_err(),
+    ] {
+        assert!(e.to_string().contains("results = false"), "{e}");
+    }
+    rec.finish().unwrap();
+    let info = RecordingInfo::read(&p).unwrap();
+    let got: Vec<(&str, u64)> = info
+        .channels
+        .values()
+        .map(|c| (c.topic.as_str(), c.messages))
+        .collect();
+    assert_eq!(got, [("/camera/preview", 3), ("/camera/raw", 3)]);
+}

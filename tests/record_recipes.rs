@@ -46,6 +46,20 @@ fn synthetic_recording_matches_its_recipe_byte_for_byte() {
         golden.display()
     );
 
+    // A recording of frames declares no channel that holds no message (results channels are
+    // the daemon's, not `mosaicd record`'s).
+    let info = RecordingInfo::read(&golden).unwrap();
+    let topics: Vec<(&str, u64)> = info
+        .channels
+        .values()
+        .map(|c| (c.topic.as_str(), c.messages))
+        .collect();
+    assert_eq!(
+        topics,
+        [("/camera/preview", recipe.frames), ("/camera/raw", recipe.frames)],
+        "channels and their messages"
+    );
+
     let frames = frames_of(&golden);
     assert_eq!(frames.len() as u64, recipe.frames);
     let mut phases = std::collections::BTreeSet::new();

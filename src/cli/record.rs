@@ -125,6 +125,8 @@ fn recorder_options(a: &RecordArgs) -> RecorderOptions {
         preview: (a.opts.preview_decimation > 0).then_some(PreviewOptions {
             decimation: a.opts.preview_decimation,
         }),
+        // Frames only: no result channels that would hold no message.
+        results: false,
         ..Default::default()
     }
 }

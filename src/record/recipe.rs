@@ -497,6 +497,8 @@ pub fn build_recording(
         preview: (recipe.recorder.preview_decimation > 0).then_some(PreviewOptions {
             decimation: recipe.recorder.preview_decimation,
         }),
+        // Frames only: no result channels that would hold no message.
+        results: false,
         ..Default::default()
     };
     let mut rec = McapRecorder::create(out, opts)?;

@@ -113,6 +113,10 @@ pub struct RecorderOptions {
     pub raw: bool,
     /// Record the 8-bit Foxglove preview.
     pub preview: Option<PreviewOptions>,
+    /// Declare the result channels (`/<camera>/annotations`, `/<camera>/detections`,
+    /// `/<camera>/stats`). Off for a recording of frames only (`mosaicd record`), so its file
+    /// declares no channel that holds no message; writing results is then refused.
+    pub results: bool,
     /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations) and
     /// the `/<camera>/sift` channel (`mosaicd.SiftFeatures`: full-frame keypoints and descriptors).
     pub keypoints: bool,
@@ -138,6 +142,7 @@ impl Default for RecorderOptions {
             rotate: RotatePolicy::default(),
             raw: true,
             preview: Some(PreviewOptions { decimation: 2 }),
+            results: true,
             keypoints: false,
             keep_existing: false,
             max_files: None,
@@ -236,9 +241,9 @@ impl Seek for Counted {
 struct ChannelIds {
     raw: Option<u16>,
     preview: Option<u16>,
-    annotations: u16,
-    detections: u16,
-    stats: u16,
+    annotations: Option<u16>,
+    detections: Option<u16>,
+    stats: Option<u16>,
     keypoints: Option<u16>,
     sift: Option<u16>,
 }
@@ -607,27 +612,36 @@ impl McapRecorder {
             }
             None => None,
         };
-        let s = w.add_schema(
-            schema::IMAGE_ANNOTATIONS_SCHEMA,
-            "jsonschema",
-            schema::image_annotations_json_schema().as_bytes(),
-        )?;
-        let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
-        let annotations_schema = s;
-        let s = w.add_schema(
-            schema::DETECTIONS_SCHEMA,
-            "jsonschema",
-            schema::DETECTIONS_JSON_SCHEMA.as_bytes(),
-        )?;
-        let detections = w.add_channel(s, &topics.detections, "json", &none)?;
-        let s = w.add_schema(
-            schema::STATS_SCHEMA,
-            "jsonschema",
-            schema::STATS_JSON_SCHEMA.as_bytes(),
-        )?;
-        let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+        let annotations_schema = if opts.results || opts.keypoints {
+            Some(w.add_schema(
+                schema::IMAGE_ANNOTATIONS_SCHEMA,
+                "jsonschema",
+                schema::image_annotations_json_schema().as_bytes(),
+            )?)
+        } else {
+            None
+        };
+        let (annotations, detections, stats) = match annotations_schema.filter(|_| opts.results) {
+            Some(s) => {
+                let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
+                let s = w.add_schema(
+                    schema::DETECTIONS_SCHEMA,
+                    "jsonschema",
+                    schema::DETECTIONS_JSON_SCHEMA.as_bytes(),
+                )?;
+                let detections = w.add_channel(s, &topics.detections, "json", &none)?;
+                let s = w.add_schema(
+                    schema::STATS_SCHEMA,
+                    "jsonschema",
+                    schema::STATS_JSON_SCHEMA.as_bytes(),
+                )?;
+                let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+                (Some(annotations), Some(detections), Some(stats))
+            }
+            None => (None, None, None),
+        };
         // Added last, so the other channels keep their ids whether or not keypoints are recorded.
-        let (keypoints, sift) = if opts.keypoints {
+        let (keypoints, sift) = if let (true, Some(annotations_schema)) = (opts.keypoints, annotations_schema) {
             let k = w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?;
             let s = w.add_schema(
                 schema::SIFT_FEATURES_SCHEMA,
@@ -827,10 +841,13 @@ impl McapRecorder {
             self.begin_frame(timestamp_ns)?;
         }
         let ids = self.segment()?.ids;
+        let (Some(annotations), Some(detections_ch)) = (ids.annotations, ids.detections) else {
+            return Err(no_results());
+        };
         let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
         let ann = schema::annotations_from_detections(timestamp_ns, detections, scale);
         let json = serde_json::to_vec(&ann).expect("annotations serialise");
-        self.write_message(2, ids.annotations, timestamp_ns, &json)?;
+        self.write_message(2, annotations, timestamp_ns, &json)?;
         let msg = DetectionsMessage {
             sequence,
             timestamp_ns,
@@ -839,7 +856,7 @@ impl McapRecorder {
             detections: detections.to_vec(),
         };
         let json = serde_json::to_vec(&msg).expect("detections serialise");
-        self.write_message(3, ids.detections, timestamp_ns, &json)?;
+        self.write_message(3, detections_ch, timestamp_ns, &json)?;
         self.detections += 1;
         Ok(())
     }
@@ -906,13 +923,15 @@ impl McapRecorder {
         timestamp_ns: u64,
         stats: &T,
     ) -> Result<(), RecordError> {
-        let ids = self.segment()?.ids;
+        let Some(stats_ch) = self.segment()?.ids.stats else {
+            return Err(no_results());
+        };
         let json = serde_json::to_vec(stats).map_err(|e| RecordError::Option {
             name: "stats",
             value: e.to_string(),
             why: "a value that serialises to JSON",
         })?;
-        self.write_message(4, ids.stats, timestamp_ns, &json)?;
+        self.write_message(4, stats_ch, timestamp_ns, &json)?;
         self.stats += 1;
         Ok(())
     }
@@ -947,6 +966,15 @@ impl McapRecorder {
             detections: self.detections,
             stats: self.stats,
         }
+    }
+}
+
+/// Writing results to a recorder created without result channels.
+fn no_results() -> RecordError {
+    RecordError::Option {
+        name: "results",
+        value: "false".into(),
+        why: "true to record detections and stats",
     }
 }
 
