@@ -641,7 +641,8 @@ impl McapRecorder {
             None => (None, None, None),
         };
         // Added last, so the other channels keep their ids whether or not keypoints are recorded.
-        let (keypoints, sift) = if let (true, Some(annotations_schema)) = (opts.keypoints, annotations_schema) {
+        let (keypoints, sift) = if let (true, Some(annotations_schema)) = (opts.keypoints, annotations_schema)
+        {
             let k = w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?;
             let s = w.add_schema(
                 schema::SIFT_FEATURES_SCHEMA,
