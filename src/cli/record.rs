@@ -16,6 +16,7 @@ use mosaicd::capture::files::{FileSource, FileSourceOptions, Sidecar};
 use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
 use mosaicd::capture::v4l2_formats::parse_fourcc;
 use mosaicd::capture::Source;
+use mosaicd::clock::WallClockSource;
 use mosaicd::raw::Levels;
 use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
 use mosaicd::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
@@ -161,7 +162,12 @@ fn record_source(
     limit: Option<u64>,
     out: PathBuf,
 ) -> anyhow::Result<()> {
-    let mut rec = McapRecorder::create(&out, recorder_options(a))?;
+    let opts = RecorderOptions {
+        // A camera stamps frames with CLOCK_MONOTONIC: each file records the wall clock.
+        wall_clock: a.device.is_some().then_some(WallClockSource::System),
+        ..recorder_options(a)
+    };
+    let mut rec = McapRecorder::create(&out, opts)?;
     let mut n = 0u64;
     let mut errors = 0u64;
     while limit.is_none_or(|l| n < l) {

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use super::preview::preview_from_raw;
+use crate::clock::{WallClock, WallClockSource};
 use crate::detect::Detection;
 use crate::features::sift::Keypoint;
 use crate::raw::RawFrame;
@@ -23,6 +24,12 @@ pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
 /// Default zstd level: level 1 is about 4x faster than zstd's default (3) on noisy 12-bit 1080p
 /// frames for a file about 2 % larger (measured: docs/recording.md).
 pub const DEFAULT_COMPRESSION_LEVEL: u32 = 1;
+/// Name of the metadata record that ties a live recording's `CLOCK_MONOTONIC` times to the wall
+/// clock. Keys: `timestamps` (`CLOCK_MONOTONIC`: what log times, publish times and the frames'
+/// timestamps count), `realtime_minus_monotonic_ns` (add it to any of them for ns since the Unix
+/// epoch, UTC), `realtime_ns` and `monotonic_ns` (the reading it comes from, taken when the file was
+/// opened) and `realtime_utc` (the same instant, RFC 3339).
+pub const WALL_CLOCK_METADATA: &str = "mosaicd.clock";
 /// Write buffer in front of the file (bytes).
 const FILE_BUFFER: usize = 1 << 20;
 
@@ -120,6 +127,11 @@ pub struct RecorderOptions {
     /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations) and
     /// the `/<camera>/sift` channel (`mosaicd.SiftFeatures`: full-frame keypoints and descriptors).
     pub keypoints: bool,
+    /// Frame timestamps are `CLOCK_MONOTONIC` (a live camera): each file then starts with a
+    /// `mosaicd.clock` metadata record holding this reading of the wall clock against it, taken
+    /// when the file is opened ([`WALL_CLOCK_METADATA`]). `None` for recorded or synthetic time
+    /// (replays, recipes), whose output must not depend on when it was made.
+    pub wall_clock: Option<WallClockSource>,
     /// Never overwrite an existing file (the daemon: a restart must not truncate the recording of
     /// the run before it). Files are then numbered as rotation numbers them, `stem-NNNN.mcap`,
     /// after the highest number already in the directory; the plain path is used only while it
@@ -143,6 +155,7 @@ impl Default for RecorderOptions {
             raw: true,
             preview: Some(PreviewOptions { decimation: 2 }),
             results: true,
+            wall_clock: None,
             keypoints: false,
             keep_existing: false,
             max_files: None,
@@ -570,6 +583,11 @@ impl McapRecorder {
             .create(counted)
             .map_err(|e| fail(&path, e))?;
         let ids = Self::add_channels(&mut writer, &self.topics, &self.opts).map_err(|e| fail(&path, e))?;
+        if let Some(clock) = self.opts.wall_clock {
+            writer
+                .write_metadata(&wall_clock_metadata(&clock.read()))
+                .map_err(|e| fail(&path, e))?;
+        }
         self.files.push(path.clone());
         let preamble = len.load(Ordering::Relaxed);
         self.state = State::Open(Box::new(Segment {
@@ -970,6 +988,47 @@ impl McapRecorder {
     }
 }
 
+/// The [`WALL_CLOCK_METADATA`] record of a reading.
+pub fn wall_clock_metadata(w: &WallClock) -> mcap::records::Metadata {
+    let metadata = BTreeMap::from([
+        ("timestamps".to_string(), "CLOCK_MONOTONIC".to_string()),
+        (
+            "realtime_minus_monotonic_ns".to_string(),
+            w.offset_ns().to_string(),
+        ),
+        ("realtime_ns".to_string(), w.realtime_ns.to_string()),
+        ("monotonic_ns".to_string(), w.monotonic_ns.to_string()),
+        ("realtime_utc".to_string(), rfc3339_utc(w.realtime_ns)),
+    ]);
+    mcap::records::Metadata {
+        name: WALL_CLOCK_METADATA.to_string(),
+        metadata,
+    }
+}
+
+/// `ns` since the Unix epoch as RFC 3339 UTC with nanoseconds (`2026-11-27T06:50:00.000000000Z`),
+/// by the days-to-civil conversion of the proleptic Gregorian calendar (H. Hinnant, "chrono-
+/// Compatible Low-Level Date Algorithms").
+fn rfc3339_utc(ns: u64) -> String {
+    let (secs, nanos) = (ns / 1_000_000_000, ns % 1_000_000_000);
+    let (days, rem) = ((secs / 86_400) as i64, secs % 86_400);
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{nanos:09}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
 /// Writing results to a recorder created without result channels.
 fn no_results() -> RecordError {
     RecordError::Option {
@@ -1025,4 +1084,23 @@ fn numbered_files(base: &Path) -> Result<Vec<(u32, PathBuf)>, RecordError> {
         .collect();
     v.sort();
     Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rfc3339_of_known_instants() {
+        assert_eq!(rfc3339_utc(0), "1970-01-01T00:00:00.000000000Z");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.789
+        assert_eq!(
+            rfc3339_utc(951_827_696_789_000_000),
+            "2000-02-29T12:34:56.789000000Z"
+        );
+        assert_eq!(
+            rfc3339_utc(1_795_737_600_000_000_001),
+            "2026-11-27T00:00:00.000000001Z"
+        );
+    }
 }

@@ -18,7 +18,8 @@
 
 use std::time::{Duration, Instant};
 
-use crate::config::{CameraConfig, Config};
+use crate::clock::WallClockSource;
+use crate::config::{CameraConfig, Config, SourceType};
 use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
 use crate::wire::messages::StatsMsg;
 
@@ -53,6 +54,16 @@ struct Outage {
     failed_attempts: u64,
 }
 
+/// The camera's frames carry `CLOCK_MONOTONIC` timestamps: a V4L2 device, or a live synthetic
+/// stream (recordings and files carry recorded time).
+fn monotonic_timestamps(cam: &CameraConfig) -> bool {
+    match cam.source {
+        SourceType::V4l2 => true,
+        SourceType::Synthetic => cam.live,
+        SourceType::Mcap | SourceType::Files => false,
+    }
+}
+
 /// The recorder sink of a camera (`record.path`, `{camera}` substituted). The file is created in
 /// the sink thread at start-up, so a bad path stops the start with an error naming it.
 pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, DaemonError> {
@@ -70,6 +81,8 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             decimation: cfg.record.preview_decimation,
         }),
         keypoints: cfg.compute.keypoints,
+        // A live camera's frames carry CLOCK_MONOTONIC time: each file records the wall clock.
+        wall_clock: monotonic_timestamps(cam).then_some(WallClockSource::System),
         rotate: RotatePolicy::from_limits(Some(cfg.record.rotate_mb), Some(cfg.record.rotate_secs)),
         max_files: (cfg.record.max_files > 0).then_some(cfg.record.max_files),
         // A restart (systemd, crash) must not truncate the run before it.
