@@ -302,6 +302,8 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             source: SourceSpec {
                 kind: if rgb { "rgb" } else { "raw" }.into(),
                 file: Some(std::path::absolute(input)?),
+                files: Vec::new(),
+                scale: None,
                 format,
                 profile: a.opts.profile.clone(),
                 cfa: a.opts.cfa.clone(),
