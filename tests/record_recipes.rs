@@ -169,6 +169,12 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
         .output()
         .unwrap();
     assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    // stderr is a pipe here (as in CI): no progress bar and no progress lines, only the log.
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(
+        !err.contains('\r') && !err.contains('\x1b') && !err.contains("3 frames"),
+        "{err:?}"
+    );
     let frames = frames_of(&out);
     assert_eq!(frames.len(), 3);
     assert_eq!(frames[2].value(3, 3), 85);

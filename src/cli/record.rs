@@ -17,6 +17,7 @@ use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
 use mosaicd::capture::v4l2_formats::parse_fourcc;
 use mosaicd::capture::Source;
 use mosaicd::clock::WallClockSource;
+use mosaicd::progress::Progress;
 use mosaicd::raw::Levels;
 use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
 use mosaicd::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
@@ -150,10 +151,9 @@ fn parse_path(s: &str) -> anyhow::Result<Vec<[usize; 2]>> {
         .collect()
 }
 
-fn progress(done: u64, total: u64) {
-    if total > 0 && (done == total || done.is_multiple_of((total / 10).max(1))) {
-        eprintln!("  {done}/{total} frames");
-    }
+/// A frames bar for `total` frames (a counter when unknown); drawn only on a terminal.
+fn frames_bar(total: Option<u64>) -> Progress {
+    Progress::new("record", total)
 }
 
 fn record_source(
@@ -168,6 +168,7 @@ fn record_source(
         ..recorder_options(a)
     };
     let mut rec = McapRecorder::create(&out, opts)?;
+    let bar = frames_bar(limit);
     let mut n = 0u64;
     let mut errors = 0u64;
     while limit.is_none_or(|l| n < l) {
@@ -175,20 +176,17 @@ fn record_source(
             Ok(Some(f)) => {
                 rec.write_frame(&f)?;
                 n += 1;
-                if let Some(l) = limit {
-                    progress(n, l);
-                } else if n.is_multiple_of(10) {
-                    eprintln!("  {n} frames");
-                }
+                bar.set(n, "frames");
             }
             Ok(None) => break,
             Err(e) if !src.is_finished() => {
                 errors += 1;
-                eprintln!("  skipped: {e}");
+                bar.println(&format!("  skipped: {e}"));
             }
             Err(e) => return Err(e.into()),
         }
     }
+    bar.finish();
     let s = rec.finish()?;
     if n == 0 {
         // An empty recording is not a success: every input was skipped (or there was none).
@@ -230,6 +228,8 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             recipe.frames,
             recipe_path.display()
         );
+        let bar = frames_bar(Some(recipe.frames));
+        let progress = |done, _| bar.set(done, "frames");
         let s = build_recording(&recipe, &data_root, a.out.as_deref(), progress).with_context(|| {
             format!(
                 "recipe {} (data root {})",
@@ -237,6 +237,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 data_root.display()
             )
         })?;
+        bar.finish();
         print_files(s.frames, &s.files);
         return Ok(());
     }
@@ -325,7 +326,10 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 rotate_secs: a.opts.rotate_secs,
             },
         };
+        let bar = frames_bar(Some(recipe.frames));
+        let progress = |done, _| bar.set(done, "frames");
         let s = build_recording(&recipe, std::path::Path::new("/"), Some(&out), progress)?;
+        bar.finish();
         print_files(s.frames, &s.files);
         return Ok(());
     }
