@@ -457,6 +457,70 @@ pub struct ImageAnnotations {
     pub texts: Vec<TextAnnotation>,
 }
 
+impl From<FoxgloveTime> for foxglove::messages::Timestamp {
+    /// Seconds saturate at `u32::MAX` (the year 2106).
+    fn from(t: FoxgloveTime) -> Self {
+        Self::new(t.sec.min(u32::MAX as u64) as u32, t.nsec)
+    }
+}
+
+impl From<Point2> for foxglove::messages::Point2 {
+    fn from(p: Point2) -> Self {
+        Self { x: p.x, y: p.y }
+    }
+}
+
+impl From<Color> for foxglove::messages::Color {
+    fn from(c: Color) -> Self {
+        Self {
+            r: c.r,
+            g: c.g,
+            b: c.b,
+            a: c.a,
+        }
+    }
+}
+
+/// The same annotations as the SDK's protobuf message (the live view sends these): the same
+/// points, colours, texts and timestamps; `kind` is Foxglove's `PointsAnnotation.Type` number in
+/// both. No circles (we make none).
+impl From<&ImageAnnotations> for foxglove::messages::ImageAnnotations {
+    fn from(a: &ImageAnnotations) -> Self {
+        Self {
+            timestamp: None,
+            circles: Vec::new(),
+            points: a
+                .points
+                .iter()
+                .map(|p| foxglove::messages::PointsAnnotation {
+                    timestamp: Some(p.timestamp.into()),
+                    r#type: p.kind as i32,
+                    points: p.points.iter().map(|&q| q.into()).collect(),
+                    outline_color: Some(p.outline_color.into()),
+                    outline_colors: p.outline_colors.iter().map(|&c| c.into()).collect(),
+                    fill_color: Some(p.fill_color.into()),
+                    thickness: p.thickness,
+                    metadata: Vec::new(),
+                })
+                .collect(),
+            texts: a
+                .texts
+                .iter()
+                .map(|t| foxglove::messages::TextAnnotation {
+                    timestamp: Some(t.timestamp.into()),
+                    position: Some(t.position.into()),
+                    text: t.text.clone(),
+                    font_size: t.font_size,
+                    text_color: Some(t.text_color.into()),
+                    background_color: Some(t.background_color.into()),
+                    metadata: Vec::new(),
+                })
+                .collect(),
+            metadata: Vec::new(),
+        }
+    }
+}
+
 /// Box outline colour in annotations (opaque green).
 const BOX_COLOUR: Color = Color {
     r: 0.0,
