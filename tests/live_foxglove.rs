@@ -4,12 +4,13 @@
 //! the one the `foxglove` crate's server speaks), reads the channel advertisements, subscribes,
 //! and checks that:
 //!
-//! - an image (`foxglove.RawImage`, `bayer_*8`, decimated by 2) and boxes
+//! - an image (`foxglove.RawImage`, `bayer_*8`, every 2x2 tile) and boxes
 //!   (`foxglove.ImageAnnotations`) arrive for the same frame (same log time, same message
 //!   timestamps), the boxes inside the image;
-//! - a client that subscribes and then stops reading, and one that disappears mid-stream without
-//!   closing its connection, do not stop the daemon: a client connecting after them still
-//!   receives new frames, and the daemon stops cleanly on SIGTERM, logging what it published;
+//! - while a client that subscribed stops reading, another receives every frame in order and only
+//!   the stalled one loses frames; a client that disappears mid-stream without closing its
+//!   connection does not stop the daemon either: a client connecting after them still receives
+//!   new frames, and the daemon stops cleanly on SIGTERM, logging what it published;
 //! - the stats channel carries the live view's counters.
 //!
 //! With `MOSAICD_LIVE_PNG=FILE`, the test also writes the received image, demosaiced, with the
@@ -31,6 +32,13 @@ use tokio_tungstenite::tungstenite::Message;
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 /// How long any one step may take (a debug build detects a 768x512 frame in well under this).
 const STEP: Duration = Duration::from_secs(60);
+/// How many frames a client stops reading for: 40 images of 393 kB, 16 MB, more than the kernel
+/// buffers (the server's send buffer grows to 4 MiB at most, the client's receive buffer is
+/// 16 KiB) and the client's queue (`client_backlog = 16` messages, 6 MB of images) hold. The
+/// reading client's queue holds about 5 frames (image, boxes, stats): it must not lose any.
+const STALL_FRAMES: usize = 40;
+/// The camera's frame interval (10 frames/s), ns.
+const FRAME_NS: u64 = 100_000_000;
 
 /// A daemon with the live view on a free port; killed when dropped.
 struct Daemon {
@@ -59,6 +67,8 @@ stats_interval_ms = 200
 enabled = false
 [foxglove]
 listen = "127.0.0.1:0"
+preview_decimation = 1
+client_backlog = 16
 [[camera]]
 name = "live"
 source = "files"
@@ -114,6 +124,21 @@ async fn connect(url: &str) -> Ws {
         resp.headers().get("sec-websocket-protocol").unwrap(),
         "foxglove.sdk.v1"
     );
+    ws
+}
+
+/// Connect with a 16 KiB receive buffer (a slow reader's socket fills quickly).
+async fn connect_with_small_buffer(url: &str) -> Ws {
+    let addr: std::net::SocketAddr = url.trim_start_matches("ws://").parse().unwrap();
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.set_recv_buffer_size(16 * 1024).unwrap();
+    let stream = socket.connect(addr).await.unwrap();
+    let mut req = url.into_client_request().unwrap();
+    req.headers_mut()
+        .insert("sec-websocket-protocol", "foxglove.sdk.v1".parse().unwrap());
+    let (ws, _) = tokio_tungstenite::client_async(req, tokio_tungstenite::MaybeTlsStream::Plain(stream))
+        .await
+        .unwrap();
     ws
 }
 
@@ -260,15 +285,15 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
                 break (t, images.remove(&t).unwrap(), annotations.remove(&t).unwrap());
             }
         };
-        // kodim12 is 768x512: the preview keeps every 2nd 2x2 tile.
-        assert_eq!((img.width, img.height, img.step), (384, 256, 384));
+        // kodim12 is 768x512, the preview keeps every 2x2 tile (preview_decimation = 1).
+        assert_eq!((img.width, img.height, img.step), (768, 512, 768));
         assert!(
             img.encoding.starts_with("bayer_") && img.encoding.ends_with('8'),
             "{}",
             img.encoding
         );
         assert_eq!(img.frame_id, "live");
-        assert_eq!(img.data.len(), 384 * 256);
+        assert_eq!(img.data.len(), 768 * 512);
         let ts = img.timestamp.unwrap();
         assert_eq!(ts.total_nanos(), t, "image timestamp = log time");
         let dets = boxes(&ann);
@@ -279,8 +304,8 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
                 "boxes carry the image's timestamp"
             );
             assert!(
-                d.x >= -1.0 && d.y >= -1.0 && d.x + d.width <= 385.0 && d.y + d.height <= 257.0,
-                "box {d:?} outside the 384x256 image"
+                d.x >= -1.0 && d.y >= -1.0 && d.x + d.width <= 769.0 && d.y + d.height <= 513.0,
+                "box {d:?} outside the 768x512 image"
             );
         }
         assert_eq!(ann.texts.len(), dets.len(), "a score per box");
@@ -292,11 +317,44 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
             write_picture(&img, &dets, Path::new(&p));
         }
 
-        // 2. A client that subscribes to the images and never reads again, and the first one
-        // vanishing mid-stream (its socket closed with no close handshake).
-        let mut stalled = connect(&daemon.url).await;
+        // 2. A client that subscribes to the images and stops reading (a small receive buffer,
+        // so its socket fills within a second or two): while it stalls, the first client still
+        // receives every frame, in order; the stalled one, when it reads again, finds frames
+        // missing: it alone lost them.
+        let mut stalled = connect_with_small_buffer(&daemon.url).await;
         let sch = channels(&mut stalled, &["/live/preview"]).await;
         subscribe(&mut stalled, &[sch[0].0]).await;
+        let mut sequences = Vec::new();
+        let mut last_t = 0;
+        while sequences.len() < STALL_FRAMES {
+            let (sub, t, payload) = next_data(&mut ws).await;
+            if sub == 2 {
+                let a = ImageAnnotations::decode(payload.as_slice()).unwrap();
+                let seq = a.metadata.iter().find(|kv| kv.key == "sequence").unwrap();
+                sequences.push(seq.value.parse::<u64>().unwrap());
+                last_t = t;
+            }
+        }
+        assert!(
+            sequences.windows(2).all(|w| w[1] == w[0] + 1),
+            "the reading client missed frames while another stalled: {sequences:?}"
+        );
+        let mut stalled_times = Vec::new();
+        while stalled_times.last().is_none_or(|&t| t < last_t) {
+            let (_, t, _) = next_data(&mut stalled).await;
+            stalled_times.push(t);
+        }
+        let lost = stalled_times
+            .windows(2)
+            .map(|w| ((w[1] - w[0]) / FRAME_NS).saturating_sub(1))
+            .sum::<u64>();
+        assert!(lost > 0, "the stalled client lost nothing: {stalled_times:?}");
+        eprintln!(
+            "while one client stalled: the reading client received {STALL_FRAMES} frames in order, \
+             the stalled one lost {lost} of its images"
+        );
+
+        // The first client vanishes mid-stream (its socket closed with no close handshake).
         let (_, seen_before, _) = next_data(&mut ws).await;
         drop(ws);
         tokio::time::sleep(Duration::from_millis(1500)).await;

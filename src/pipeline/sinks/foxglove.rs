@@ -370,3 +370,103 @@ impl Sink for FoxgloveSink {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use foxglove::{Decode, FoxgloveError, Metadata, SinkId};
+
+    use super::*;
+    use crate::geometry::Detection;
+    use crate::pipeline::sinks::PooledMaps;
+    use crate::pipeline::stage::StageOutput;
+    use crate::raw::{Cfa, FrameMeta, Levels, RawFrame};
+
+    /// A subscriber of every channel that keeps what it is sent: (topic, log time, payload).
+    struct Recorder(SinkId, Mutex<Vec<(String, u64, Vec<u8>)>>);
+
+    impl foxglove::Sink for Recorder {
+        fn id(&self) -> SinkId {
+            self.0
+        }
+        fn log(&self, channel: &RawChannel, msg: &[u8], metadata: &Metadata) -> Result<(), FoxgloveError> {
+            let entry = (channel.topic().to_string(), metadata.log_time, msg.to_vec());
+            self.1.lock().unwrap().push(entry);
+            Ok(())
+        }
+    }
+
+    fn result(ts: u64) -> FrameResult {
+        let f = RawFrame::from_u16(8, 8, vec![4095; 64], Cfa::Grbg, 12, Levels::uniform(0, 4095)).unwrap();
+        FrameResult {
+            camera: Arc::from("cam"),
+            index: 3,
+            meta: FrameMeta {
+                sequence: 7,
+                sensor_sequence: None,
+                timestamp_ns: ts,
+                source: Arc::from("test"),
+            },
+            width: 8,
+            height: 8,
+            output: StageOutput {
+                detections: vec![Detection {
+                    x: 2.0,
+                    y: 2.0,
+                    width: 4.0,
+                    height: 4.0,
+                    score: 0.5,
+                }],
+                keypoints: None,
+                descriptors: None,
+                mean_magnitude: 0.0,
+            },
+            maps: PooledMaps {
+                maps: None,
+                pool: None,
+            },
+            frame: Some(Arc::new(f)),
+            publish_timestamp_ns: ts,
+            latency_ns: 0,
+        }
+    }
+
+    #[test]
+    fn nothing_is_made_without_a_subscriber_and_image_and_boxes_share_the_frame_time() {
+        let ctx = Context::new();
+        let clients = Arc::new(ClientCounts::default());
+        let mut sink = FoxgloveSink::new(&ctx, clients, "cam", 2, false).unwrap();
+        sink.frame(&result(1_000)).unwrap();
+        assert_eq!(
+            sink.counters(),
+            LiveCounters {
+                frames: 1,
+                frames_unwatched: 1,
+                ..LiveCounters::default()
+            }
+        );
+        let rec = Arc::new(Recorder(SinkId::next(), Mutex::default()));
+        ctx.add_sink(rec.clone());
+        sink.frame(&result(2_500_000_000)).unwrap();
+        let c = sink.counters();
+        assert_eq!((c.frames, c.frames_published, c.images_published), (2, 1, 1));
+        let got = rec.1.lock().unwrap();
+        let topics: Vec<&str> = got.iter().map(|(t, _, _)| t.as_str()).collect();
+        assert_eq!(topics, ["/cam/preview", "/cam/annotations"]);
+        assert!(got.iter().all(|(_, t, _)| *t == 2_500_000_000));
+        let img = RawImage::decode(got[0].2.as_slice()).unwrap();
+        // 8x8 decimated by 2 (whole 2x2 tiles): 4x4, full white.
+        assert_eq!(
+            (img.width, img.height, img.encoding.as_str()),
+            (4, 4, "bayer_grbg8")
+        );
+        assert_eq!(img.data.as_ref(), &[255u8; 16][..]);
+        assert_eq!(img.timestamp.unwrap().total_nanos(), 2_500_000_000);
+        let ann = ImageAnnotations::decode(got[1].2.as_slice()).unwrap();
+        // Preview coordinates: the full-frame box (2, 2)-(6, 6) halved.
+        let corners: Vec<(f64, f64)> = ann.points[0].points.iter().map(|p| (p.x, p.y)).collect();
+        assert_eq!(corners, [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)]);
+        assert_eq!(ann.metadata[0].value, "7");
+    }
+}
