@@ -114,12 +114,21 @@ loop = true
 
 type Ws = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
-/// Connect as the Foxglove app does: the SDK's subprotocol in the handshake.
-async fn connect(url: &str) -> Ws {
+/// Connect as the Foxglove app does: the SDK's subprotocol in the handshake. `recv_buffer`: a
+/// small receive buffer (bytes), so that a client that stops reading fills its socket quickly.
+async fn connect(url: &str, recv_buffer: Option<u32>) -> Ws {
+    let addr: std::net::SocketAddr = url.trim_start_matches("ws://").parse().unwrap();
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    if let Some(n) = recv_buffer {
+        socket.set_recv_buffer_size(n).unwrap();
+    }
+    let stream = socket.connect(addr).await.unwrap();
     let mut req = url.into_client_request().unwrap();
     req.headers_mut()
         .insert("sec-websocket-protocol", "foxglove.sdk.v1".parse().unwrap());
-    let (ws, resp) = tokio_tungstenite::connect_async(req).await.unwrap();
+    let (ws, resp) = tokio_tungstenite::client_async(req, tokio_tungstenite::MaybeTlsStream::Plain(stream))
+        .await
+        .unwrap();
     assert_eq!(
         resp.headers().get("sec-websocket-protocol").unwrap(),
         "foxglove.sdk.v1"
@@ -127,30 +136,19 @@ async fn connect(url: &str) -> Ws {
     ws
 }
 
-/// Connect with a 16 KiB receive buffer (a slow reader's socket fills quickly).
-async fn connect_with_small_buffer(url: &str) -> Ws {
-    let addr: std::net::SocketAddr = url.trim_start_matches("ws://").parse().unwrap();
-    let socket = tokio::net::TcpSocket::new_v4().unwrap();
-    socket.set_recv_buffer_size(16 * 1024).unwrap();
-    let stream = socket.connect(addr).await.unwrap();
-    let mut req = url.into_client_request().unwrap();
-    req.headers_mut()
-        .insert("sec-websocket-protocol", "foxglove.sdk.v1".parse().unwrap());
-    let (ws, _) = tokio_tungstenite::client_async(req, tokio_tungstenite::MaybeTlsStream::Plain(stream))
-        .await
-        .unwrap();
-    ws
+/// The next WebSocket message (within [`STEP`]).
+async fn next_message(ws: &mut Ws) -> Message {
+    let msg = tokio::time::timeout(STEP, ws.next()).await;
+    msg.expect("a message in time")
+        .expect("the connection is open")
+        .unwrap()
 }
 
 /// Read the advertisements until `topics` are all there; their channel ids, in order.
 async fn channels(ws: &mut Ws, topics: &[&str]) -> Vec<(u64, String, String)> {
     let mut found: Vec<Option<(u64, String, String)>> = vec![None; topics.len()];
     while found.iter().any(Option::is_none) {
-        let msg = tokio::time::timeout(STEP, ws.next())
-            .await
-            .unwrap()
-            .unwrap()
-            .unwrap();
+        let msg = next_message(ws).await;
         let Message::Text(text) = msg else { continue };
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         if v["op"] != "advertise" {
@@ -183,11 +181,7 @@ async fn subscribe(ws: &mut Ws, channel_ids: &[u64]) {
 /// The next message data frame: (subscription id, log time, payload).
 async fn next_data(ws: &mut Ws) -> (u32, u64, Vec<u8>) {
     loop {
-        let msg = tokio::time::timeout(STEP, ws.next())
-            .await
-            .unwrap()
-            .unwrap()
-            .unwrap();
+        let msg = next_message(ws).await;
         let Message::Binary(b) = msg else { continue };
         // opcode 1 = message data: u32 subscription id, u64 log time, payload (little-endian)
         if b.first() != Some(&1) {
@@ -250,7 +244,7 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {
         // 1. Image and boxes of the same frame.
-        let mut ws = connect(&daemon.url).await;
+        let mut ws = connect(&daemon.url, None).await;
         let ch = channels(&mut ws, &["/live/preview", "/live/annotations", "/live/stats"]).await;
         assert_eq!(
             (ch[0].1.as_str(), ch[0].2.as_str()),
@@ -321,7 +315,7 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
         // so its socket fills within a second or two): while it stalls, the first client still
         // receives every frame, in order; the stalled one, when it reads again, finds frames
         // missing: it alone lost them.
-        let mut stalled = connect_with_small_buffer(&daemon.url).await;
+        let mut stalled = connect(&daemon.url, Some(16 * 1024)).await;
         let sch = channels(&mut stalled, &["/live/preview"]).await;
         subscribe(&mut stalled, &[sch[0].0]).await;
         let mut sequences = Vec::new();
@@ -360,7 +354,7 @@ fn a_foxglove_client_receives_image_and_boxes_of_one_frame_and_clients_that_stal
         tokio::time::sleep(Duration::from_millis(1500)).await;
 
         // 3. The daemon goes on: a new client receives newer frames.
-        let mut late = connect(&daemon.url).await;
+        let mut late = connect(&daemon.url, None).await;
         let lch = channels(&mut late, &["/live/annotations"]).await;
         subscribe(&mut late, &[lch[0].0]).await;
         let mut newer = 0;

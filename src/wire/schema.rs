@@ -910,8 +910,8 @@ mod tests {
         assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Short { .. })));
     }
 
-    #[test]
-    fn annotations_are_line_loops_scaled_to_preview() {
+    /// One box at (10, 20), 64x128, score 1.25, annotated at 1.5 s for a preview decimated by 2.
+    fn one_box_annotations() -> ImageAnnotations {
         let d = Detection {
             x: 10.0,
             y: 20.0,
@@ -919,7 +919,12 @@ mod tests {
             height: 128.0,
             score: 1.25,
         };
-        let a = annotations_from_detections(1_500_000_000, &[d], 2.0);
+        annotations_from_detections(1_500_000_000, &[d], 2.0)
+    }
+
+    #[test]
+    fn annotations_are_line_loops_scaled_to_preview() {
+        let a = one_box_annotations();
         assert_eq!(a.points.len(), 1);
         assert_eq!(a.points[0].kind, POINTS_LINE_LOOP);
         assert_eq!(a.points[0].points[0], Point2 { x: 5.0, y: 10.0 });
@@ -1081,14 +1086,7 @@ mod tests {
     /// colours, texts and timestamps.
     #[test]
     fn protobuf_annotations_equal_the_json_ones() {
-        let d = Detection {
-            x: 10.0,
-            y: 20.0,
-            width: 64.0,
-            height: 128.0,
-            score: 1.25,
-        };
-        let a = annotations_from_detections(1_500_000_000, &[d], 2.0);
+        let a = one_box_annotations();
         let p = foxglove::messages::ImageAnnotations::from(&a);
         assert_eq!(p.points.len(), 1);
         let (q, j) = (&p.points[0], &a.points[0]);
