@@ -15,6 +15,7 @@ use anyhow::Context;
 use mosaicd::config::{CameraConfig, Config, SourceType};
 use mosaicd::pipeline::daemon::{self, DaemonError, RunOptions, RunSummary};
 use mosaicd::pipeline::engine::SinkFactory;
+use mosaicd::pipeline::sinks::foxglove::LiveView;
 use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 
 /// Default config file.
@@ -143,7 +144,10 @@ fn apply(cfg: &mut Config, o: &Overrides) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError> + '_ {
+fn sinks_for<'a>(
+    cfg: &'a Config,
+    live: Option<&'a LiveView>,
+) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError> + 'a {
     move |cam: &CameraConfig| {
         let mut v = Vec::new();
         if cfg.publish.enabled {
@@ -157,6 +161,9 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
         if cfg.record.enabled {
             v.push(mosaicd::pipeline::sinks::mcap::recorder_sink(cfg, cam)?);
         }
+        if let Some(l) = live {
+            v.push(l.sink_factory(&cam.name, cfg.compute.keypoints));
+        }
         Ok(v)
     }
 }
@@ -169,9 +176,16 @@ fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
     let opts = RunOptions {
         results_out: o.results.clone(),
     };
-    let builder = sinks_for(cfg);
-    let summary = daemon::run(cfg, &opts, &builder)?;
-    report(&summary, o.json_summary)
+    // The live view's server, one for every camera, up before the first frame and down after
+    // the last.
+    let live = LiveView::start(&cfg.foxglove)?;
+    let builder = sinks_for(cfg, live.as_ref());
+    let summary = daemon::run(cfg, &opts, &builder);
+    drop(builder);
+    if let Some(l) = live {
+        l.stop();
+    }
+    report(&summary?, o.json_summary)
 }
 
 fn report(summary: &RunSummary, json: bool) -> anyhow::Result<()> {

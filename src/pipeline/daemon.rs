@@ -289,7 +289,8 @@ pub fn run(
             queue_depth: cfg.daemon.queue_depth,
             max_in_flight: cfg.daemon.max_in_flight,
             stage: stage.clone(),
-            keep_frames: cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0),
+            keep_frames: (cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0))
+                || cfg.foxglove.enabled(),
         };
         let p = Pipeline::start(spec, source, pool.clone(), clock, sinks, frame_pool).map_err(|e| {
             DaemonError::Sink {
