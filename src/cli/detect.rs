@@ -27,8 +27,8 @@ pub struct DetectArgs {
     pub as_domain: Option<DomainArg>,
     /// Model: a built-in name (`mosaic-raw-srgb`, the default; `mosaic-raw-srgb-low`,
     /// `mosaic-raw`, `mosaic`, `colour`, `colour-raw`: the files under models/, compiled in), a
-    /// file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default` (OpenCV's people
-    /// detector from $MOSAICD_DATA/opencv_hog).
+    /// file (.json ours, HOG or ACF (`mosaicd train --detector acf`); .npy / .yml / text = OpenCV
+    /// vectors) or `opencv-default` (OpenCV's people detector from $MOSAICD_DATA/opencv_hog).
     #[arg(long, default_value = mosaicd::detect::DEFAULT_MODEL)]
     pub model: String,
     #[command(flatten)]
@@ -375,6 +375,9 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
+    if mosaicd::detect::acf::is_acf_model_file(Path::new(&args.model)) {
+        return super::acf::detect(&args);
+    }
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
     let frame = load_frame(&args.input, &args.raw, args.as_domain, &|f| {
         args.det.mosaic(&model, f)

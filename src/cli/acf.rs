@@ -1,0 +1,210 @@
+//! The ACF paths of `mosaicd train --detector acf` and `mosaicd detect` with an ACF model.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
+use mosaicd::detect::boost::{BoostOptions, TreeOptions};
+use mosaicd::detect::train::acf::{evaluate_acf_windows, train_acf, AcfTrainOptions};
+use mosaicd::detect::train::{list_negative_dirs, split_data, InputPipeline};
+use mosaicd::detect::NmsMethod;
+use mosaicd::eval::draw::draw_boxes;
+use mosaicd::features::channels::ChannelInput;
+use mosaicd::raw::levels::Gains;
+
+use super::detect::{load_frame, save_png, DetectArgs, Frame};
+use super::train::TrainArgs;
+
+/// Options of `mosaicd train` that only the ACF detector reads.
+#[derive(clap::Args, Debug, Clone)]
+pub struct AcfTrainArgs {
+    /// ACF: trees after each stage (stage 0 on random negatives, then one hard-negative mining
+    /// round per further entry; Dollár's 32,128,512,2048).
+    #[arg(long, value_delimiter = ',', default_value = "32,128,512,2048")]
+    pub acf_stages: Vec<usize>,
+    /// ACF: depth of the boosted trees.
+    #[arg(long, default_value_t = 2)]
+    pub acf_depth: usize,
+    /// ACF: fraction of the features tried at each tree node (Dollár's INRIA detector: 1/16).
+    #[arg(long, default_value_t = 1.0 / 16.0)]
+    pub acf_frac_features: f64,
+    /// ACF: Real AdaBoost instead of discrete (Dollár's and our default).
+    #[arg(long)]
+    pub acf_real: bool,
+    /// ACF: negative windows sampled per stage (nNeg).
+    #[arg(long, default_value_t = 5000)]
+    pub acf_neg: usize,
+    /// ACF: negative windows per image and stage (nPerNeg).
+    #[arg(long, default_value_t = 25)]
+    pub acf_per_neg: usize,
+    /// ACF: negative windows kept over all stages (nAccNeg).
+    #[arg(long, default_value_t = 10000)]
+    pub acf_acc_neg: usize,
+}
+
+/// `mosaicd train --detector acf`.
+pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
+    let x = &a.acf;
+    let o = AcfTrainOptions {
+        domain: a.domain.into(),
+        cfa: a.cfa,
+        seed: a.seed,
+        pipeline: InputPipeline::parse(&a.input, a.seed ^ super::train::TRAIN_NOISE_SALT)
+            .map_err(|e| anyhow::anyhow!("--input {e}"))?,
+        mosaic_tone: a.mosaic_tone,
+        stages: x.acf_stages.clone(),
+        boost: BoostOptions {
+            tree: TreeOptions {
+                max_depth: x.acf_depth,
+                frac_features: x.acf_frac_features,
+                ..TreeOptions::default()
+            },
+            discrete: !x.acf_real,
+            ..BoostOptions::default()
+        },
+        n_neg: x.acf_neg,
+        per_neg: x.acf_per_neg,
+        acc_neg: x.acf_acc_neg,
+        max_neg_images: a.max_neg_images,
+        ..AcfTrainOptions::default()
+    };
+    let root = mosaicd::data::data_root();
+    mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
+    let t0 = Instant::now();
+    let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+    let mut split = split_data(&root, o.seed, a.val_fraction, a.fold)?;
+    split.extra_train_neg =
+        list_negative_dirs(&a.negatives_dir).map_err(|e| anyhow::anyhow!("--negatives-dir: {e}"))?;
+    let mut model = pool.install(|| train_acf(&split, &o, &mut progress))?;
+    let train_seconds = t0.elapsed().as_secs_f64();
+    let cmd: Vec<String> = std::env::args().collect();
+    model.provenance["command"] = serde_json::json!(cmd.join(" "));
+    model.provenance["train_seconds"] = serde_json::json!(train_seconds);
+    model.provenance["threads"] = serde_json::json!(pool.current_num_threads());
+    model.provenance["val_fraction"] = serde_json::json!(a.val_fraction);
+    if a.fold != 0 {
+        model.provenance["fold"] = serde_json::json!(a.fold);
+    }
+    eprintln!(
+        "training took {train_seconds:.1} s on {} threads",
+        pool.current_num_threads()
+    );
+    let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
+    if !a.no_eval && held_out {
+        let ev = pool.install(|| {
+            evaluate_acf_windows(&model, &split, o.domain, o.cfa, &o.pipeline, Gains::FromFile, &mut progress)
+        })?;
+        eprintln!(
+            "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
+            ev.positives, ev.negative_windows, ev.miss_rate_at
+        );
+        model.provenance["validation"] = serde_json::to_value(&ev)?;
+    } else if !a.no_eval {
+        eprintln!(
+            "validation: skipped, nothing is held out (--val-fraction {})",
+            a.val_fraction
+        );
+    }
+    model.save(&a.out)?;
+    eprintln!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// The channel input of a decoded frame.
+fn channel_input(f: &Frame) -> ChannelInput<'_> {
+    match f {
+        Frame::Mosaic(m, cfa) => ChannelInput::Mosaic {
+            image: m.view(),
+            cfa: *cfa,
+        },
+        Frame::Grey(g) => ChannelInput::GreyU8(g.view()),
+        Frame::Colour(c) => ChannelInput::Rgb8(c.view()),
+    }
+}
+
+/// `mosaicd detect` with an ACF model file.
+pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
+    let model = AcfModel::load(Path::new(&args.model))?;
+    let tone = args.det.mosaic_tone.unwrap_or(model.mosaic_tone);
+    let wb = args.det.wb_gains;
+    let frame = load_frame(&args.input, &args.raw, args.as_domain, &|f| {
+        mosaicd::detect::input::MosaicPrep { tone, gains: wb }
+            .mosaic(f)
+            .context("--wb-gains")
+    })?;
+    if args.as_domain.is_none() && model.domain != frame.domain() {
+        eprintln!(
+            "warning: {} was trained on {} input, but {} is read as {} (a transfer case)",
+            args.model,
+            model.domain.name(),
+            args.input.display(),
+            frame.domain().name()
+        );
+    }
+    let d = &args.det;
+    let nms = match d.nms {
+        super::detect::NmsArg::Group => NmsMethod::Group {
+            threshold: 2,
+            eps: 0.2,
+        },
+        super::detect::NmsArg::Greedy => NmsMethod::Greedy { iou: 0.5 },
+        super::detect::NmsArg::None => NmsMethod::None,
+    };
+    let opts = AcfOptions {
+        upsample: d.upsample,
+        approx: d.approx.map(|a| a.saturating_sub(1)),
+        max_levels: d.max_levels,
+        hit_threshold: d.threshold,
+        nms,
+    };
+    let det = AcfDetector::new(model, &opts)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let input = channel_input(&frame);
+    let (boxes, st) = pool.install(|| det.detect(&input))?;
+    let ms = |t: std::time::Duration| t.as_secs_f64() * 1e3;
+    let per_window = st.trees_evaluated as f64 / st.windows.max(1) as f64;
+    if args.json {
+        let out = serde_json::json!({
+            "input": args.input.display().to_string(),
+            "detector": "acf",
+            "domain": frame.domain(),
+            "cfa": frame.cfa().map(|c| c.name()),
+            "model": args.model,
+            "model_domain": det.model().domain,
+            "detections": boxes,
+            "stats": {
+                "levels": st.levels, "windows": st.windows, "hits": st.hits,
+                "trees_per_window": per_window,
+                "total_ms": ms(st.total), "channels_ms": ms(st.channels), "score_ms": ms(st.score), "nms_ms": ms(st.nms),
+            }
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{}: {} detections (acf; {} levels, {} windows, {:.1} trees per window, {} hits, {:.1} ms: channels {:.1}, scoring {:.1})",
+            args.input.display(),
+            boxes.len(),
+            st.levels,
+            st.windows,
+            per_window,
+            st.hits,
+            ms(st.total),
+            ms(st.channels),
+            ms(st.score)
+        );
+        for b in &boxes {
+            println!(
+                "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
+                b.x, b.y, b.width, b.height, b.score
+            );
+        }
+    }
+    if let Some(p) = &args.preview {
+        let mut img = frame.preview();
+        draw_boxes(&mut img, &boxes);
+        save_png(&img, p)?;
+    }
+    Ok(())
+}
