@@ -352,9 +352,34 @@ pub fn triangle_taps(r: f32) -> Vec<f32> {
     }
 }
 
+/// For each position `0..n` the `2r + 1` indices `x + k·step`, `|k| ≤ r`, mirrored symmetrically
+/// (`dcba|abcd`) within `x`'s phase `x mod step` (repeatedly, for tiny sizes).
+fn mirror_table(n: usize, r: usize, step: usize) -> Vec<usize> {
+    let mut t = Vec::with_capacity(n * (2 * r + 1));
+    for x in 0..n {
+        let ph = x % step;
+        let np = (n - ph).div_ceil(step) as isize; // samples of this phase
+        for k in -(r as isize)..=r as isize {
+            let mut p = (x / step) as isize + k;
+            loop {
+                if p < 0 {
+                    p = -p - 1;
+                } else if p >= np {
+                    p = 2 * np - p - 1;
+                } else {
+                    break;
+                }
+            }
+            t.push(p as usize * step + ph);
+        }
+    }
+    t
+}
+
 /// Separable triangle filter of radius `radius` ([`triangle_taps`]) with taps `step` pixels
 /// apart, borders symmetric within each phase (`step = 2`: within each colour plane). `src` and
-/// `dst` are `w x h`.
+/// `dst` are `w x h`. Rows in parallel; each output row is the vertical pass (a sum of scaled
+/// source rows) followed by the horizontal pass, the same arithmetic for any thread count.
 pub fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize, dst: &mut Vec<f32>) {
     dst.clear();
     if radius <= 0.0 || w == 0 || h == 0 {
@@ -362,51 +387,42 @@ pub fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize
         return;
     }
     let taps = triangle_taps(radius);
-    let r = taps.len() / 2;
-    // Index of x + k·step, mirrored into range within x's phase.
-    let mirror = |x: usize, k: isize, n: usize| -> usize {
-        let ph = x % step;
-        let np = (n - ph).div_ceil(step) as isize; // samples of this phase
-        let mut p = (x / step) as isize + k;
-        // symmetric 'dcba|abcd' (repeat for tiny planes)
-        loop {
-            if p < 0 {
-                p = -p - 1;
-            } else if p >= np {
-                p = 2 * np - p - 1;
-            } else {
-                break;
-            }
-        }
-        p as usize * step + ph
-    };
-    let xi: Vec<Vec<usize>> = (0..w)
-        .map(|x| (-(r as isize)..=r as isize).map(|k| mirror(x, k, w)).collect())
-        .collect();
-    let yi: Vec<Vec<usize>> = (0..h)
-        .map(|y| (-(r as isize)..=r as isize).map(|k| mirror(y, k, h)).collect())
-        .collect();
-    let mut tmp = vec![0.0f32; w * h];
-    tmp.par_chunks_mut(w * ROWS_PER_TASK)
-        .enumerate()
-        .for_each(|(t, chunk)| {
-            for (j, row) in chunk.chunks_mut(w).enumerate() {
-                let y = t * ROWS_PER_TASK + j;
-                let yy = &yi[y];
-                for (x, o) in row.iter_mut().enumerate() {
-                    *o = taps.iter().zip(yy).map(|(t, &sy)| t * src[sy * w + x]).sum();
-                }
-            }
-        });
+    let n = taps.len();
+    let r = n / 2;
+    let xi = mirror_table(w, r, step);
+    let yi = mirror_table(h, r, step);
+    // interior columns: every tap inside the row
+    let (lo, hi) = (r * step, w.saturating_sub(r * step));
     dst.resize(w * h, 0.0);
     dst.par_chunks_mut(w * ROWS_PER_TASK)
         .enumerate()
         .for_each(|(t, chunk)| {
+            let mut tmp = vec![0.0f32; w];
             for (j, row) in chunk.chunks_mut(w).enumerate() {
                 let y = t * ROWS_PER_TASK + j;
-                let s = &tmp[y * w..(y + 1) * w];
-                for (x, o) in row.iter_mut().enumerate() {
-                    *o = taps.iter().zip(&xi[x]).map(|(t, &sx)| t * s[sx]).sum();
+                tmp.fill(0.0);
+                for (k, &tk) in taps.iter().enumerate() {
+                    let sy = yi[y * n + k];
+                    for (a, &b) in tmp.iter_mut().zip(&src[sy * w..(sy + 1) * w]) {
+                        *a += tk * b;
+                    }
+                }
+                if lo < hi {
+                    let out = &mut row[lo..hi];
+                    out.fill(0.0);
+                    for (k, &tk) in taps.iter().enumerate() {
+                        let off = k * step;
+                        for (o, &v) in out.iter_mut().zip(&tmp[off..off + (hi - lo)]) {
+                            *o += tk * v;
+                        }
+                    }
+                }
+                for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
+                    row[x] = taps
+                        .iter()
+                        .zip(&xi[x * n..(x + 1) * n])
+                        .map(|(t, &sx)| t * tmp[sx])
+                        .sum();
                 }
             }
         });
@@ -429,51 +445,74 @@ pub fn smooth_channels(ch: &mut Channels, r: f32) {
 /// smoothing (2 on a mosaic).
 fn planes_of(input: &ChannelInput) -> (Vec<Vec<f32>>, usize) {
     const S: f32 = 1.0 / 255.0;
-    let rows = |w: usize, h: usize, f: &dyn Fn(usize, usize) -> f32| -> Vec<f32> {
-        let mut v = Vec::with_capacity(w * h);
-        for y in 0..h {
-            for x in 0..w {
-                v.push(f(x, y));
-            }
-        }
-        v
-    };
     let (w, h) = input.dimensions();
+    let f32_plane = |v: &ImageView<'_, f32>| -> Vec<f32> { (0..h).flat_map(|y| v.row(y).iter().map(|p| p * S)).collect() };
     match input {
-        ChannelInput::Mosaic { image, .. } => (vec![rows(w, h, &|x, y| image.row(y)[x] * S)], 2),
-        ChannelInput::GreyF32(v) => (vec![rows(w, h, &|x, y| v.row(y)[x] * S)], 1),
-        ChannelInput::GreyU8(v) => (vec![rows(w, h, &|x, y| v.row(y)[x] as f32 * S)], 1),
+        ChannelInput::Mosaic { image, .. } => (vec![f32_plane(image)], 2),
+        ChannelInput::GreyF32(v) => (vec![f32_plane(v)], 1),
+        ChannelInput::GreyU8(v) => (
+            vec![(0..h).flat_map(|y| v.row(y).iter().map(|&p| p as f32 * S)).collect()],
+            1,
+        ),
         ChannelInput::Rgb8(v) => (
             (0..3)
-                .map(|k| rows(w, h, &|x, y| v.row(y)[x][k] as f32 * S))
+                .map(|k| (0..h).flat_map(|y| v.row(y)[..w].iter().map(move |p| p[k] as f32 * S)).collect())
                 .collect(),
             1,
         ),
-        ChannelInput::RgbF32(p) => (p.iter().map(|v| rows(w, h, &|x, y| v.row(y)[x] * S)).collect(), 1),
+        ChannelInput::RgbF32(p) => (p.iter().map(f32_plane).collect(), 1),
     }
 }
 
-/// Gradient magnitude and folded orientation `[0, π)` of plane `p` at `(x, y)` (reflect-101).
+/// `(cos, sin)` of the orientation bin edges 15°, 45°, …, 165°.
+fn bin_edges() -> [(f32, f32); N_ORIENTS] {
+    std::array::from_fn(|k| {
+        let e = ((15 + 30 * k) as f64).to_radians();
+        (e.cos() as f32, e.sin() as f32)
+    })
+}
+
+/// Orientation bin of the gradient `(gx, gy)`: the nearest of the six bin centres `30°·k` of the
+/// unsigned angle, found by counting the edges `e` below it with `gy·cos e − gx·sin e ≥ 0` after
+/// folding the vector into the upper half-plane. Equal to `round(6θ/π) mod 6` except within float
+/// rounding of an edge; the zero vector gets bin 0.
 #[inline]
-fn grad_at(p: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
-    let xl = if x == 0 { 1.min(w - 1) } else { x - 1 };
-    let xr = if x + 1 == w { x.saturating_sub(1) } else { x + 1 };
+fn orient_bin(gx: f32, gy: f32, edges: &[(f32, f32); N_ORIENTS]) -> u8 {
+    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) { (-gx, -gy) } else { (gx, gy) };
+    let c: u8 = edges.iter().map(|&(c, s)| (gy * c - gx * s >= 0.0) as u8).sum();
+    c % N_ORIENTS as u8
+}
+
+/// Gradient magnitude and orientation bin of row `y` (the first `mrow.len()` columns), the plane
+/// of largest magnitude per pixel (reflect-101 borders).
+fn gradient_row(planes: &[Vec<f32>], w: usize, h: usize, y: usize, mrow: &mut [f32], brow: &mut [u8], scratch: &mut [[f32; 3]]) {
+    let edges = bin_edges();
     let yu = if y == 0 { 1.min(h - 1) } else { y - 1 };
     let yd = if y + 1 == h { y.saturating_sub(1) } else { y + 1 };
-    let gx = (p[y * w + xr] - p[y * w + xl]) * 0.5;
-    let gy = (p[yd * w + x] - p[yu * w + x]) * 0.5;
-    (gx * gx + gy * gy, gy.atan2(gx))
-}
-
-/// Orientation bin of an angle in `(−π, π]` (nearest of 6 bin centres, unsigned).
-#[inline]
-fn orient_bin(theta: f32) -> usize {
-    let mut t = theta;
-    if t < 0.0 {
-        t += std::f32::consts::PI;
+    let gw = mrow.len();
+    for (pi, p) in planes.iter().enumerate() {
+        let (up, mid, dn) = (&p[yu * w..(yu + 1) * w], &p[y * w..(y + 1) * w], &p[yd * w..(yd + 1) * w]);
+        let put = |x: usize, xl: usize, xr: usize, best: &mut [f32; 3]| {
+            let gx = (mid[xr] - mid[xl]) * 0.5;
+            let gy = (dn[x] - up[x]) * 0.5;
+            let m2 = gx * gx + gy * gy;
+            if pi == 0 || m2 > best[0] {
+                *best = [m2, gx, gy];
+            }
+        };
+        put(0, 1.min(w - 1), 1.min(w - 1), &mut scratch[0]);
+        let inner_end = gw.min(w - 1);
+        for (x, best) in scratch.iter_mut().enumerate().take(inner_end).skip(1) {
+            put(x, x - 1, x + 1, best);
+        }
+        if gw == w && w > 1 {
+            put(w - 1, w - 2, w - 2, &mut scratch[w - 1]);
+        }
     }
-    let b = (t * (N_ORIENTS as f32 / std::f32::consts::PI) + 0.5) as usize;
-    b % N_ORIENTS
+    for ((m, b), s) in mrow.iter_mut().zip(brow.iter_mut()).zip(scratch.iter()) {
+        *m = s[0].sqrt();
+        *b = orient_bin(s[1], s[2], &edges);
+    }
 }
 
 /// The ten channels of `input` before the output smoothing (what the pyramid resamples).
@@ -502,7 +541,7 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
         }
     }
     let (cw, ch) = (w / SHRINK, h / SHRINK);
-    let mut out = Channels::zeros(cw, ch);
+    let n = cw * ch;
     // Gradient magnitude and orientation bin at full resolution (only the aggregated area).
     let (gw, gh) = (cw * SHRINK, ch * SHRINK);
     let mut mag = vec![0.0f32; gw * gh];
@@ -511,116 +550,116 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
         .zip(bin.par_chunks_mut(gw * ROWS_PER_TASK))
         .enumerate()
         .for_each(|(t, (mrows, brows))| {
+            let mut scratch = vec![[0.0f32; 3]; gw];
             for (j, (mrow, brow)) in mrows.chunks_mut(gw).zip(brows.chunks_mut(gw)).enumerate() {
-                let y = t * ROWS_PER_TASK + j;
-                for x in 0..gw {
-                    let (mut m2, mut th) = grad_at(&planes[0], w, h, x, y);
-                    for p in &planes[1..] {
-                        let (m2b, thb) = grad_at(p, w, h, x, y);
-                        if m2b > m2 {
-                            (m2, th) = (m2b, thb);
-                        }
-                    }
-                    mrow[x] = m2.sqrt();
-                    brow[x] = orient_bin(th) as u8;
-                }
+                gradient_row(&planes, w, h, t * ROWS_PER_TASK + j, mrow, brow, &mut scratch);
             }
         });
+    let mut norm = Vec::new();
     if o.norm_radius > 0.0 {
-        let mut s = Vec::new();
-        triangle_filter(&mag, gw, gh, o.norm_radius, 1, &mut s);
-        for (m, s) in mag.iter_mut().zip(&s) {
-            *m /= s + o.norm_const;
-        }
+        triangle_filter(&mag, gw, gh, o.norm_radius, 1, &mut norm);
     }
-    // Aggregate magnitude and orientations.
+    // Per block row: magnitude and six orientation sums (normalised), then L, U, V.
     let inv = 1.0 / (SHRINK * SHRINK) as f32;
-    let n = cw * ch;
-    let (colour, grads) = out.data.split_at_mut(MAG_CHANNEL * n);
-    grads.par_chunks_mut(n).enumerate().for_each(|(k, plane)| {
-        for by in 0..ch {
-            for bx in 0..cw {
-                let mut acc = 0.0f32;
-                for y in by * SHRINK..(by + 1) * SHRINK {
-                    for x in bx * SHRINK..(bx + 1) * SHRINK {
-                        let i = y * gw + x;
-                        if k == 0 || bin[i] as usize == k - 1 {
-                            acc += mag[i];
-                        }
-                    }
+    let grad_rows: Vec<Vec<f32>> = (0..ch)
+        .into_par_iter()
+        .map(|by| {
+            let mut acc = vec![0.0f32; cw * (1 + N_ORIENTS)];
+            for y in by * SHRINK..(by + 1) * SHRINK {
+                let row = y * gw..(y + 1) * gw;
+                let (m, b) = (&mag[row.clone()], &bin[row.clone()]);
+                for x in 0..gw {
+                    let v = if norm.is_empty() { m[x] } else { m[x] / (norm[row.start + x] + o.norm_const) };
+                    let a = &mut acc[(x / SHRINK) * (1 + N_ORIENTS)..];
+                    a[0] += v;
+                    a[1 + b[x] as usize] += v;
                 }
-                plane[by * cw + bx] = acc * inv;
+            }
+            acc
+        })
+        .collect();
+    let colour_rows: Vec<Vec<[f32; 3]>> = (0..ch)
+        .into_par_iter()
+        .map(|by| colour_block_row(input, &planes, w, cw, by))
+        .collect();
+    let mut out = Channels::zeros(cw, ch);
+    for (by, (g, c)) in grad_rows.iter().zip(&colour_rows).enumerate() {
+        for bx in 0..cw {
+            let i = by * cw + bx;
+            for (k, &v) in c[bx].iter().enumerate() {
+                out.data[k * n + i] = v;
+            }
+            for k in 0..=N_ORIENTS {
+                out.data[(MAG_CHANNEL + k) * n + i] = g[bx * (1 + N_ORIENTS) + k] * inv;
             }
         }
-    });
-    // Colour: LUV per colour sample, then the block mean.
-    let (l, rest) = colour.split_at_mut(n);
-    let (u, v) = rest.split_at_mut(n);
+    }
+    Ok(out)
+}
+
+/// Block means of L, U, V along block row `by`: per 2x2 super-pixel on a mosaic, per pixel
+/// otherwise.
+fn colour_block_row(input: &ChannelInput, planes: &[Vec<f32>], w: usize, cw: usize, by: usize) -> Vec<[f32; 3]> {
+    let mut out = vec![[0.0f32; 3]; cw];
+    let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
+        for k in 0..3 {
+            acc[k] += luv[k];
+        }
+    };
     match input {
         ChannelInput::Mosaic { cfa, .. } => {
             let p = &planes[0];
-            // Offsets of R, G1, G2, B inside a tile.
-            let tile = [(0usize, 0usize), (1, 0), (0, 1), (1, 1)];
             let mut r_off = (0, 0);
             let mut b_off = (0, 0);
-            let mut g_off = Vec::new();
-            for &(dx, dy) in &tile {
+            let mut g_off = [(0, 0); 2];
+            let mut ng = 0;
+            for (dx, dy) in [(0usize, 0usize), (1, 0), (0, 1), (1, 1)] {
                 match cfa.colour_at(dx, dy) {
                     Colour::Red => r_off = (dx, dy),
                     Colour::Blue => b_off = (dx, dy),
-                    Colour::Green => g_off.push((dx, dy)),
+                    Colour::Green => {
+                        g_off[ng] = (dx, dy);
+                        ng += 1;
+                    }
                 }
             }
             let at = |x: usize, y: usize| p[y * w + x];
             let sp = SHRINK / 2; // super-pixels per block side
             let inv_sp = 1.0 / (sp * sp) as f32;
-            for by in 0..ch {
-                for bx in 0..cw {
-                    let mut acc = [0.0f32; 3];
-                    for sy in 0..sp {
-                        for sx in 0..sp {
-                            let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
-                            let r = at(x0 + r_off.0, y0 + r_off.1);
-                            let g = 0.5
-                                * (at(x0 + g_off[0].0, y0 + g_off[0].1)
-                                    + at(x0 + g_off[1].0, y0 + g_off[1].1));
-                            let b = at(x0 + b_off.0, y0 + b_off.1);
-                            let luv = luv_from_rgb(r, g, b);
-                            for k in 0..3 {
-                                acc[k] += luv[k];
-                            }
-                        }
+            for (bx, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for sy in 0..sp {
+                    for sx in 0..sp {
+                        let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
+                        let r = at(x0 + r_off.0, y0 + r_off.1);
+                        let g = 0.5 * (at(x0 + g_off[0].0, y0 + g_off[0].1) + at(x0 + g_off[1].0, y0 + g_off[1].1));
+                        let b = at(x0 + b_off.0, y0 + b_off.1);
+                        add(&mut acc, luv_from_rgb(r, g, b));
                     }
-                    let i = by * cw + bx;
-                    (l[i], u[i], v[i]) = (acc[0] * inv_sp, acc[1] * inv_sp, acc[2] * inv_sp);
                 }
+                *o = acc.map(|v| v * inv_sp);
             }
         }
         _ => {
-            let grey = planes.len() == 1;
-            for by in 0..ch {
-                for bx in 0..cw {
-                    let mut acc = [0.0f32; 3];
-                    for y in by * SHRINK..(by + 1) * SHRINK {
-                        for x in bx * SHRINK..(bx + 1) * SHRINK {
-                            let i = y * w + x;
-                            let luv = if grey {
-                                luv_from_rgb(planes[0][i], planes[0][i], planes[0][i])
-                            } else {
-                                luv_from_rgb(planes[0][i], planes[1][i], planes[2][i])
-                            };
-                            for k in 0..3 {
-                                acc[k] += luv[k];
-                            }
-                        }
+            let inv = 1.0 / (SHRINK * SHRINK) as f32;
+            for (bx, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for y in by * SHRINK..(by + 1) * SHRINK {
+                    for x in bx * SHRINK..(bx + 1) * SHRINK {
+                        let i = y * w + x;
+                        let luv = match planes {
+                            [g] => luv_from_rgb(g[i], g[i], g[i]),
+                            [r, g, b] => luv_from_rgb(r[i], g[i], b[i]),
+                            _ => unreachable!("one or three planes"),
+                        };
+                        add(&mut acc, luv);
                     }
-                    let i = by * cw + bx;
-                    (l[i], u[i], v[i]) = (acc[0] * inv, acc[1] * inv, acc[2] * inv);
                 }
+                *o = acc.map(|v| v * inv);
             }
         }
     }
-    Ok(out)
+    out
 }
 
 /// The ten aggregated, smoothed channels of `input` (see the module docs).

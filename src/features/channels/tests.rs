@@ -310,3 +310,24 @@ fn pyramid_levels_exact_and_approximated() {
         Err(ChannelsError::TooSmall { .. })
     ));
 }
+
+#[test]
+fn orientation_bins_agree_with_atan2() {
+    let edges = bin_edges();
+    let mut n = 0;
+    for i in 0..3600 {
+        let t = (i as f32 * 0.1 + 0.05).to_radians();
+        for m in [0.01f32, 1.0, 300.0] {
+            let (gx, gy) = (m * t.cos(), m * t.sin());
+            let mut th = gy.atan2(gx);
+            if th < 0.0 {
+                th += std::f32::consts::PI;
+            }
+            let want = ((th * 6.0 / std::f32::consts::PI + 0.5) as usize % N_ORIENTS) as u8;
+            assert_eq!(orient_bin(gx, gy, &edges), want, "angle {}°", i as f32 * 0.1 + 0.05);
+            n += 1;
+        }
+    }
+    assert_eq!(n, 10800);
+    assert_eq!(orient_bin(0.0, 0.0, &edges), 0);
+}
