@@ -7,7 +7,7 @@ use anyhow::Context;
 use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
 use mosaicd::detect::boost::{BoostOptions, TreeOptions};
 use mosaicd::detect::train::acf::{evaluate_acf_windows, train_acf, AcfTrainOptions};
-use mosaicd::detect::train::{list_negative_dirs, split_data, InputPipeline};
+use mosaicd::detect::train::{inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline};
 use mosaicd::detect::NmsMethod;
 use mosaicd::eval::draw::draw_boxes;
 use mosaicd::features::channels::ChannelInput;
@@ -41,6 +41,18 @@ pub struct AcfTrainArgs {
     /// ACF: negative windows kept over all stages (nAccNeg).
     #[arg(long, default_value_t = 10000)]
     pub acf_acc_neg: usize,
+    /// ACF: do not train; evaluate this ACF model on the held-out split (window protocol, the
+    /// split of --seed, --val-fraction, --fold; --out is not written).
+    #[arg(long, value_name = "MODEL")]
+    pub acf_evaluate: Option<std::path::PathBuf>,
+    /// ACF: soft-cascade threshold, overriding the model's, for the validation and written into
+    /// a trained model (a very negative value scores every window with every tree).
+    #[arg(long, allow_hyphen_values = true)]
+    pub acf_casc_thr: Option<f32>,
+    /// ACF: train and validate on the inner split of the training files (the held-out files are
+    /// not touched): for choosing settings such as the cascade threshold.
+    #[arg(long)]
+    pub acf_inner: bool,
 }
 
 /// `mosaicd train --detector acf`.
@@ -77,6 +89,37 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     let mut split = split_data(&root, o.seed, a.val_fraction, a.fold)?;
     split.extra_train_neg =
         list_negative_dirs(&a.negatives_dir).map_err(|e| anyhow::anyhow!("--negatives-dir: {e}"))?;
+    if x.acf_inner {
+        split = inner_split(&split, o.seed, inner_val_fraction(a.val_fraction));
+    }
+    if let Some(path) = &x.acf_evaluate {
+        let mut model = AcfModel::load(path)?;
+        if let Some(t) = x.acf_casc_thr {
+            model.casc_thr = t;
+        }
+        let ev = pool.install(|| {
+            evaluate_acf_windows(&model, &split, o.domain, o.cfa, &o.pipeline, Gains::FromFile, &mut progress)
+        })?;
+        println!(
+            "{}: {} positives, {} negative windows, miss rate at FPPW {:?}",
+            path.display(),
+            ev.positives,
+            ev.negative_windows,
+            ev.miss_rate_at
+        );
+        let mut p = ev.scores.positives.clone();
+        p.sort_by(f32::total_cmp);
+        let q = |f: f64| p[((p.len() - 1) as f64 * f) as usize];
+        println!(
+            "positive scores: min {:.3}, 10% {:.3}, 25% {:.3}, median {:.3}, max {:.3}",
+            q(0.0),
+            q(0.1),
+            q(0.25),
+            q(0.5),
+            q(1.0)
+        );
+        return Ok(());
+    }
     let mut model = pool.install(|| train_acf(&split, &o, &mut progress))?;
     let train_seconds = t0.elapsed().as_secs_f64();
     let cmd: Vec<String> = std::env::args().collect();
@@ -87,11 +130,17 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     if a.fold != 0 {
         model.provenance["fold"] = serde_json::json!(a.fold);
     }
+    if x.acf_inner {
+        model.provenance["inner_split"] = serde_json::json!(true);
+    }
     eprintln!(
         "training took {train_seconds:.1} s on {} threads",
         pool.current_num_threads()
     );
     let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
+    if let Some(t) = x.acf_casc_thr {
+        model.casc_thr = t;
+    }
     if !a.no_eval && held_out {
         let ev = pool.install(|| {
             evaluate_acf_windows(&model, &split, o.domain, o.cfa, &o.pipeline, Gains::FromFile, &mut progress)

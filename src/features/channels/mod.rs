@@ -90,7 +90,7 @@ use thiserror::Error;
 use crate::image::ImageView;
 use crate::raw::{Cfa, Colour};
 
-pub use pyramid::{pyramid, ChannelPyramid, Level, PyramidOptions};
+pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.
 pub const N_CHANNELS: usize = 10;

@@ -150,6 +150,22 @@ fn resize_input(input: &ChannelInput, w: usize, h: usize) -> Result<Resized, Cha
     })
 }
 
+/// The unsmoothed channels of `input` resized to `w x h` pixels.
+fn resized_channels(input: &ChannelInput, w: usize, h: usize, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+    match (resize_input(input, w, h)?, input) {
+        (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed(
+            &ChannelInput::Mosaic {
+                image: m.view(),
+                cfa: *cfa,
+            },
+            spec,
+        ),
+        (Resized::Grey(g), _) => channels_unsmoothed(&ChannelInput::GreyF32(g.view()), spec),
+        (Resized::Rgb(p), _) => channels_unsmoothed(&ChannelInput::RgbF32([p[0].view(), p[1].view(), p[2].view()]), spec),
+        (Resized::Mosaic(_), _) => unreachable!("a mosaic is resized only from a mosaic"),
+    }
+}
+
 /// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio[c]`.
 fn resample_channels(
     src: &Channels,
@@ -207,23 +223,7 @@ pub fn pyramid(
     let mut raw: Vec<Option<Channels>> = vec![None; n];
     for &i in &exact {
         let (_, lw, lh) = plan[i];
-        let r = resize_input(input, lw, lh)?;
-        let c = match (&r, input) {
-            (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed(
-                &ChannelInput::Mosaic {
-                    image: m.view(),
-                    cfa: *cfa,
-                },
-                spec,
-            )?,
-            (Resized::Grey(g), _) => channels_unsmoothed(&ChannelInput::GreyF32(g.view()), spec)?,
-            (Resized::Rgb(p), _) => channels_unsmoothed(
-                &ChannelInput::RgbF32([p[0].view(), p[1].view(), p[2].view()]),
-                spec,
-            )?,
-            (Resized::Mosaic(_), _) => unreachable!("a mosaic is resized only from a mosaic"),
-        };
-        raw[i] = Some(c);
+        raw[i] = Some(resized_channels(input, lw, lh, spec)?);
     }
     let mut levels = Vec::with_capacity(n);
     for i in 0..n {
@@ -264,4 +264,69 @@ pub fn pyramid(
         .iter_mut()
         .for_each(|l| smooth_channels(&mut l.channels, r));
     Ok(ChannelPyramid { levels })
+}
+
+/// Measure the power-law exponents λ of the colour, magnitude and orientation channels on
+/// `images` as Dollár's `chnsScaling` does: each image is resized by `s_k = 2^(−k/per_octave)`,
+/// `k = 1..=per_octave·octaves` (CFA-preserving on a mosaic, sizes rounded to blocks), and for each
+/// channel type the mean of its (unsmoothed) channels is divided by the mean at `s = 1`; the ratios
+/// are averaged over the images where both are positive, and λ is minus the least-squares slope of
+/// `log₂ ratio` against `log₂ s`. Scales whose image falls below one block are skipped.
+pub fn measure_lambdas(
+    images: &[ChannelInput],
+    spec: &ChannelSpec,
+    per_octave: usize,
+    octaves: usize,
+) -> Result<[f32; 3], ChannelsError> {
+    let n = per_octave.max(1) * octaves.max(1);
+    let means = |c: &Channels| -> [f64; 3] {
+        let mut m = [0.0f64; 3];
+        let mut cnt = [0usize; 3];
+        for ch in 0..N_CHANNELS {
+            let t = match ch {
+                0..MAG_CHANNEL => 0,
+                MAG_CHANNEL => 1,
+                _ => 2,
+            };
+            m[t] += c.plane(ch).iter().map(|&v| v as f64).sum::<f64>();
+            cnt[t] += c.plane(ch).len();
+        }
+        std::array::from_fn(|t| m[t] / cnt[t].max(1) as f64)
+    };
+    // sums of ratios and counts per scale and type
+    let mut sum = vec![[0.0f64; 3]; n];
+    let mut cnt = vec![[0usize; 3]; n];
+    for img in images {
+        let (w, h) = img.dimensions();
+        let base = means(&channels_unsmoothed(img, spec)?);
+        for k in 1..=n {
+            let s = 2f64.powf(-(k as f64) / per_octave as f64);
+            let lw = (w as f64 * s / SHRINK as f64).round() as usize * SHRINK;
+            let lh = (h as f64 * s / SHRINK as f64).round() as usize * SHRINK;
+            if lw < SHRINK || lh < SHRINK {
+                continue;
+            }
+            let m = means(&resized_channels(img, lw, lh, spec)?);
+            for t in 0..3 {
+                if base[t] > 0.0 && m[t] > 0.0 {
+                    sum[k - 1][t] += m[t] / base[t];
+                    cnt[k - 1][t] += 1;
+                }
+            }
+        }
+    }
+    Ok(std::array::from_fn(|t| {
+        let pts: Vec<(f64, f64)> = (0..n)
+            .filter(|&k| cnt[k][t] > 0)
+            .map(|k| (-((k + 1) as f64) / per_octave as f64, (sum[k][t] / cnt[k][t] as f64).log2()))
+            .collect();
+        if pts.len() < 2 {
+            return 0.0;
+        }
+        let np = pts.len() as f64;
+        let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / np, pts.iter().map(|p| p.1).sum::<f64>() / np);
+        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+        (-(sxy / sxx)) as f32
+    }))
 }
