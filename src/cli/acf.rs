@@ -6,11 +6,13 @@ use std::time::Instant;
 use anyhow::Context;
 use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
 use mosaicd::detect::boost::{BoostOptions, TreeOptions};
-use mosaicd::detect::train::acf::{evaluate_acf_windows, train_acf, AcfTrainOptions};
-use mosaicd::detect::train::{inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline};
+use mosaicd::detect::train::acf::{evaluate_acf_windows, positive_windows, train_acf, AcfTrainOptions};
+use mosaicd::detect::train::{
+    inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
+};
 use mosaicd::detect::NmsMethod;
 use mosaicd::eval::draw::draw_boxes;
-use mosaicd::features::channels::ChannelInput;
+use mosaicd::features::channels::{ChannelInput, PyramidOptions};
 use mosaicd::raw::levels::Gains;
 
 use super::detect::{load_frame, save_png, DetectArgs, Frame};
@@ -45,10 +47,15 @@ pub struct AcfTrainArgs {
     /// split of --seed, --val-fraction, --fold; --out is not written).
     #[arg(long, value_name = "MODEL")]
     pub acf_evaluate: Option<std::path::PathBuf>,
-    /// ACF: soft-cascade threshold, overriding the model's, for the validation and written into
-    /// a trained model (a very negative value scores every window with every tree).
+    /// ACF: soft-cascade threshold written into a trained model (default Dollár's −1), or with
+    /// --acf-evaluate the threshold the model is evaluated with (a very negative value scores
+    /// every window with every tree).
     #[arg(long, allow_hyphen_values = true)]
     pub acf_casc_thr: Option<f32>,
+    /// ACF: the pyramid's power-law exponents λ (colour, magnitude, orientations) instead of
+    /// measuring them on the training positives (Dollár's INRIA values: 0,0.11,0.11).
+    #[arg(long, value_delimiter = ',', num_args = 3)]
+    pub acf_lambdas: Option<Vec<f32>>,
     /// ACF: train and validate on the inner split of the training files (the held-out files are
     /// not touched): for choosing settings such as the cascade threshold.
     #[arg(long)]
@@ -79,6 +86,15 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         per_neg: x.acf_per_neg,
         acc_neg: x.acf_acc_neg,
         max_neg_images: a.max_neg_images,
+        measure_lambdas: x.acf_lambdas.is_none(),
+        casc_thr: x.acf_casc_thr.unwrap_or(mosaicd::detect::acf::CASC_THR),
+        pyramid: PyramidOptions {
+            lambdas: match &x.acf_lambdas {
+                Some(l) => [l[0], l[1], l[2]],
+                None => PyramidOptions::default().lambdas,
+            },
+            ..PyramidOptions::default()
+        },
         ..AcfTrainOptions::default()
     };
     let root = mosaicd::data::data_root();
@@ -98,7 +114,15 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
             model.casc_thr = t;
         }
         let ev = pool.install(|| {
-            evaluate_acf_windows(&model, &split, o.domain, o.cfa, &o.pipeline, Gains::FromFile, &mut progress)
+            evaluate_acf_windows(
+                &model,
+                &split,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                Gains::FromFile,
+                &mut progress,
+            )
         })?;
         println!(
             "{}: {} positives, {} negative windows, miss rate at FPPW {:?}",
@@ -118,6 +142,43 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
             q(0.5),
             q(1.0)
         );
+        // The running score of the held-out positives along the trees (the soft cascade rejects
+        // a window the first time it is at most the threshold).
+        let xs = pool.install(|| {
+            positive_windows(
+                &split.val_pos,
+                &model,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                Gains::FromFile,
+            )
+        })?;
+        let trees = &model.classifier.trees;
+        let mut run = vec![0.0f32; xs.len()];
+        let mut low = vec![f32::INFINITY; xs.len()];
+        let mut k = 1;
+        for (t, tree) in trees.iter().enumerate() {
+            for ((r, l), x) in run.iter_mut().zip(low.iter_mut()).zip(&xs) {
+                *r += tree.apply(|f| x[f]);
+                *l = l.min(*r);
+            }
+            if t + 1 == k || t + 1 == trees.len() {
+                let mut v = run.clone();
+                v.sort_by(f32::total_cmp);
+                let below = low.iter().filter(|&&l| l <= model.casc_thr).count();
+                println!(
+                    "after {:4} trees: positives' running score 10% {:8.3}, median {:8.3}; {} of {} were at most the cascade threshold {} so far",
+                    t + 1,
+                    v[v.len() / 10],
+                    v[v.len() / 2],
+                    below,
+                    v.len(),
+                    model.casc_thr
+                );
+                k *= 2;
+            }
+        }
         return Ok(());
     }
     let mut model = pool.install(|| train_acf(&split, &o, &mut progress))?;
@@ -138,12 +199,17 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         pool.current_num_threads()
     );
     let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
-    if let Some(t) = x.acf_casc_thr {
-        model.casc_thr = t;
-    }
     if !a.no_eval && held_out {
         let ev = pool.install(|| {
-            evaluate_acf_windows(&model, &split, o.domain, o.cfa, &o.pipeline, Gains::FromFile, &mut progress)
+            evaluate_acf_windows(
+                &model,
+                &split,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                Gains::FromFile,
+                &mut progress,
+            )
         })?;
         eprintln!(
             "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
@@ -209,7 +275,9 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
         nms,
     };
     let det = AcfDetector::new(model, &opts)?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()?;
     let input = channel_input(&frame);
     let (boxes, st) = pool.install(|| det.detect(&input))?;
     let ms = |t: std::time::Duration| t.as_secs_f64() * 1e3;

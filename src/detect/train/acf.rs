@@ -42,7 +42,9 @@ use crate::detect::detector::NmsMethod;
 use crate::detect::input::MosaicPrep;
 use crate::detect::model::Domain;
 use crate::detect::nms::greedy_nms;
-use crate::features::channels::{channels, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK};
+use crate::features::channels::{
+    channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
+};
 use crate::geometry::Detection;
 use crate::raw::levels::Gains;
 use crate::raw::tone::MosaicTone;
@@ -85,6 +87,11 @@ pub struct AcfTrainOptions {
     pub acc_neg: usize,
     /// Use at most this many training negative images (0 = all).
     pub max_neg_images: usize,
+    /// Measure the pyramid's λ on the training positives ([`measure_lambdas`], as Dollár's
+    /// `acfTrain` does when none are given) instead of using `pyramid.lambdas`.
+    pub measure_lambdas: bool,
+    /// Soft-cascade threshold written into the model (Dollár's −1).
+    pub casc_thr: f32,
 }
 
 impl Default for AcfTrainOptions {
@@ -103,6 +110,8 @@ impl Default for AcfTrainOptions {
             per_neg: 25,
             acc_neg: 10000,
             max_neg_images: 0,
+            measure_lambdas: true,
+            casc_thr: CASC_THR,
         }
     }
 }
@@ -117,7 +126,12 @@ pub fn channel_input(img: &DomainImage, cfa: Cfa) -> ChannelInput<'_> {
 }
 
 /// Features of the positive window of a 96x160 crop.
-fn positive_features(spec: &ChannelSpec, img: &DomainImage, cfa: Cfa, win: (usize, usize)) -> Result<Vec<f32>, TrainError> {
+fn positive_features(
+    spec: &ChannelSpec,
+    img: &DomainImage,
+    cfa: Cfa,
+    win: (usize, usize),
+) -> Result<Vec<f32>, TrainError> {
     let ch = channels(&channel_input(img, cfa), spec).map_err(AcfError::from)?;
     ch.window(POS_WINDOW_BLOCK, POS_WINDOW_BLOCK, win.0, win.1)
         .ok_or_else(|| TrainError::BadOption {
@@ -127,7 +141,12 @@ fn positive_features(spec: &ChannelSpec, img: &DomainImage, cfa: Cfa, win: (usiz
         })
 }
 
-fn model_of(o: &AcfTrainOptions, boost: BoostOptions, classifier: crate::detect::boost::BoostedTrees) -> AcfModel {
+fn model_of(
+    o: &AcfTrainOptions,
+    pyr: PyramidOptions,
+    boost: BoostOptions,
+    classifier: crate::detect::boost::BoostedTrees,
+) -> AcfModel {
     AcfModel {
         format: FORMAT.into(),
         version: VERSION,
@@ -135,8 +154,8 @@ fn model_of(o: &AcfTrainOptions, boost: BoostOptions, classifier: crate::detect:
         win_width: o.pyramid.min_size.0,
         win_height: o.pyramid.min_size.1,
         channels: o.channels,
-        pyramid: o.pyramid,
-        casc_thr: CASC_THR,
+        pyramid: pyr,
+        casc_thr: o.casc_thr,
         casc_cal: CASC_CAL,
         mosaic_tone: o.mosaic_tone,
         boost,
@@ -148,43 +167,74 @@ fn model_of(o: &AcfTrainOptions, boost: BoostOptions, classifier: crate::detect:
 fn check(o: &AcfTrainOptions) -> Result<(), TrainError> {
     let bad = |what, value: String, allowed| Err(TrainError::BadOption { what, value, allowed });
     if o.stages.is_empty() || o.stages.contains(&0) {
-        return bad("stages", format!("{:?}", o.stages), "one or more tree counts, each > 0");
+        return bad(
+            "stages",
+            format!("{:?}", o.stages),
+            "one or more tree counts, each > 0",
+        );
     }
     if o.n_neg == 0 || o.per_neg == 0 {
-        return bad("n_neg / per_neg", format!("{} / {}", o.n_neg, o.per_neg), "both > 0");
+        return bad(
+            "n_neg / per_neg",
+            format!("{} / {}", o.n_neg, o.per_neg),
+            "both > 0",
+        );
     }
     if o.pyramid.min_size != (64, 128) {
-        return bad("window", format!("{:?}", o.pyramid.min_size), "64x128 (the INRIA crops' window)");
+        return bad(
+            "window",
+            format!("{:?}", o.pyramid.min_size),
+            "64x128 (the INRIA crops' window)",
+        );
     }
     ChannelSpec::new(o.channels).map_err(AcfError::from)?;
     Ok(())
 }
 
 /// Train an ACF model on `split`'s training files; `progress` receives one line per step.
-pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&str)) -> Result<AcfModel, TrainError> {
+pub fn train_acf(
+    split: &Split,
+    o: &AcfTrainOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<AcfModel, TrainError> {
     check(o)?;
     let t0 = Instant::now();
     let spec = ChannelSpec::new(o.channels).map_err(AcfError::from)?;
     let prep = MosaicPrep::with_tone(o.mosaic_tone);
     let win = (o.pyramid.min_size.0 / SHRINK, o.pyramid.min_size.1 / SHRINK);
-    let x1: Vec<Vec<f32>> = split
+    let pos_imgs: Vec<DomainImage> = split
         .train_pos
         .par_iter()
         .enumerate()
-        .map(|(i, p)| {
-            let img = DomainImage::from_rgb_via(&load_rgb(p)?, o.domain, o.cfa, &o.pipeline, i as u64, &prep)?;
-            positive_features(&spec, &img, o.cfa, win)
-        })
+        .map(|(i, p)| DomainImage::from_rgb_via(&load_rgb(p)?, o.domain, o.cfa, &o.pipeline, i as u64, &prep))
+        .collect::<Result<_, _>>()?;
+    let x1: Vec<Vec<f32>> = pos_imgs
+        .par_iter()
+        .map(|img| positive_features(&spec, img, o.cfa, win))
         .collect::<Result<_, _>>()?;
     progress(&format!(
         "acf: {} positive windows ({:.1} s)",
         x1.len(),
         t0.elapsed().as_secs_f64()
     ));
+    let mut pyr = o.pyramid;
+    if o.measure_lambdas {
+        let inputs: Vec<ChannelInput> = pos_imgs.iter().map(|i| channel_input(i, o.cfa)).collect();
+        pyr.lambdas = measure_lambdas(&inputs, &spec, pyr.per_octave, 3).map_err(AcfError::from)?;
+        progress(&format!(
+            "acf: λ measured on the positives: colour {:.4}, magnitude {:.4}, orientations {:.4}",
+            pyr.lambdas[0], pyr.lambdas[1], pyr.lambdas[2]
+        ));
+    }
+    drop(pos_imgs);
     let neg_files: Vec<PathBuf> = split
         .train_neg
         .iter()
-        .take(if o.max_neg_images > 0 { o.max_neg_images } else { usize::MAX })
+        .take(if o.max_neg_images > 0 {
+            o.max_neg_images
+        } else {
+            usize::MAX
+        })
         .chain(&split.extra_train_neg)
         .cloned()
         .collect();
@@ -213,19 +263,23 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
     for (stage, &n_weak) in o.stages.iter().enumerate() {
         let ts = Instant::now();
         let stream = |i: usize| {
-            rand_chacha::ChaCha8Rng::seed_from_u64(image_seed(o.seed ^ NEG_STREAM_SALT, (stage << 24 | i) as u64))
+            rand_chacha::ChaCha8Rng::seed_from_u64(image_seed(
+                o.seed ^ NEG_STREAM_SALT,
+                (stage << 24 | i) as u64,
+            ))
         };
         let fresh: Vec<Vec<Vec<f32>>> = match &model {
             None => negs
                 .par_iter()
                 .enumerate()
                 .map(|(i, img)| {
-                    let p = pyramid(&channel_input(img, o.cfa), &spec, &o.pyramid).map_err(AcfError::from)?;
+                    let p = pyramid(&channel_input(img, o.cfa), &spec, &pyr).map_err(AcfError::from)?;
                     let counts: Vec<usize> = p
                         .levels
                         .iter()
                         .map(|l| {
-                            (l.channels.width() + 1).saturating_sub(win.0) * (l.channels.height() + 1).saturating_sub(win.1)
+                            (l.channels.width() + 1).saturating_sub(win.0)
+                                * (l.channels.height() + 1).saturating_sub(win.1)
                         })
                         .collect();
                     let total: usize = counts.iter().sum();
@@ -240,7 +294,10 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
                         }
                         let ch = &p.levels[li].channels;
                         let nx = ch.width() + 1 - win.0;
-                        out.push(ch.window(k % nx, k / nx, win.0, win.1).expect("window inside its level"));
+                        out.push(
+                            ch.window(k % nx, k / nx, win.0, win.1)
+                                .expect("window inside its level"),
+                        );
                     }
                     Ok(out)
                 })
@@ -279,7 +336,10 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
                         let kept = greedy_nms(&cands.iter().map(|c| c.0).collect::<Vec<_>>(), MINING_NMS_IOU);
                         let mut out = Vec::new();
                         for d in kept.iter().take(o.per_neg) {
-                            let &(_, li) = cands.iter().find(|c| c.0 == *d).expect("a kept box is a candidate");
+                            let &(_, li) = cands
+                                .iter()
+                                .find(|c| c.0 == *d)
+                                .expect("a kept box is a candidate");
                             let l = &p.levels[li];
                             let bx = (d.x * l.scale_x as f32 / SHRINK as f32).round() as usize;
                             let by = (d.y * l.scale_y as f32 / SHRINK as f32).round() as usize;
@@ -324,7 +384,7 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
         let mut clf = train_adaboost(&x0, &x1, &boost, &mut prog)?;
         clf.calibrate(CASC_CAL);
         let trees = clf.trees.len();
-        model = Some(model_of(o, boost, clf));
+        model = Some(model_of(o, pyr, boost, clf));
         let secs = ts.elapsed().as_secs_f64();
         progress(&format!(
             "acf stage {stage}: {trees} trees ({secs:.1} s this stage, {:.1} s in all)",
@@ -340,7 +400,7 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
         "seed": o.seed, "domain": o.domain, "cfa": o.cfa.name(),
         "input_pipeline": o.pipeline.name(), "mosaic_tone": o.mosaic_tone,
         "stages": o.stages, "n_neg": o.n_neg, "per_neg": o.per_neg, "acc_neg": o.acc_neg,
-        "max_neg_images": o.max_neg_images,
+        "max_neg_images": o.max_neg_images, "lambdas_measured": o.measure_lambdas,
         "train_positives": split.train_pos.len(), "train_negative_images": negs.len(),
         "positive_windows": x1.len(),
         "stage_log": stages_log,
@@ -349,6 +409,32 @@ pub fn train_acf(split: &Split, o: &AcfTrainOptions, progress: &mut dyn FnMut(&s
         m.provenance["noise_seed"] = serde_json::json!(seed);
     }
     Ok(m)
+}
+
+/// The features of the positive windows of the 96x160 crops `files` for `model` (image `i` on
+/// the noise stream `i`, as the evaluation reads them).
+pub fn positive_windows(
+    files: &[PathBuf],
+    model: &AcfModel,
+    domain: Domain,
+    cfa: Cfa,
+    pipeline: &InputPipeline,
+    wb: Gains,
+) -> Result<Vec<Vec<f32>>, TrainError> {
+    let prep = MosaicPrep {
+        tone: model.mosaic_tone,
+        gains: wb,
+    };
+    let spec = ChannelSpec::new(model.channels).map_err(AcfError::from)?;
+    let win = model.window_blocks();
+    files
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64, &prep)?;
+            positive_features(&spec, &img, cfa, win)
+        })
+        .collect()
 }
 
 /// Window-level evaluation of an ACF model on `split`'s held-out files (the HOG detector's
@@ -370,24 +456,24 @@ pub fn evaluate_acf_windows(
         gains: wb,
     };
     let det = AcfDetector::new(model.clone(), &AcfOptions::default())?;
-    let spec = ChannelSpec::new(model.channels).map_err(AcfError::from)?;
-    let win = model.window_blocks();
-    let pos: Vec<f32> = split
-        .val_pos
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64, &prep)?;
-            Ok(det.score_features(&positive_features(&spec, &img, cfa, win)?))
-        })
-        .collect::<Result<_, TrainError>>()?;
+    let pos: Vec<f32> = positive_windows(&split.val_pos, model, domain, cfa, pipeline, wb)?
+        .iter()
+        .map(|x| det.score_features(x))
+        .collect();
     progress(&format!("eval: {} positives scored", pos.len()));
     let per_image: Vec<Vec<f32>> = split
         .val_neg
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, NEG_SEED_OFFSET + i as u64, &prep)?;
+            let img = DomainImage::from_rgb_via(
+                &load_rgb(p)?,
+                domain,
+                cfa,
+                pipeline,
+                NEG_SEED_OFFSET + i as u64,
+                &prep,
+            )?;
             let mut v = Vec::new();
             det.for_each_window(&channel_input(&img, cfa), |_, _, _, _, s| v.push(s))?;
             Ok(v)

@@ -446,17 +446,25 @@ pub fn smooth_channels(ch: &mut Channels, r: f32) {
 fn planes_of(input: &ChannelInput) -> (Vec<Vec<f32>>, usize) {
     const S: f32 = 1.0 / 255.0;
     let (w, h) = input.dimensions();
-    let f32_plane = |v: &ImageView<'_, f32>| -> Vec<f32> { (0..h).flat_map(|y| v.row(y).iter().map(|p| p * S)).collect() };
+    let f32_plane = |v: &ImageView<'_, f32>| -> Vec<f32> {
+        (0..h).flat_map(|y| v.row(y).iter().map(|p| p * S)).collect()
+    };
     match input {
         ChannelInput::Mosaic { image, .. } => (vec![f32_plane(image)], 2),
         ChannelInput::GreyF32(v) => (vec![f32_plane(v)], 1),
         ChannelInput::GreyU8(v) => (
-            vec![(0..h).flat_map(|y| v.row(y).iter().map(|&p| p as f32 * S)).collect()],
+            vec![(0..h)
+                .flat_map(|y| v.row(y).iter().map(|&p| p as f32 * S))
+                .collect()],
             1,
         ),
         ChannelInput::Rgb8(v) => (
             (0..3)
-                .map(|k| (0..h).flat_map(|y| v.row(y)[..w].iter().map(move |p| p[k] as f32 * S)).collect())
+                .map(|k| {
+                    (0..h)
+                        .flat_map(|y| v.row(y)[..w].iter().map(move |p| p[k] as f32 * S))
+                        .collect()
+                })
                 .collect(),
             1,
         ),
@@ -478,20 +486,36 @@ fn bin_edges() -> [(f32, f32); N_ORIENTS] {
 /// rounding of an edge; the zero vector gets bin 0.
 #[inline]
 fn orient_bin(gx: f32, gy: f32, edges: &[(f32, f32); N_ORIENTS]) -> u8 {
-    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) { (-gx, -gy) } else { (gx, gy) };
+    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) {
+        (-gx, -gy)
+    } else {
+        (gx, gy)
+    };
     let c: u8 = edges.iter().map(|&(c, s)| (gy * c - gx * s >= 0.0) as u8).sum();
     c % N_ORIENTS as u8
 }
 
 /// Gradient magnitude and orientation bin of row `y` (the first `mrow.len()` columns), the plane
 /// of largest magnitude per pixel (reflect-101 borders).
-fn gradient_row(planes: &[Vec<f32>], w: usize, h: usize, y: usize, mrow: &mut [f32], brow: &mut [u8], scratch: &mut [[f32; 3]]) {
+fn gradient_row(
+    planes: &[Vec<f32>],
+    w: usize,
+    h: usize,
+    y: usize,
+    mrow: &mut [f32],
+    brow: &mut [u8],
+    scratch: &mut [[f32; 3]],
+) {
     let edges = bin_edges();
     let yu = if y == 0 { 1.min(h - 1) } else { y - 1 };
     let yd = if y + 1 == h { y.saturating_sub(1) } else { y + 1 };
     let gw = mrow.len();
     for (pi, p) in planes.iter().enumerate() {
-        let (up, mid, dn) = (&p[yu * w..(yu + 1) * w], &p[y * w..(y + 1) * w], &p[yd * w..(yd + 1) * w]);
+        let (up, mid, dn) = (
+            &p[yu * w..(yu + 1) * w],
+            &p[y * w..(y + 1) * w],
+            &p[yd * w..(yd + 1) * w],
+        );
         let put = |x: usize, xl: usize, xr: usize, best: &mut [f32; 3]| {
             let gx = (mid[xr] - mid[xl]) * 0.5;
             let gy = (dn[x] - up[x]) * 0.5;
@@ -569,7 +593,11 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
                 let row = y * gw..(y + 1) * gw;
                 let (m, b) = (&mag[row.clone()], &bin[row.clone()]);
                 for x in 0..gw {
-                    let v = if norm.is_empty() { m[x] } else { m[x] / (norm[row.start + x] + o.norm_const) };
+                    let v = if norm.is_empty() {
+                        m[x]
+                    } else {
+                        m[x] / (norm[row.start + x] + o.norm_const)
+                    };
                     let a = &mut acc[(x / SHRINK) * (1 + N_ORIENTS)..];
                     a[0] += v;
                     a[1 + b[x] as usize] += v;
@@ -599,7 +627,13 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
 
 /// Block means of L, U, V along block row `by`: per 2x2 super-pixel on a mosaic, per pixel
 /// otherwise.
-fn colour_block_row(input: &ChannelInput, planes: &[Vec<f32>], w: usize, cw: usize, by: usize) -> Vec<[f32; 3]> {
+fn colour_block_row(
+    input: &ChannelInput,
+    planes: &[Vec<f32>],
+    w: usize,
+    cw: usize,
+    by: usize,
+) -> Vec<[f32; 3]> {
     let mut out = vec![[0.0f32; 3]; cw];
     let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
         for k in 0..3 {
@@ -632,7 +666,8 @@ fn colour_block_row(input: &ChannelInput, planes: &[Vec<f32>], w: usize, cw: usi
                     for sx in 0..sp {
                         let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
                         let r = at(x0 + r_off.0, y0 + r_off.1);
-                        let g = 0.5 * (at(x0 + g_off[0].0, y0 + g_off[0].1) + at(x0 + g_off[1].0, y0 + g_off[1].1));
+                        let g = 0.5
+                            * (at(x0 + g_off[0].0, y0 + g_off[0].1) + at(x0 + g_off[1].0, y0 + g_off[1].1));
                         let b = at(x0 + b_off.0, y0 + b_off.1);
                         add(&mut acc, luv_from_rgb(r, g, b));
                     }

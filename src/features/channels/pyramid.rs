@@ -151,7 +151,12 @@ fn resize_input(input: &ChannelInput, w: usize, h: usize) -> Result<Resized, Cha
 }
 
 /// The unsmoothed channels of `input` resized to `w x h` pixels.
-fn resized_channels(input: &ChannelInput, w: usize, h: usize, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+fn resized_channels(
+    input: &ChannelInput,
+    w: usize,
+    h: usize,
+    spec: &ChannelSpec,
+) -> Result<Channels, ChannelsError> {
     match (resize_input(input, w, h)?, input) {
         (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed(
             &ChannelInput::Mosaic {
@@ -161,7 +166,10 @@ fn resized_channels(input: &ChannelInput, w: usize, h: usize, spec: &ChannelSpec
             spec,
         ),
         (Resized::Grey(g), _) => channels_unsmoothed(&ChannelInput::GreyF32(g.view()), spec),
-        (Resized::Rgb(p), _) => channels_unsmoothed(&ChannelInput::RgbF32([p[0].view(), p[1].view(), p[2].view()]), spec),
+        (Resized::Rgb(p), _) => channels_unsmoothed(
+            &ChannelInput::RgbF32([p[0].view(), p[1].view(), p[2].view()]),
+            spec,
+        ),
         (Resized::Mosaic(_), _) => unreachable!("a mosaic is resized only from a mosaic"),
     }
 }
@@ -318,13 +326,21 @@ pub fn measure_lambdas(
     Ok(std::array::from_fn(|t| {
         let pts: Vec<(f64, f64)> = (0..n)
             .filter(|&k| cnt[k][t] > 0)
-            .map(|k| (-((k + 1) as f64) / per_octave as f64, (sum[k][t] / cnt[k][t] as f64).log2()))
+            .map(|k| {
+                (
+                    -((k + 1) as f64) / per_octave as f64,
+                    (sum[k][t] / cnt[k][t] as f64).log2(),
+                )
+            })
             .collect();
         if pts.len() < 2 {
             return 0.0;
         }
         let np = pts.len() as f64;
-        let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / np, pts.iter().map(|p| p.1).sum::<f64>() / np);
+        let (mx, my) = (
+            pts.iter().map(|p| p.0).sum::<f64>() / np,
+            pts.iter().map(|p| p.1).sum::<f64>() / np,
+        );
         let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
         let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
         (-(sxy / sxx)) as f32

@@ -324,7 +324,12 @@ fn orientation_bins_agree_with_atan2() {
                 th += std::f32::consts::PI;
             }
             let want = ((th * 6.0 / std::f32::consts::PI + 0.5) as usize % N_ORIENTS) as u8;
-            assert_eq!(orient_bin(gx, gy, &edges), want, "angle {}°", i as f32 * 0.1 + 0.05);
+            assert_eq!(
+                orient_bin(gx, gy, &edges),
+                want,
+                "angle {}°",
+                i as f32 * 0.1 + 0.05
+            );
             n += 1;
         }
     }
