@@ -11,11 +11,10 @@ use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
 use mosaicd::detect::NmsMethod;
-use mosaicd::eval::draw::draw_boxes;
 use mosaicd::features::channels::{ChannelInput, PyramidOptions};
 use mosaicd::raw::levels::Gains;
 
-use super::detect::{load_frame, save_png, DetectArgs, Frame};
+use super::detect::{load_frame, print_boxes, save_preview, DetectArgs, Frame};
 use super::train::TrainArgs;
 
 /// Options of `mosaicd train` that only the ACF detector reads.
@@ -54,7 +53,7 @@ pub struct AcfTrainArgs {
     pub acf_casc_thr: Option<f32>,
     /// ACF: the pyramid's power-law exponents λ (colour, magnitude, orientations) instead of
     /// measuring them on the training positives (Dollár's INRIA values: 0,0.11,0.11).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(long, value_delimiter = ',')]
     pub acf_lambdas: Option<Vec<f32>>,
     /// ACF: train and validate on the inner split of the training files (the held-out files are
     /// not touched): for choosing settings such as the cascade threshold.
@@ -65,6 +64,12 @@ pub struct AcfTrainArgs {
 /// `mosaicd train --detector acf`.
 pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     let x = &a.acf;
+    if let Some(l) = &x.acf_lambdas {
+        anyhow::ensure!(
+            l.len() == 3,
+            "--acf-lambdas: three values (colour, magnitude, orientations), got {l:?}"
+        );
+    }
     let o = AcfTrainOptions {
         domain: a.domain.into(),
         cfa: a.cfa,
@@ -108,22 +113,25 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     if x.acf_inner {
         split = inner_split(&split, o.seed, inner_val_fraction(a.val_fraction));
     }
-    if let Some(path) = &x.acf_evaluate {
-        let mut model = AcfModel::load(path)?;
-        if let Some(t) = x.acf_casc_thr {
-            model.casc_thr = t;
-        }
-        let ev = pool.install(|| {
+    let validate = |model: &AcfModel, progress: &mut (dyn FnMut(&str) + Send)| {
+        pool.install(|| {
             evaluate_acf_windows(
-                &model,
+                model,
                 &split,
                 o.domain,
                 o.cfa,
                 &o.pipeline,
                 Gains::FromFile,
-                &mut progress,
+                progress,
             )
-        })?;
+        })
+    };
+    if let Some(path) = &x.acf_evaluate {
+        let mut model = AcfModel::load(path)?;
+        if let Some(t) = x.acf_casc_thr {
+            model.casc_thr = t;
+        }
+        let ev = validate(&model, &mut progress)?;
         println!(
             "{}: {} positives, {} negative windows, miss rate at FPPW {:?}",
             path.display(),
@@ -200,17 +208,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     );
     let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
     if !a.no_eval && held_out {
-        let ev = pool.install(|| {
-            evaluate_acf_windows(
-                &model,
-                &split,
-                o.domain,
-                o.cfa,
-                &o.pipeline,
-                Gains::FromFile,
-                &mut progress,
-            )
-        })?;
+        let ev = validate(&model, &mut progress)?;
         eprintln!(
             "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
             ev.positives, ev.negative_windows, ev.miss_rate_at
@@ -311,17 +309,47 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
             ms(st.channels),
             ms(st.score)
         );
-        for b in &boxes {
-            println!(
-                "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
-                b.x, b.y, b.width, b.height, b.score
-            );
-        }
+        print_boxes(&boxes);
     }
-    if let Some(p) = &args.preview {
-        let mut img = frame.preview();
-        draw_boxes(&mut img, &boxes);
-        save_png(&img, p)?;
+    save_preview(&frame, &boxes, args.preview.as_deref())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::super::train::{DetectorArg, TrainArgs};
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        train: TrainArgs,
     }
-    Ok(())
+
+    #[test]
+    fn train_parses_the_acf_options_and_keeps_hog_the_default() {
+        let c = Cli::try_parse_from(["x", "--domain", "mosaic", "--out", "m.json"]).unwrap();
+        assert_eq!(c.train.detector, DetectorArg::Hog);
+        assert_eq!(c.train.acf.acf_stages, vec![32, 128, 512, 2048]);
+        let c = Cli::try_parse_from([
+            "x",
+            "--detector",
+            "acf",
+            "--domain",
+            "mosaic",
+            "--out",
+            "m.json",
+            "--acf-stages",
+            "4,8",
+            "--acf-lambdas",
+            "0,0.1,0.1",
+            "--acf-casc-thr",
+            "-8",
+        ])
+        .unwrap();
+        assert_eq!(c.train.detector, DetectorArg::Acf);
+        assert_eq!(c.train.acf.acf_stages, vec![4, 8]);
+        assert_eq!(c.train.acf.acf_lambdas, Some(vec![0.0, 0.1, 0.1]));
+        assert_eq!(c.train.acf.acf_casc_thr, Some(-8.0));
+    }
 }

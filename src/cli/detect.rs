@@ -429,16 +429,30 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
             stats.hits,
             stats.total.as_secs_f64() * 1e3
         );
-        for b in &boxes {
-            println!(
-                "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
-                b.x, b.y, b.width, b.height, b.score
-            );
-        }
+        print_boxes(&boxes);
     }
-    if let Some(p) = &args.preview {
+    save_preview(&frame, &boxes, args.preview.as_deref())
+}
+
+/// One line per box (the text output of `mosaicd detect`).
+pub fn print_boxes(boxes: &[mosaicd::detect::Detection]) {
+    for b in boxes {
+        println!(
+            "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
+            b.x, b.y, b.width, b.height, b.score
+        );
+    }
+}
+
+/// The frame with `boxes` drawn, as a PNG at `path` (if any).
+pub fn save_preview(
+    frame: &Frame,
+    boxes: &[mosaicd::detect::Detection],
+    path: Option<&Path>,
+) -> anyhow::Result<()> {
+    if let Some(p) = path {
         let mut img = frame.preview();
-        draw_boxes(&mut img, &boxes);
+        draw_boxes(&mut img, boxes);
         save_png(&img, p)?;
     }
     Ok(())

@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use super::domain::{image_seed, load_rgb, DomainImage, InputPipeline, NEG_SEED_OFFSET};
 use super::error::TrainError;
 use super::split::Split;
-use super::windows::{photo_indices, window_eval, WindowEval};
+use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
 use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
 use crate::detect::boost::{train_adaboost, BoostOptions};
 use crate::detect::detector::NmsMethod;
@@ -466,14 +466,7 @@ pub fn evaluate_acf_windows(
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            let img = DomainImage::from_rgb_via(
-                &load_rgb(p)?,
-                domain,
-                cfa,
-                pipeline,
-                NEG_SEED_OFFSET + i as u64,
-                &prep,
-            )?;
+            let img = held_out_negative(p, i, domain, cfa, pipeline, &prep)?;
             let mut v = Vec::new();
             det.for_each_window(&channel_input(&img, cfa), |_, _, _, _, s| v.push(s))?;
             Ok(v)
@@ -499,6 +492,52 @@ fn sorted_sample(rng: &mut impl Rng, len: usize, n: usize) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn training_on_shared_data_is_the_same_for_1_and_2_threads() {
+        // A small run on the shared INRIA crops and negatives (fails with the data directory
+        // named when $MOSAICD_DATA is missing, like every data test).
+        crate::data::data_path("pedestrian/inria_pos_96x160").unwrap_or_else(|e| panic!("{e}"));
+        let mut split = super::super::split_data(&crate::data::data_root(), 1, 0.2, 0).unwrap();
+        split.train_pos.truncate(40);
+        split.train_neg.truncate(4);
+        let o = AcfTrainOptions {
+            stages: vec![2, 4],
+            n_neg: 60,
+            per_neg: 15,
+            acc_neg: 100,
+            ..AcfTrainOptions::default()
+        };
+        let run = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| train_acf(&split, &o, &mut |_| {}).unwrap())
+        };
+        let (a, b) = (run(1), run(2));
+        // everything but the stages' wall times
+        assert_eq!(
+            (&a.classifier, &a.pyramid, a.boost),
+            (&b.classifier, &b.pyramid, b.boost)
+        );
+        assert_eq!(a.classifier.trees.len(), 4);
+        assert_eq!(a.provenance["positive_windows"], 40);
+        assert!(a.pyramid.lambdas[1] > 0.0, "{:?}", a.pyramid.lambdas);
+        // the trained model scores its own training positives above the cascade threshold
+        let det = AcfDetector::new(a.clone(), &AcfOptions::default()).unwrap();
+        let xs = positive_windows(
+            &split.train_pos,
+            &a,
+            a.domain,
+            Cfa::Rggb,
+            &InputPipeline::Sampled,
+            Gains::FromFile,
+        )
+        .unwrap();
+        let above = xs.iter().filter(|x| det.score_features(x) > a.casc_thr).count();
+        assert!(above * 2 > xs.len(), "{above} of {}", xs.len());
+    }
 
     #[test]
     fn options_are_checked() {

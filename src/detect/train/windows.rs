@@ -132,14 +132,7 @@ pub fn evaluate_windows_via(
     let mut neg = Vec::new();
     let mut windows_per_image = Vec::with_capacity(split.val_neg.len());
     for (i, p) in split.val_neg.iter().enumerate() {
-        let img = DomainImage::from_rgb_via(
-            &load_rgb(p)?,
-            domain,
-            cfa,
-            pipeline,
-            NEG_SEED_OFFSET + i as u64,
-            &prep,
-        )?;
+        let img = held_out_negative(p, i, domain, cfa, pipeline, &prep)?;
         let before = neg.len();
         det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
         windows_per_image.push(neg.len() - before);
@@ -153,6 +146,26 @@ pub fn evaluate_windows_via(
         }
     }
     window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)
+}
+
+/// Held-out negative image `i` (file `path`) in `domain` through `pipeline`, on its own noise
+/// stream.
+pub(super) fn held_out_negative(
+    path: &std::path::Path,
+    i: usize,
+    domain: Domain,
+    cfa: Cfa,
+    pipeline: &InputPipeline,
+    prep: &MosaicPrep,
+) -> Result<DomainImage, TrainError> {
+    DomainImage::from_rgb_via(
+        &load_rgb(path)?,
+        domain,
+        cfa,
+        pipeline,
+        NEG_SEED_OFFSET + i as u64,
+        prep,
+    )
 }
 
 /// The photo of each positive: an index into the distinct [`photo_prefix`]es of `paths`, in

@@ -7,7 +7,7 @@
 //! three colour channels (CIE L\*u\*v\* in Dollár's scaling), the normalised gradient magnitude,
 //! and six orientation channels holding the normalised magnitude of the pixels whose unsigned
 //! gradient orientation falls in each 30° bin. A boosted classifier ([`crate::detect::boost`])
-//! reads single entries of these maps; [`pyramid`] builds them over scales (exact once per octave,
+//! reads single entries of these maps; [`pyramid()`] builds them over scales (exact once per octave,
 //! power-law approximations in between).
 //!
 //! ```
