@@ -27,8 +27,8 @@ pub struct DetectArgs {
     pub as_domain: Option<DomainArg>,
     /// Model: a built-in name (`mosaic-raw-srgb`, the default; `mosaic-raw-srgb-low`,
     /// `mosaic-raw`, `mosaic`, `colour`, `colour-raw`: the files under models/, compiled in), a
-    /// file (.json ours; .npy / .yml / text = OpenCV vectors) or `opencv-default` (OpenCV's people
-    /// detector from $MOSAICD_DATA/opencv_hog).
+    /// file (.json ours, HOG or ACF (`mosaicd train --detector acf`); .npy / .yml / text = OpenCV
+    /// vectors) or `opencv-default` (OpenCV's people detector from $MOSAICD_DATA/opencv_hog).
     #[arg(long, default_value = mosaicd::detect::DEFAULT_MODEL)]
     pub model: String,
     #[command(flatten)]
@@ -301,6 +301,9 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
+    if mosaicd::detect::acf::is_acf_model_file(Path::new(&args.model)) {
+        return super::acf::detect(&args);
+    }
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
     let frame = load_frame(&args.input, args.as_domain, &|f| args.det.mosaic(&model, f))?;
     let det = Detector::new(model, &args.det.options()?)?;
@@ -350,16 +353,30 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
             stats.hits,
             stats.total.as_secs_f64() * 1e3
         );
-        for b in &boxes {
-            println!(
-                "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
-                b.x, b.y, b.width, b.height, b.score
-            );
-        }
+        print_boxes(&boxes);
     }
-    if let Some(p) = &args.preview {
+    save_preview(&frame, &boxes, args.preview.as_deref())
+}
+
+/// One line per box (the text output of `mosaicd detect`).
+pub fn print_boxes(boxes: &[mosaicd::detect::Detection]) {
+    for b in boxes {
+        println!(
+            "  x {:6.0} y {:6.0} w {:5.0} h {:5.0} score {:.3}",
+            b.x, b.y, b.width, b.height, b.score
+        );
+    }
+}
+
+/// The frame with `boxes` drawn, as a PNG at `path` (if any).
+pub fn save_preview(
+    frame: &Frame,
+    boxes: &[mosaicd::detect::Detection],
+    path: Option<&Path>,
+) -> anyhow::Result<()> {
+    if let Some(p) = path {
         let mut img = frame.preview();
-        draw_boxes(&mut img, &boxes);
+        draw_boxes(&mut img, boxes);
         save_png(&img, p)?;
     }
     Ok(())

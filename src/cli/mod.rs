@@ -1,5 +1,6 @@
 //! One file per subcommand. Each defines its clap `Args` and a `run` function.
 
+pub mod acf;
 pub mod bench;
 pub mod bench_detect;
 pub mod bench_gradients;

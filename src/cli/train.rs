@@ -1,4 +1,5 @@
-//! `mosaicd train`: train a HOG + linear SVM people detector in one input domain.
+//! `mosaicd train`: train a HOG + linear SVM people detector in one input domain, or with
+//! `--detector acf` an ACF detector ([`super::acf`]).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -15,11 +16,27 @@ use mosaicd::raw::Cfa;
 use super::detect::DomainArg;
 
 /// Mixed into `--seed` for the training images' noise streams.
-const TRAIN_NOISE_SALT: u64 = 0x7261_775f_7472_6169;
+pub(super) const TRAIN_NOISE_SALT: u64 = 0x7261_775f_7472_6169;
+
+/// `--detector` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DetectorArg {
+    /// HOG + linear SVM (Dalal & Triggs).
+    Hog,
+    /// Aggregated channel features + boosted trees (Dollár et al.).
+    Acf,
+}
 
 /// Arguments of `mosaicd train`.
 #[derive(clap::Args, Debug)]
 pub struct TrainArgs {
+    /// Detector to train: `hog` (HOG + linear SVM) or `acf` (aggregated channel features,
+    /// boosted depth-2 trees, soft cascade; reads the `--acf-*` options, the split, input and
+    /// negative options, and ignores the SVM's).
+    #[arg(long, value_enum, default_value_t = DetectorArg::Hog)]
+    pub detector: DetectorArg,
+    #[command(flatten)]
+    pub acf: super::acf::AcfTrainArgs,
     /// Input domain: mosaic, grey or colour.
     #[arg(long, value_enum)]
     pub domain: DomainArg,
@@ -109,6 +126,9 @@ pub struct TrainArgs {
 
 /// Run `mosaicd train`.
 pub fn run(a: TrainArgs) -> anyhow::Result<()> {
+    if a.detector == DetectorArg::Acf {
+        return super::acf::train(&a);
+    }
     let mut o = TrainOptions {
         domain: a.domain.into(),
         cfa: a.cfa,

@@ -1,6 +1,8 @@
 //! Pedestrian detection: linear SVM models, multi-scale sliding windows, non-maximum suppression,
 //! training.
 
+pub mod acf;
+pub mod boost;
 pub mod detector;
 pub mod input;
 mod kernels;

@@ -435,7 +435,7 @@ impl LinearModel {
 }
 
 /// A text file of at most `max` bytes, `stat`ed before it is read.
-fn read_text_at_most(path: &Path, max: u64) -> Result<String, ModelError> {
+pub(crate) fn read_text_at_most(path: &Path, max: u64) -> Result<String, ModelError> {
     use crate::bounded_read::{read_at_most, ReadAtMostError};
     let io = |source| ModelError::Io {
         path: path.into(),

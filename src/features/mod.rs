@@ -1,5 +1,7 @@
-//! Feature extraction on mosaics and grey images: gradients, super-pixel scale space, HOG, SIFT.
+//! Feature extraction on mosaics and grey images: gradients, super-pixel scale space, HOG, SIFT,
+//! aggregated channel features (ACF).
 
+pub mod channels;
 pub mod gradient;
 pub mod hog;
 pub mod sift;

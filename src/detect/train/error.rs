@@ -19,6 +19,12 @@ pub enum TrainError {
     /// The mosaic's white balance could not be applied (bad or missing gains).
     #[error("mosaic white balance: {0}")]
     Gains(#[from] crate::raw::RawError),
+    /// ACF detector or channel failure.
+    #[error(transparent)]
+    Acf(#[from] crate::detect::acf::AcfError),
+    /// Boosting failure.
+    #[error(transparent)]
+    Boost(#[from] crate::detect::boost::BoostError),
     /// HOG failure.
     #[error(transparent)]
     Hog(#[from] crate::features::hog::HogError),

@@ -44,6 +44,7 @@
 //! 1, liblinear's `-B 1`, which regularises the bias like a weight and cost about 4 points of miss
 //! rate at 1e-4 FPPW (docs/detection.md, "The SVM's bias").
 
+pub mod acf;
 mod domain;
 mod error;
 mod split;

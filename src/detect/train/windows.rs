@@ -125,30 +125,14 @@ pub fn evaluate_windows_via(
     let det = Detector::new(model.clone(), &opts)?;
     let spec = det.hog_spec().clone();
     let mut pos = Vec::new();
-    let mut positive_photo = Vec::new();
-    let mut photos: Vec<&str> = Vec::new();
     for (i, p) in split.val_pos.iter().enumerate() {
         let img = DomainImage::from_rgb_via(&load_rgb(p)?, domain, cfa, pipeline, i as u64, &prep)?;
         pos.push(det.score_descriptor(&positive_descriptor(&spec, &img)?));
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        let photo = photo_prefix(name);
-        let k = photos.iter().position(|&q| q == photo).unwrap_or_else(|| {
-            photos.push(photo);
-            photos.len() - 1
-        });
-        positive_photo.push(k as u32);
     }
     let mut neg = Vec::new();
     let mut windows_per_image = Vec::with_capacity(split.val_neg.len());
     for (i, p) in split.val_neg.iter().enumerate() {
-        let img = DomainImage::from_rgb_via(
-            &load_rgb(p)?,
-            domain,
-            cfa,
-            pipeline,
-            NEG_SEED_OFFSET + i as u64,
-            &prep,
-        )?;
+        let img = held_out_negative(p, i, domain, cfa, pipeline, &prep)?;
         let before = neg.len();
         det.for_each_window(&img.input(), |_, _, _, _, s| neg.push(s))?;
         windows_per_image.push(neg.len() - before);
@@ -161,7 +145,56 @@ pub fn evaluate_windows_via(
             ));
         }
     }
-    let (neg, top_negatives) = rank_negatives(&neg, &windows_per_image);
+    window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)
+}
+
+/// Held-out negative image `i` (file `path`) in `domain` through `pipeline`, on its own noise
+/// stream.
+pub(super) fn held_out_negative(
+    path: &std::path::Path,
+    i: usize,
+    domain: Domain,
+    cfa: Cfa,
+    pipeline: &InputPipeline,
+    prep: &MosaicPrep,
+) -> Result<DomainImage, TrainError> {
+    DomainImage::from_rgb_via(
+        &load_rgb(path)?,
+        domain,
+        cfa,
+        pipeline,
+        NEG_SEED_OFFSET + i as u64,
+        prep,
+    )
+}
+
+/// The photo of each positive: an index into the distinct [`photo_prefix`]es of `paths`, in
+/// order of first appearance.
+pub(super) fn photo_indices(paths: &[std::path::PathBuf]) -> Vec<u32> {
+    let mut photos: Vec<&str> = Vec::new();
+    paths
+        .iter()
+        .map(|p| {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            let photo = photo_prefix(name);
+            let k = photos.iter().position(|&q| q == photo).unwrap_or_else(|| {
+                photos.push(photo);
+                photos.len() - 1
+            });
+            k as u32
+        })
+        .collect()
+}
+
+/// The window evaluation of positive scores `pos` (photos `positive_photo`) and negative scores
+/// `neg`, `windows_per_image[i]` of them from negative image `i`, in turn.
+pub(super) fn window_eval(
+    pos: Vec<f32>,
+    positive_photo: Vec<u32>,
+    neg: &[f32],
+    windows_per_image: Vec<usize>,
+) -> Result<WindowEval, TrainError> {
+    let (neg, top_negatives) = rank_negatives(neg, &windows_per_image);
     let miss_rate_at = [1e-2, 1e-3, 1e-4]
         .iter()
         .map(|&f| (f, miss_rate_at_fppw(&pos, &neg, f)))

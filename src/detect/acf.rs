@@ -1,0 +1,593 @@
+//! The ACF people detector: aggregated channel features ([`crate::features::channels`]) over the
+//! fast pyramid, scored by boosted depth-2 trees with a soft cascade ([`super::boost`]), windows
+//! every 4 pixels, non-maximum suppression.
+//!
+//! # Model file (`.json`, format `mosaicd-acf`, version 1)
+//!
+//! ```text
+//! { "format": "mosaicd-acf", "version": 1,
+//!   "domain": "mosaic",              // mosaic | grey | colour: the input it was trained on
+//!   "win_width": 64, "win_height": 128,   // pixels; features: 10 x 16 x 32 blocks
+//!   "channels": { ChannelOptions }, "pyramid": { PyramidOptions },
+//!   "casc_thr": -1.0, "casc_cal": 0.005,  // soft cascade (casc_cal already added to the leaves)
+//!   "mosaic_tone": "linear" | "srgb",     // how raw frames become the mosaic
+//!   "boost": { BoostOptions of the last stage },
+//!   "classifier": { "n_features": 5120, "trees": [ { "fid", "thr", "child", "hs" }, … ] },
+//!   "provenance": { … free-form: trainer, seed, data, stages, times … } }
+//! ```
+//!
+//! Feature `f = (c·H + y)·W + x` of a window is channel `c` at block `(x, y)` of the window
+//! (`W x H` blocks). A window at block `(bx, by)` of a level with real scales `(sx, sy)` is the box
+//! `(4·bx/sx, 4·by/sy, 64/sx, 128/sy)` in the frame: the whole 64x128 window, as the HOG detector
+//! reports (Dollár reports the 41x100 box inside his 64x128 window).
+//!
+//! # Where we differ from Dollár's `acfDetect`
+//! No channel padding, so windows stay inside the frame; boxes are the full window; the NMS is
+//! ours ([`NmsMethod`]; Dollár's is greedy with overlap 0.65 over the smaller box).
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::boost::{BoostError, BoostOptions, BoostedTrees};
+use super::detector::NmsMethod;
+use super::model::{Domain, ModelError, MAX_MODEL_FILE_BYTES};
+use super::nms::{greedy_nms, group_rectangles};
+use crate::features::channels::{
+    pyramid, ChannelInput, ChannelOptions, ChannelPyramid, ChannelSpec, Channels, ChannelsError,
+    PyramidOptions, N_CHANNELS, SHRINK,
+};
+use crate::geometry::Detection;
+use crate::raw::tone::MosaicTone;
+
+/// The format name in ACF model files.
+pub const FORMAT: &str = "mosaicd-acf";
+/// Current format version.
+pub const VERSION: u32 = 1;
+/// Dollár's soft-cascade threshold.
+pub const CASC_THR: f32 = -1.0;
+/// Dollár's cascade calibration (added to every leaf after training).
+pub const CASC_CAL: f32 = 0.005;
+
+/// Errors of the ACF detector.
+#[derive(Debug, Error)]
+pub enum AcfError {
+    /// Channel computation.
+    #[error(transparent)]
+    Channels(#[from] ChannelsError),
+    /// The classifier.
+    #[error(transparent)]
+    Boost(#[from] BoostError),
+    /// Reading or parsing a model file.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// A model whose window and classifier disagree, or an option out of range.
+    #[error("ACF model {origin}: {what}")]
+    Invalid {
+        /// File or description.
+        origin: String,
+        /// What is wrong.
+        what: String,
+    },
+}
+
+/// A trained ACF detector.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AcfModel {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// Always [`VERSION`].
+    pub version: u32,
+    /// The input domain the model was trained on.
+    pub domain: Domain,
+    /// Window width, pixels (a multiple of 4).
+    pub win_width: usize,
+    /// Window height, pixels (a multiple of 4).
+    pub win_height: usize,
+    /// Channel options.
+    pub channels: ChannelOptions,
+    /// Pyramid options (per octave, approximated levels, λ; `upsample` is the default).
+    pub pyramid: PyramidOptions,
+    /// Soft-cascade threshold.
+    pub casc_thr: f32,
+    /// Calibration already added to every node value.
+    pub casc_cal: f32,
+    /// How raw frames become the mosaic.
+    #[serde(default)]
+    pub mosaic_tone: MosaicTone,
+    /// Boosting options of the final stage.
+    pub boost: BoostOptions,
+    /// The trees.
+    pub classifier: BoostedTrees,
+    /// Where the model came from.
+    #[serde(default)]
+    pub provenance: serde_json::Value,
+}
+
+impl AcfModel {
+    /// Window size in blocks.
+    pub fn window_blocks(&self) -> (usize, usize) {
+        (self.win_width / SHRINK, self.win_height / SHRINK)
+    }
+
+    /// Features per window.
+    pub fn n_features(&self) -> usize {
+        let (w, h) = self.window_blocks();
+        N_CHANNELS * w * h
+    }
+
+    /// Check the format, the geometry and the trees.
+    pub fn validate(&self, origin: &str) -> Result<(), AcfError> {
+        let bad = |what: String| {
+            Err(AcfError::Invalid {
+                origin: origin.into(),
+                what,
+            })
+        };
+        if self.format != FORMAT || self.version != VERSION {
+            return bad(format!(
+                "format {} version {}, expected {FORMAT} version {VERSION}",
+                self.format, self.version
+            ));
+        }
+        for (what, side) in [("win_width", self.win_width), ("win_height", self.win_height)] {
+            if !(2 * SHRINK..=1024).contains(&side) || side % SHRINK != 0 {
+                return bad(format!("{what} = {side}: a multiple of {SHRINK} in 8..=1024"));
+            }
+        }
+        if self.classifier.n_features != self.n_features() {
+            return bad(format!(
+                "the classifier reads {} features, the {}x{} window has {}",
+                self.classifier.n_features,
+                self.win_width,
+                self.win_height,
+                self.n_features()
+            ));
+        }
+        if !self.casc_thr.is_finite() && self.casc_thr != f32::NEG_INFINITY {
+            return bad(format!("casc_thr = {}", self.casc_thr));
+        }
+        ChannelSpec::new(self.channels)?;
+        self.classifier.validate()?;
+        Ok(())
+    }
+
+    /// Parse and validate our JSON.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, AcfError> {
+        let m: AcfModel = serde_json::from_str(text).map_err(|e| ModelError::Parse {
+            origin: origin.into(),
+            what: e.to_string(),
+        })?;
+        m.validate(origin)?;
+        Ok(m)
+    }
+
+    /// Serialise.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("model serialises")
+    }
+
+    /// Write to `path`.
+    pub fn save(&self, path: &Path) -> Result<(), AcfError> {
+        std::fs::write(path, self.to_json()).map_err(|source| ModelError::Io {
+            path: path.into(),
+            source,
+        })?;
+        Ok(())
+    }
+
+    /// Read and validate `path`.
+    pub fn load(path: &Path) -> Result<Self, AcfError> {
+        let text = super::model::read_text_at_most(path, MAX_MODEL_FILE_BYTES)?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+}
+
+/// Whether `path` is an ACF model file (a `.json` whose `format` is [`FORMAT`]); unreadable or
+/// other files are not.
+pub fn is_acf_model_file(path: &Path) -> bool {
+    if path.extension().and_then(|e| e.to_str()) != Some("json") {
+        return false;
+    }
+    #[derive(Deserialize)]
+    struct Head {
+        format: String,
+    }
+    super::model::read_text_at_most(path, MAX_MODEL_FILE_BYTES)
+        .ok()
+        .and_then(|t| serde_json::from_str::<Head>(&t).ok())
+        .is_some_and(|h| h.format == FORMAT)
+}
+
+/// Detection options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AcfOptions {
+    /// Scale of the first pyramid level (2 finds people half the window's height).
+    pub upsample: f64,
+    /// Approximated levels between exact ones (`None`: the model's).
+    pub approx: Option<usize>,
+    /// At most this many levels.
+    pub max_levels: usize,
+    /// Score a window needs to be a hit (scores are sums of ±α; the soft cascade rejects at
+    /// the model's `casc_thr`).
+    pub hit_threshold: f32,
+    /// Suppression.
+    pub nms: NmsMethod,
+}
+
+impl Default for AcfOptions {
+    fn default() -> Self {
+        Self {
+            upsample: 1.0,
+            approx: None,
+            max_levels: 64,
+            hit_threshold: 0.0,
+            nms: NmsMethod::Greedy { iou: 0.5 },
+        }
+    }
+}
+
+/// Per-frame statistics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AcfStats {
+    /// Pyramid levels.
+    pub levels: usize,
+    /// Windows scored.
+    pub windows: usize,
+    /// Trees evaluated over all windows (the soft cascade's saving shows against
+    /// `windows · trees`).
+    pub trees_evaluated: u64,
+    /// Windows at or above the hit threshold.
+    pub hits: usize,
+    /// Channel pyramid (wall time).
+    pub channels: Duration,
+    /// Scoring (wall time).
+    pub score: Duration,
+    /// NMS.
+    pub nms: Duration,
+    /// Whole call.
+    pub total: Duration,
+}
+
+/// One row of window scores `(bx, by, score)` and the trees evaluated for it.
+type ScoredRow = (Vec<(usize, usize, f32)>, u64);
+
+/// The trees flattened, with each node's feature turned into an offset into one level's planar
+/// channels (relative to the window's top-left block).
+struct LevelTrees<'a> {
+    starts: &'a [u32],
+    child: &'a [u32],
+    thr: &'a [f32],
+    hs: &'a [f32],
+    off: Vec<u32>,
+}
+
+/// The ACF detector: a validated model and options.
+#[derive(Debug, Clone)]
+pub struct AcfDetector {
+    model: AcfModel,
+    opts: AcfOptions,
+    spec: ChannelSpec,
+    pyr: PyramidOptions,
+    // flattened trees: node k of tree t is starts[t] + k; child indices absolute (0 = leaf)
+    starts: Vec<u32>,
+    fid: Vec<u32>,
+    child: Vec<u32>,
+    thr: Vec<f32>,
+    hs: Vec<f32>,
+}
+
+impl AcfDetector {
+    /// Validate `model` and `opts`.
+    pub fn new(model: AcfModel, opts: &AcfOptions) -> Result<Self, AcfError> {
+        model.validate("(in memory)")?;
+        let spec = ChannelSpec::new(model.channels)?;
+        let pyr = PyramidOptions {
+            upsample: opts.upsample,
+            approx: opts.approx.unwrap_or(model.pyramid.approx),
+            max_levels: opts.max_levels,
+            min_size: (model.win_width, model.win_height),
+            ..model.pyramid
+        };
+        let (mut starts, mut fid, mut child, mut thr, mut hs) = (vec![], vec![], vec![], vec![], vec![]);
+        for t in &model.classifier.trees {
+            let s = fid.len() as u32;
+            starts.push(s);
+            fid.extend_from_slice(&t.fid);
+            child.extend(t.child.iter().map(|&c| if c == 0 { 0 } else { c + s }));
+            thr.extend_from_slice(&t.thr);
+            hs.extend_from_slice(&t.hs);
+        }
+        Ok(Self {
+            model,
+            opts: *opts,
+            spec,
+            pyr,
+            starts,
+            fid,
+            child,
+            thr,
+            hs,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &AcfModel {
+        &self.model
+    }
+
+    /// The pyramid options in use.
+    pub fn pyramid_options(&self) -> &PyramidOptions {
+        &self.pyr
+    }
+
+    /// The channel pyramid of `input`.
+    pub fn pyramid(&self, input: &ChannelInput) -> Result<ChannelPyramid, AcfError> {
+        Ok(pyramid(input, &self.spec, &self.pyr)?)
+    }
+
+    fn level_trees(&self, ch: &Channels) -> LevelTrees<'_> {
+        let (ww, wh) = self.model.window_blocks();
+        let (w, h) = (ch.width(), ch.height());
+        let off = self
+            .fid
+            .iter()
+            .map(|&f| {
+                let f = f as usize;
+                let (c, rest) = (f / (ww * wh), f % (ww * wh));
+                let (y, x) = (rest / ww, rest % ww);
+                ((c * h + y) * w + x) as u32
+            })
+            .collect();
+        LevelTrees {
+            starts: &self.starts,
+            child: &self.child,
+            thr: &self.thr,
+            hs: &self.hs,
+            off,
+        }
+    }
+
+    /// Soft-cascade score of the window at block `(bx, by)` of `ch` and the trees evaluated.
+    #[inline]
+    fn score_at(&self, lt: &LevelTrees, data: &[f32], base: usize) -> (f32, u32) {
+        let mut h = 0.0f32;
+        let casc = self.model.casc_thr;
+        let mut n = 0;
+        for &s in lt.starts {
+            let mut k = s as usize;
+            while lt.child[k] != 0 {
+                let c = lt.child[k] as usize;
+                k = c + (data[base + lt.off[k] as usize] >= lt.thr[k]) as usize;
+            }
+            h += lt.hs[k];
+            n += 1;
+            if h <= casc {
+                break;
+            }
+        }
+        (h, n)
+    }
+
+    /// Scores of every window of one level, row by row (`(bx, by, score)`), and the trees
+    /// evaluated.
+    pub fn score_level(&self, ch: &Channels) -> (Vec<(usize, usize, f32)>, u64) {
+        let (ww, wh) = self.model.window_blocks();
+        if ch.width() < ww || ch.height() < wh {
+            return (vec![], 0);
+        }
+        let (nx, ny) = (ch.width() - ww + 1, ch.height() - wh + 1);
+        let lt = self.level_trees(ch);
+        let data = ch.as_slice();
+        let rows: Vec<ScoredRow> = (0..ny)
+            .into_par_iter()
+            .map(|by| {
+                let mut out = Vec::with_capacity(nx);
+                let mut trees = 0u64;
+                for bx in 0..nx {
+                    let (s, n) = self.score_at(&lt, data, by * ch.width() + bx);
+                    trees += n as u64;
+                    out.push((bx, by, s));
+                }
+                (out, trees)
+            })
+            .collect();
+        let trees = rows.iter().map(|r| r.1).sum();
+        (rows.into_iter().flat_map(|r| r.0).collect(), trees)
+    }
+
+    /// Call `f(level, channels, bx, by, score)` for every window of every level of `input`'s
+    /// pyramid (levels in order, windows row by row): hard-negative mining and the window
+    /// evaluation.
+    pub fn for_each_window(
+        &self,
+        input: &ChannelInput,
+        mut f: impl FnMut(usize, &Channels, usize, usize, f32),
+    ) -> Result<(), AcfError> {
+        let p = self.pyramid(input)?;
+        for (i, l) in p.levels.iter().enumerate() {
+            let (scores, _) = self.score_level(&l.channels);
+            for (bx, by, s) in scores {
+                f(i, &l.channels, bx, by, s);
+            }
+        }
+        Ok(())
+    }
+
+    /// Detections before suppression: every window scoring at least the hit threshold, as
+    /// frame boxes; and the statistics.
+    pub fn detect_raw(&self, input: &ChannelInput) -> Result<(Vec<Detection>, AcfStats), AcfError> {
+        let t0 = Instant::now();
+        let p = self.pyramid(input)?;
+        let mut st = AcfStats {
+            levels: p.levels.len(),
+            channels: t0.elapsed(),
+            ..AcfStats::default()
+        };
+        let t1 = Instant::now();
+        let mut dets = Vec::new();
+        for l in &p.levels {
+            let (scores, trees) = self.score_level(&l.channels);
+            st.windows += scores.len();
+            st.trees_evaluated += trees;
+            for (bx, by, s) in scores {
+                if s >= self.opts.hit_threshold && s > self.model.casc_thr {
+                    dets.push(Detection {
+                        x: (bx * SHRINK) as f32 / l.scale_x as f32,
+                        y: (by * SHRINK) as f32 / l.scale_y as f32,
+                        width: self.model.win_width as f32 / l.scale_x as f32,
+                        height: self.model.win_height as f32 / l.scale_y as f32,
+                        score: s,
+                    });
+                }
+            }
+        }
+        st.hits = dets.len();
+        st.score = t1.elapsed();
+        st.total = t0.elapsed();
+        Ok((dets, st))
+    }
+
+    /// Detect: [`AcfDetector::detect_raw`] then the suppression.
+    pub fn detect(&self, input: &ChannelInput) -> Result<(Vec<Detection>, AcfStats), AcfError> {
+        let t0 = Instant::now();
+        let (raw, mut st) = self.detect_raw(input)?;
+        let t1 = Instant::now();
+        let out = match self.opts.nms {
+            NmsMethod::None => raw,
+            NmsMethod::Greedy { iou } => greedy_nms(&raw, iou),
+            NmsMethod::Group { threshold, eps } => group_rectangles(&raw, threshold, eps),
+        };
+        st.nms = t1.elapsed();
+        st.total = t0.elapsed();
+        Ok((out, st))
+    }
+
+    /// Score of a window's feature vector (e.g. a training positive), with the soft cascade.
+    pub fn score_features(&self, x: &[f32]) -> f32 {
+        self.model.classifier.score(x, self.model.casc_thr)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detect::boost::Tree;
+    use crate::features::channels::channels;
+    use crate::image::Image;
+    use crate::raw::Cfa;
+
+    /// A model with one stump on channel `c` at window block (x, y).
+    fn stump_model(c: usize, x: usize, y: usize, thr: f32) -> AcfModel {
+        let (ww, wh) = (16, 32);
+        AcfModel {
+            format: FORMAT.into(),
+            version: VERSION,
+            domain: Domain::Mosaic,
+            win_width: 64,
+            win_height: 128,
+            channels: ChannelOptions::default(),
+            pyramid: PyramidOptions::default(),
+            casc_thr: CASC_THR,
+            casc_cal: 0.0,
+            mosaic_tone: MosaicTone::Linear,
+            boost: BoostOptions::default(),
+            classifier: BoostedTrees {
+                n_features: N_CHANNELS * ww * wh,
+                trees: vec![Tree {
+                    fid: vec![((c * wh + y) * ww + x) as u32, 0, 0],
+                    thr: vec![thr, 0.0, 0.0],
+                    child: vec![1, 0, 0],
+                    hs: vec![0.0, -1.0, 1.0],
+                }],
+            },
+            provenance: serde_json::json!({"test": true}),
+        }
+    }
+
+    #[test]
+    fn level_scores_equal_the_window_features_scores() {
+        let img = Image::from_fn(96, 160, |x, y| ((x * 7 + y * 3 + x * y / 5) % 256) as f32);
+        let input = ChannelInput::Mosaic {
+            image: img.view(),
+            cfa: Cfa::Rggb,
+        };
+        let m = stump_model(5, 3, 9, 0.02);
+        let det = AcfDetector::new(m, &AcfOptions::default()).unwrap();
+        let ch = channels(&input, &ChannelSpec::default()).unwrap();
+        let (scores, trees) = det.score_level(&ch);
+        assert_eq!(scores.len(), (24 - 16 + 1) * (40 - 32 + 1));
+        assert_eq!(trees, scores.len() as u64);
+        for &(bx, by, s) in &scores {
+            let f = ch.window(bx, by, 16, 32).unwrap();
+            assert_eq!(s, det.score_features(&f));
+            assert_eq!(
+                s,
+                if ch.get(5, bx + 3, by + 9) < 0.02 {
+                    -1.0
+                } else {
+                    1.0
+                }
+            );
+        }
+    }
+
+    #[test]
+    fn model_file_round_trip_and_validation() {
+        let m = stump_model(0, 0, 0, 0.5);
+        let back = AcfModel::from_json(&m.to_json(), "test").unwrap();
+        assert_eq!(back, m);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("acf.json");
+        m.save(&p).unwrap();
+        assert!(is_acf_model_file(&p));
+        assert_eq!(AcfModel::load(&p).unwrap(), m);
+        let mut bad = m.clone();
+        bad.win_width = 60;
+        assert!(matches!(bad.validate("x"), Err(AcfError::Invalid { .. })));
+        let mut bad = m.clone();
+        bad.classifier.trees[0].fid[0] = 999_999;
+        assert!(matches!(bad.validate("x"), Err(AcfError::Boost(_))));
+        let hog = dir.path().join("hog.json");
+        std::fs::write(&hog, r#"{"format":"mosaicd-hog-svm"}"#).unwrap();
+        assert!(!is_acf_model_file(&hog));
+    }
+
+    #[test]
+    fn boxes_map_back_to_the_frame() {
+        // A stump that always fires (threshold above any value): one box per window.
+        let img = Image::filled(128, 256, [90u8, 120, 60]);
+        let input = ChannelInput::Rgb8(img.view());
+        let det = AcfDetector::new(
+            stump_model(0, 0, 0, 1e9),
+            &AcfOptions {
+                nms: NmsMethod::None,
+                ..AcfOptions::default()
+            },
+        )
+        .unwrap();
+        let (dets, st) = det.detect(&input).unwrap();
+        // −1 everywhere (x < thr → left → −1): below the cascade threshold? −1 ≤ −1: rejected
+        assert!(dets.is_empty());
+        assert_eq!(st.hits, 0);
+        let det = AcfDetector::new(
+            stump_model(0, 0, 0, -1e9),
+            &AcfOptions {
+                nms: NmsMethod::None,
+                ..AcfOptions::default()
+            },
+        )
+        .unwrap();
+        let (dets, st) = det.detect(&input).unwrap();
+        assert_eq!(dets.len(), st.windows);
+        // level 0: 17 x 33 windows of 64x128 at 4-pixel steps
+        let l0: Vec<&Detection> = dets.iter().filter(|d| d.width == 64.0).collect();
+        assert_eq!(l0.len(), 17 * 33);
+        assert!(dets
+            .iter()
+            .all(|d| d.x >= 0.0 && d.x + d.width <= 128.5 && d.y + d.height <= 256.5));
+    }
+}

@@ -1,0 +1,705 @@
+//! Aggregated channel features (ACF, Dollár et al. 2014) computed on a Bayer mosaic, and the same
+//! features on colour and grey images for comparisons.
+//!
+//! # Overview
+//!
+//! Ten channels, each averaged over blocks of `SHRINK = 4` pixels (2x2 super-pixels on a mosaic):
+//! three colour channels (CIE L\*u\*v\* in Dollár's scaling), the normalised gradient magnitude,
+//! and six orientation channels holding the normalised magnitude of the pixels whose unsigned
+//! gradient orientation falls in each 30° bin. A boosted classifier ([`crate::detect::boost`])
+//! reads single entries of these maps; [`pyramid()`] builds them over scales (exact once per octave,
+//! power-law approximations in between).
+//!
+//! ```
+//! use mosaicd::features::channels::{channels, ChannelInput, ChannelSpec, N_CHANNELS};
+//! use mosaicd::image::Image;
+//! use mosaicd::raw::Cfa;
+//! // A flat grey mosaic (R = G = B = 128): no gradient, the same colour everywhere.
+//! let m = Image::filled(32, 24, 128.0f32);
+//! let c = channels(&ChannelInput::Mosaic { image: m.view(), cfa: Cfa::Rggb }, &ChannelSpec::default()).unwrap();
+//! assert_eq!((c.width(), c.height(), N_CHANNELS), (8, 6, 10));
+//! assert_eq!(c.get(3, 4, 2), 0.0); // gradient magnitude channel
+//! assert!((c.get(0, 0, 0) - c.get(0, 7, 5)).abs() < 1e-6); // L is flat
+//! ```
+//!
+//! # The math
+//!
+//! Input values `I` are in 8-bit units and scaled to `[0, 1]` (`I/255`); a mosaic is the frame in
+//! its tone ([`crate::raw::tone`]: `srgb` applies the frame's white balance first).
+//!
+//! 1. **Input smoothing** (Dollár's `pColor.smooth`; off in his INRIA detector and by default
+//!    here): the separable triangle filter of radius `r`, `t_r(k) = (r + 1 − |k|)/(r + 1)²`,
+//!    `|k| ≤ r` ([`triangle_taps`], also for `r < 1`). On a mosaic the taps are two pixels
+//!    apart (`I(x + 2k)`), so the filter runs on each colour plane and never mixes colours.
+//!    Borders are symmetric within a plane (`dcba|abcd`, Dollár's `convTri` padding).
+//! 2. **Colour.** `(r, g, b)` → `Y = 0.222015 r + 0.706655 g + 0.071330 b` (and `X`, `Z` with
+//!    Dollár's `rgbConvert` matrix), `L = (116·Y^⅓ − 16)/270` (`903.3·Y/270` below
+//!    `Y = (6/29)³`), `u = L·(13·4X/D − 13·0.197833) + 88/270`, `v = L·(13·9Y/D − 13·0.468331) +
+//!    134/270`, `D = X + 15Y + 3Z`. Like Dollár we apply it to the (sRGB-encoded) values as they
+//!    are, without linearising. On a mosaic the colour of a 2x2 super-pixel is
+//!    `(R, (G₁ + G₂)/2, B)`, all measured, none interpolated; grey images use `r = g = b`.
+//! 3. **Gradient.** `gx = (I(x+1, y) − I(x−1, y))/2`, `gy` likewise. On a mosaic `x ± 1` always
+//!    have the same colour (the paper's same-colour central difference). Borders reflect-101
+//!    (`I(−1) = I(1)`), which keeps colours on a mosaic and gives `gx = 0` on the edge columns.
+//!    Colour images use, per pixel, the channel of largest magnitude (Dollár's `colorChn = 0`
+//!    over R, G, B); grey and mosaic images have one plane. `M = √(gx² + gy²)`,
+//!    `θ = atan2(gy, gx)` folded into `[0, π)`.
+//! 4. **Normalisation** (Dollár's `normRad = 5`, `normConst = 0.005`):
+//!    `M̃ = M / (t₅ ∗ M + 0.005)`, the triangle filter applied at full resolution (step 1 also on a
+//!    mosaic: `M` is one scalar field).
+//! 5. **Orientation channels** (`nOrients = 6`, `softBin = 0`): pixel `p` votes `M̃(p)` into bin
+//!    `round(6θ/π) mod 6` (bin centres at 0°, 30°, …, 150°) of its block.
+//! 6. **Aggregation** (`shrink = 4`): every channel is the mean over a block of 4x4 pixels; on a
+//!    mosaic the colour channels are the mean of the 2x2 super-pixels of the block. Output size
+//!    `⌊W/4⌋ x ⌊H/4⌋`; pixels beyond are ignored.
+//! 7. **Output smoothing** (`pPyramid.smooth`, 0.5 in Dollár's INRIA detector and by default
+//!    here: taps `[1, 7.6, 1]/9.6`): on every aggregated channel
+//!    ([`smooth_channels`]; [`channels`] applies it, [`channels_unsmoothed`] does not, for the
+//!    pyramid, which smooths after approximating).
+//!
+//! Channel order: `L, U, V, M, H₀ … H₅` (Dollár's).
+//!
+//! # Where we differ from Dollár
+//!
+//! * Gradients are taken on the input values (mosaic sites, or max over R, G, B) rather than on
+//!   the LUV channels (Dollár's `gradientMag` of the LUV image, max over L, u, v). On a mosaic
+//!   there is no per-pixel LUV; the colour images use R, G, B so that the mosaic and colour
+//!   features differ only by demosaicing. `normConst` is the same, on a scale where RGB spans 1
+//!   (L spans about 0.37).
+//! * The mosaic's colour channels are smoothed per colour plane before the LUV conversion;
+//!   Dollár smooths the LUV image. LUV is nonlinear, so the two differ slightly.
+//! * Gradient borders are reflect-101 (zero on the edge rows and columns) instead of Dollár's
+//!   one-sided difference, which would subtract different colours on a mosaic.
+//! * Orientation uses `atan2` (Dollár: an `acos` table), identical up to float rounding at bin
+//!   edges.
+//!
+//! # References
+//!
+//! P. Dollár, R. Appel, S. Belongie, P. Perona, "Fast Feature Pyramids for Object Detection",
+//! PAMI 2014. P. Dollár, Z. Tu, P. Perona, S. Belongie, "Integral Channel Features", BMVC 2009.
+//! W. Zhou, L. Zhang, S. Gao, X. Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
+//! Images" (the same-colour central difference).
+
+pub mod pyramid;
+#[cfg(test)]
+mod tests;
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::image::ImageView;
+use crate::raw::{Cfa, Colour};
+
+pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
+
+/// Number of channels: L, U, V, magnitude, six orientations.
+pub const N_CHANNELS: usize = 10;
+/// Orientation channels (Dollár's `nOrients`).
+pub const N_ORIENTS: usize = 6;
+/// Aggregation block in pixels (Dollár's `shrink`): 2x2 super-pixels on a mosaic.
+pub const SHRINK: usize = 4;
+/// Index of the magnitude channel; the orientation channels follow it.
+pub const MAG_CHANNEL: usize = 3;
+/// Rows per rayon task.
+const ROWS_PER_TASK: usize = 16;
+/// Largest smoothing radius accepted (a larger one is almost certainly a unit error).
+const MAX_RADIUS: f32 = 32.0;
+
+// Dollár's rgbConvert LUV constants (rgbConvertMex.cpp, `rgb2luv_setup`).
+const LUV_MR: [f32; 3] = [0.430574, 0.222015, 0.020183];
+const LUV_MG: [f32; 3] = [0.341550, 0.706655, 0.129553];
+const LUV_MB: [f32; 3] = [0.178325, 0.071330, 0.939180];
+const LUV_UN: f32 = 0.197833;
+const LUV_VN: f32 = 0.468331;
+const LUV_MAXI: f32 = 1.0 / 270.0;
+const LUV_MINU: f32 = -88.0 * LUV_MAXI;
+const LUV_MINV: f32 = -134.0 * LUV_MAXI;
+
+/// Errors from channel computation.
+#[derive(Debug, PartialEq, Error)]
+pub enum ChannelsError {
+    /// The image is smaller than one aggregation block (or, for a pyramid, one window).
+    #[error("image {width}x{height} is smaller than the minimum {min_width}x{min_height}")]
+    TooSmall {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Minimum width.
+        min_width: usize,
+        /// Minimum height.
+        min_height: usize,
+    },
+    /// A mosaic with odd width or height.
+    #[error("mosaic {width}x{height}: width and height must be even")]
+    OddMosaic {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+    },
+    /// An option out of range.
+    #[error("channel option {name} = {value}: {allowed}")]
+    BadOption {
+        /// Option.
+        name: &'static str,
+        /// Offending value.
+        value: String,
+        /// What is allowed.
+        allowed: &'static str,
+    },
+    /// A resize inside the pyramid failed.
+    #[error(transparent)]
+    Resize(#[from] crate::detect::pyramid::PyramidError),
+}
+
+/// What the channels are computed from; values in 8-bit units (0..=255).
+#[derive(Debug, Clone, Copy)]
+pub enum ChannelInput<'a> {
+    /// A Bayer mosaic in its tone (see the module docs), even width and height.
+    Mosaic {
+        /// Pixels.
+        image: ImageView<'a, f32>,
+        /// Pattern (for the colour of each super-pixel).
+        cfa: Cfa,
+    },
+    /// RGB.
+    Rgb8(ImageView<'a, [u8; 3]>),
+    /// Grey.
+    GreyU8(ImageView<'a, u8>),
+    /// Float grey.
+    GreyF32(ImageView<'a, f32>),
+    /// Float R, G, B planes (a resized colour image).
+    RgbF32([ImageView<'a, f32>; 3]),
+}
+
+impl ChannelInput<'_> {
+    /// (width, height) in pixels.
+    pub fn dimensions(&self) -> (usize, usize) {
+        match self {
+            ChannelInput::Mosaic { image, .. } | ChannelInput::GreyF32(image) => {
+                (image.width(), image.height())
+            }
+            ChannelInput::Rgb8(v) => (v.width(), v.height()),
+            ChannelInput::GreyU8(v) => (v.width(), v.height()),
+            ChannelInput::RgbF32(p) => (p[0].width(), p[0].height()),
+        }
+    }
+}
+
+/// Channel options, named after Dollár's (`chnsCompute`), defaults equal to his.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ChannelOptions {
+    /// Triangle radius of the input smoothing (`pColor.smooth`; 0 = off).
+    pub input_smooth: f32,
+    /// Triangle radius of the magnitude normalisation (`pGradMag.normRad`; 0 = no normalisation).
+    pub norm_radius: f32,
+    /// Constant of the normalisation (`pGradMag.normConst`).
+    pub norm_const: f32,
+    /// Triangle radius applied to the aggregated channels (`pPyramid.smooth`).
+    pub output_smooth: f32,
+}
+
+impl Default for ChannelOptions {
+    /// Dollár's INRIA detector (`acfDemoInria`): no input smoothing, output smoothing 0.5,
+    /// normalisation radius 5 and constant 0.005 (`chnsCompute`'s own defaults smooth both by 1).
+    fn default() -> Self {
+        Self {
+            input_smooth: 0.0,
+            norm_radius: 5.0,
+            norm_const: 0.005,
+            output_smooth: 0.5,
+        }
+    }
+}
+
+/// Validated [`ChannelOptions`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ChannelSpec {
+    opts: ChannelOptions,
+}
+
+impl ChannelSpec {
+    /// Check `opts`.
+    pub fn new(opts: ChannelOptions) -> Result<Self, ChannelsError> {
+        for (name, r) in [
+            ("input_smooth", opts.input_smooth),
+            ("norm_radius", opts.norm_radius),
+            ("output_smooth", opts.output_smooth),
+        ] {
+            let ok = (0.0..=1.0).contains(&r) || ((0.0..=MAX_RADIUS).contains(&r) && r.fract() == 0.0);
+            if !ok {
+                return Err(ChannelsError::BadOption {
+                    name,
+                    value: r.to_string(),
+                    allowed: "a triangle radius in 0..=1 or an integer up to 32",
+                });
+            }
+        }
+        if !(opts.norm_const.is_finite() && opts.norm_const > 0.0) {
+            return Err(ChannelsError::BadOption {
+                name: "norm_const",
+                value: opts.norm_const.to_string(),
+                allowed: "finite and > 0",
+            });
+        }
+        Ok(Self { opts })
+    }
+
+    /// The options.
+    pub fn options(&self) -> &ChannelOptions {
+        &self.opts
+    }
+}
+
+/// Ten aggregated channel maps of `width x height` blocks, planar (channel-major, then rows).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Channels {
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl Channels {
+    /// Zeros of `width x height` blocks.
+    pub fn zeros(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            data: vec![0.0; N_CHANNELS * width * height],
+        }
+    }
+
+    /// Width in blocks.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in blocks.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// All channels, planar.
+    pub fn as_slice(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// Channel `c`, row-major.
+    pub fn plane(&self, c: usize) -> &[f32] {
+        let n = self.width * self.height;
+        &self.data[c * n..(c + 1) * n]
+    }
+
+    /// Channel `c`, mutable.
+    pub fn plane_mut(&mut self, c: usize) -> &mut [f32] {
+        let n = self.width * self.height;
+        &mut self.data[c * n..(c + 1) * n]
+    }
+
+    /// Channel `c` at block `(x, y)`.
+    pub fn get(&self, c: usize, x: usize, y: usize) -> f32 {
+        self.data[(c * self.height + y) * self.width + x]
+    }
+
+    /// The features of the `ww x wh`-block window at block `(x0, y0)`, in the order the
+    /// classifier indexes them: `(c·wh + y)·ww + x`. `None` if the window does not fit.
+    pub fn window(&self, x0: usize, y0: usize, ww: usize, wh: usize) -> Option<Vec<f32>> {
+        if x0 + ww > self.width || y0 + wh > self.height {
+            return None;
+        }
+        let mut out = Vec::with_capacity(N_CHANNELS * ww * wh);
+        for c in 0..N_CHANNELS {
+            let p = self.plane(c);
+            for y in y0..y0 + wh {
+                out.extend_from_slice(&p[y * self.width + x0..y * self.width + x0 + ww]);
+            }
+        }
+        Some(out)
+    }
+}
+
+/// Dollár's LUV of `(r, g, b)` in `[0, 1]`.
+pub fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
+    let x = LUV_MR[0] * r + LUV_MG[0] * g + LUV_MB[0] * b;
+    let y = LUV_MR[1] * r + LUV_MG[1] * g + LUV_MB[1] * b;
+    let z = LUV_MR[2] * r + LUV_MG[2] * g + LUV_MB[2] * b;
+    const Y0: f32 = 0.008_856_452; // (6/29)^3
+    const A: f32 = 903.296_3; // (29/3)^3
+    let l = if y > Y0 { 116.0 * y.cbrt() - 16.0 } else { y * A } * LUV_MAXI;
+    let d = 1.0 / (x + 15.0 * y + 3.0 * z + 1e-35);
+    let u = l * (13.0 * 4.0 * x * d - 13.0 * LUV_UN) - LUV_MINU;
+    let v = l * (13.0 * 9.0 * y * d - 13.0 * LUV_VN) - LUV_MINV;
+    [l, u, v]
+}
+
+/// Taps of Dollár's `convTri` of radius `r`: for an integer `r ≥ 1`, `(r + 1 − |k|)/(r + 1)²`,
+/// `|k| ≤ r`; for `0 < r ≤ 1`, `[1, p, 1]/(p + 2)` with `p = 12/(r(r + 2)) − 2` (equal to the
+/// integer rule at `r = 1`); `[1]` for `r = 0`.
+pub fn triangle_taps(r: f32) -> Vec<f32> {
+    if r <= 0.0 {
+        vec![1.0]
+    } else if r <= 1.0 {
+        let p = 12.0 / (r * (r + 2.0)) - 2.0;
+        let n = 1.0 / (p + 2.0);
+        vec![n, p * n, n]
+    } else {
+        let r = r.round() as usize;
+        let norm = 1.0 / ((r + 1) * (r + 1)) as f32;
+        (0..=2 * r)
+            .map(|i| (r + 1 - i.abs_diff(r)) as f32 * norm)
+            .collect()
+    }
+}
+
+/// For each position `0..n` the `2r + 1` indices `x + k·step`, `|k| ≤ r`, mirrored symmetrically
+/// (`dcba|abcd`) within `x`'s phase `x mod step` (repeatedly, for tiny sizes).
+fn mirror_table(n: usize, r: usize, step: usize) -> Vec<usize> {
+    let mut t = Vec::with_capacity(n * (2 * r + 1));
+    for x in 0..n {
+        let ph = x % step;
+        let np = (n - ph).div_ceil(step) as isize; // samples of this phase
+        for k in -(r as isize)..=r as isize {
+            let mut p = (x / step) as isize + k;
+            loop {
+                if p < 0 {
+                    p = -p - 1;
+                } else if p >= np {
+                    p = 2 * np - p - 1;
+                } else {
+                    break;
+                }
+            }
+            t.push(p as usize * step + ph);
+        }
+    }
+    t
+}
+
+/// Separable triangle filter of radius `radius` ([`triangle_taps`]) with taps `step` pixels
+/// apart, borders symmetric within each phase (`step = 2`: within each colour plane). `src` and
+/// `dst` are `w x h`. Rows in parallel; each output row is the vertical pass (a sum of scaled
+/// source rows) followed by the horizontal pass, the same arithmetic for any thread count.
+pub fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize, dst: &mut Vec<f32>) {
+    dst.clear();
+    if radius <= 0.0 || w == 0 || h == 0 {
+        dst.extend_from_slice(src);
+        return;
+    }
+    let taps = triangle_taps(radius);
+    let n = taps.len();
+    let r = n / 2;
+    let xi = mirror_table(w, r, step);
+    let yi = mirror_table(h, r, step);
+    // interior columns: every tap inside the row
+    let (lo, hi) = (r * step, w.saturating_sub(r * step));
+    dst.resize(w * h, 0.0);
+    dst.par_chunks_mut(w * ROWS_PER_TASK)
+        .enumerate()
+        .for_each(|(t, chunk)| {
+            let mut tmp = vec![0.0f32; w];
+            for (j, row) in chunk.chunks_mut(w).enumerate() {
+                let y = t * ROWS_PER_TASK + j;
+                tmp.fill(0.0);
+                for (k, &tk) in taps.iter().enumerate() {
+                    let sy = yi[y * n + k];
+                    for (a, &b) in tmp.iter_mut().zip(&src[sy * w..(sy + 1) * w]) {
+                        *a += tk * b;
+                    }
+                }
+                if lo < hi {
+                    let out = &mut row[lo..hi];
+                    out.fill(0.0);
+                    for (k, &tk) in taps.iter().enumerate() {
+                        let off = k * step;
+                        for (o, &v) in out.iter_mut().zip(&tmp[off..off + (hi - lo)]) {
+                            *o += tk * v;
+                        }
+                    }
+                }
+                for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
+                    row[x] = taps
+                        .iter()
+                        .zip(&xi[x * n..(x + 1) * n])
+                        .map(|(t, &sx)| t * tmp[sx])
+                        .sum();
+                }
+            }
+        });
+}
+
+/// Smooth every channel with the triangle filter of radius `r` (step 1, symmetric borders).
+pub fn smooth_channels(ch: &mut Channels, r: f32) {
+    if r <= 0.0 {
+        return;
+    }
+    let (w, h) = (ch.width, ch.height);
+    let mut out = Vec::new();
+    for c in 0..N_CHANNELS {
+        triangle_filter(ch.plane(c), w, h, r, 1, &mut out);
+        ch.plane_mut(c).copy_from_slice(&out);
+    }
+}
+
+/// The input as planes scaled to `[0, 1]` (one plane, or R, G, B), and the tap step of the input
+/// smoothing (2 on a mosaic).
+fn planes_of(input: &ChannelInput) -> (Vec<Vec<f32>>, usize) {
+    const S: f32 = 1.0 / 255.0;
+    let (w, h) = input.dimensions();
+    let f32_plane = |v: &ImageView<'_, f32>| -> Vec<f32> {
+        (0..h).flat_map(|y| v.row(y).iter().map(|p| p * S)).collect()
+    };
+    match input {
+        ChannelInput::Mosaic { image, .. } => (vec![f32_plane(image)], 2),
+        ChannelInput::GreyF32(v) => (vec![f32_plane(v)], 1),
+        ChannelInput::GreyU8(v) => (
+            vec![(0..h)
+                .flat_map(|y| v.row(y).iter().map(|&p| p as f32 * S))
+                .collect()],
+            1,
+        ),
+        ChannelInput::Rgb8(v) => (
+            (0..3)
+                .map(|k| {
+                    (0..h)
+                        .flat_map(|y| v.row(y)[..w].iter().map(move |p| p[k] as f32 * S))
+                        .collect()
+                })
+                .collect(),
+            1,
+        ),
+        ChannelInput::RgbF32(p) => (p.iter().map(f32_plane).collect(), 1),
+    }
+}
+
+/// `(cos, sin)` of the orientation bin edges 15°, 45°, …, 165°.
+fn bin_edges() -> [(f32, f32); N_ORIENTS] {
+    std::array::from_fn(|k| {
+        let e = ((15 + 30 * k) as f64).to_radians();
+        (e.cos() as f32, e.sin() as f32)
+    })
+}
+
+/// Orientation bin of the gradient `(gx, gy)`: the nearest of the six bin centres `30°·k` of the
+/// unsigned angle, found by counting the edges `e` below it with `gy·cos e − gx·sin e ≥ 0` after
+/// folding the vector into the upper half-plane. Equal to `round(6θ/π) mod 6` except within float
+/// rounding of an edge; the zero vector gets bin 0.
+#[inline]
+fn orient_bin(gx: f32, gy: f32, edges: &[(f32, f32); N_ORIENTS]) -> u8 {
+    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) {
+        (-gx, -gy)
+    } else {
+        (gx, gy)
+    };
+    let c: u8 = edges.iter().map(|&(c, s)| (gy * c - gx * s >= 0.0) as u8).sum();
+    c % N_ORIENTS as u8
+}
+
+/// Gradient magnitude and orientation bin of row `y` (the first `mrow.len()` columns), the plane
+/// of largest magnitude per pixel (reflect-101 borders).
+fn gradient_row(
+    planes: &[Vec<f32>],
+    w: usize,
+    h: usize,
+    y: usize,
+    mrow: &mut [f32],
+    brow: &mut [u8],
+    scratch: &mut [[f32; 3]],
+) {
+    let edges = bin_edges();
+    let yu = if y == 0 { 1.min(h - 1) } else { y - 1 };
+    let yd = if y + 1 == h { y.saturating_sub(1) } else { y + 1 };
+    let gw = mrow.len();
+    for (pi, p) in planes.iter().enumerate() {
+        let (up, mid, dn) = (
+            &p[yu * w..(yu + 1) * w],
+            &p[y * w..(y + 1) * w],
+            &p[yd * w..(yd + 1) * w],
+        );
+        let put = |x: usize, xl: usize, xr: usize, best: &mut [f32; 3]| {
+            let gx = (mid[xr] - mid[xl]) * 0.5;
+            let gy = (dn[x] - up[x]) * 0.5;
+            let m2 = gx * gx + gy * gy;
+            if pi == 0 || m2 > best[0] {
+                *best = [m2, gx, gy];
+            }
+        };
+        put(0, 1.min(w - 1), 1.min(w - 1), &mut scratch[0]);
+        let inner_end = gw.min(w - 1);
+        for (x, best) in scratch.iter_mut().enumerate().take(inner_end).skip(1) {
+            put(x, x - 1, x + 1, best);
+        }
+        if gw == w && w > 1 {
+            put(w - 1, w - 2, w - 2, &mut scratch[w - 1]);
+        }
+    }
+    for ((m, b), s) in mrow.iter_mut().zip(brow.iter_mut()).zip(scratch.iter()) {
+        *m = s[0].sqrt();
+        *b = orient_bin(s[1], s[2], &edges);
+    }
+}
+
+/// The ten channels of `input` before the output smoothing (what the pyramid resamples).
+pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+    let (w, h) = input.dimensions();
+    if w < SHRINK || h < SHRINK {
+        return Err(ChannelsError::TooSmall {
+            width: w,
+            height: h,
+            min_width: SHRINK,
+            min_height: SHRINK,
+        });
+    }
+    if let ChannelInput::Mosaic { .. } = input {
+        if w % 2 != 0 || h % 2 != 0 {
+            return Err(ChannelsError::OddMosaic { width: w, height: h });
+        }
+    }
+    let o = spec.options();
+    let (mut planes, step) = planes_of(input);
+    if o.input_smooth > 0.0 {
+        let mut tmp = Vec::new();
+        for p in planes.iter_mut() {
+            triangle_filter(p, w, h, o.input_smooth, step, &mut tmp);
+            std::mem::swap(p, &mut tmp);
+        }
+    }
+    let (cw, ch) = (w / SHRINK, h / SHRINK);
+    let n = cw * ch;
+    // Gradient magnitude and orientation bin at full resolution (only the aggregated area).
+    let (gw, gh) = (cw * SHRINK, ch * SHRINK);
+    let mut mag = vec![0.0f32; gw * gh];
+    let mut bin = vec![0u8; gw * gh];
+    mag.par_chunks_mut(gw * ROWS_PER_TASK)
+        .zip(bin.par_chunks_mut(gw * ROWS_PER_TASK))
+        .enumerate()
+        .for_each(|(t, (mrows, brows))| {
+            let mut scratch = vec![[0.0f32; 3]; gw];
+            for (j, (mrow, brow)) in mrows.chunks_mut(gw).zip(brows.chunks_mut(gw)).enumerate() {
+                gradient_row(&planes, w, h, t * ROWS_PER_TASK + j, mrow, brow, &mut scratch);
+            }
+        });
+    let mut norm = Vec::new();
+    if o.norm_radius > 0.0 {
+        triangle_filter(&mag, gw, gh, o.norm_radius, 1, &mut norm);
+    }
+    // Per block row: magnitude and six orientation sums (normalised), then L, U, V.
+    let inv = 1.0 / (SHRINK * SHRINK) as f32;
+    let grad_rows: Vec<Vec<f32>> = (0..ch)
+        .into_par_iter()
+        .map(|by| {
+            let mut acc = vec![0.0f32; cw * (1 + N_ORIENTS)];
+            for y in by * SHRINK..(by + 1) * SHRINK {
+                let row = y * gw..(y + 1) * gw;
+                let (m, b) = (&mag[row.clone()], &bin[row.clone()]);
+                for x in 0..gw {
+                    let v = if norm.is_empty() {
+                        m[x]
+                    } else {
+                        m[x] / (norm[row.start + x] + o.norm_const)
+                    };
+                    let a = &mut acc[(x / SHRINK) * (1 + N_ORIENTS)..];
+                    a[0] += v;
+                    a[1 + b[x] as usize] += v;
+                }
+            }
+            acc
+        })
+        .collect();
+    let colour_rows: Vec<Vec<[f32; 3]>> = (0..ch)
+        .into_par_iter()
+        .map(|by| colour_block_row(input, &planes, w, cw, by))
+        .collect();
+    let mut out = Channels::zeros(cw, ch);
+    for (by, (g, c)) in grad_rows.iter().zip(&colour_rows).enumerate() {
+        for bx in 0..cw {
+            let i = by * cw + bx;
+            for (k, &v) in c[bx].iter().enumerate() {
+                out.data[k * n + i] = v;
+            }
+            for k in 0..=N_ORIENTS {
+                out.data[(MAG_CHANNEL + k) * n + i] = g[bx * (1 + N_ORIENTS) + k] * inv;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Block means of L, U, V along block row `by`: per 2x2 super-pixel on a mosaic, per pixel
+/// otherwise.
+fn colour_block_row(
+    input: &ChannelInput,
+    planes: &[Vec<f32>],
+    w: usize,
+    cw: usize,
+    by: usize,
+) -> Vec<[f32; 3]> {
+    let mut out = vec![[0.0f32; 3]; cw];
+    let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
+        for k in 0..3 {
+            acc[k] += luv[k];
+        }
+    };
+    match input {
+        ChannelInput::Mosaic { cfa, .. } => {
+            let p = &planes[0];
+            let mut r_off = (0, 0);
+            let mut b_off = (0, 0);
+            let mut g_off = [(0, 0); 2];
+            let mut ng = 0;
+            for (dx, dy) in [(0usize, 0usize), (1, 0), (0, 1), (1, 1)] {
+                match cfa.colour_at(dx, dy) {
+                    Colour::Red => r_off = (dx, dy),
+                    Colour::Blue => b_off = (dx, dy),
+                    Colour::Green => {
+                        g_off[ng] = (dx, dy);
+                        ng += 1;
+                    }
+                }
+            }
+            let at = |x: usize, y: usize| p[y * w + x];
+            let sp = SHRINK / 2; // super-pixels per block side
+            let inv_sp = 1.0 / (sp * sp) as f32;
+            for (bx, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for sy in 0..sp {
+                    for sx in 0..sp {
+                        let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
+                        let r = at(x0 + r_off.0, y0 + r_off.1);
+                        let g = 0.5
+                            * (at(x0 + g_off[0].0, y0 + g_off[0].1) + at(x0 + g_off[1].0, y0 + g_off[1].1));
+                        let b = at(x0 + b_off.0, y0 + b_off.1);
+                        add(&mut acc, luv_from_rgb(r, g, b));
+                    }
+                }
+                *o = acc.map(|v| v * inv_sp);
+            }
+        }
+        _ => {
+            let inv = 1.0 / (SHRINK * SHRINK) as f32;
+            for (bx, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for y in by * SHRINK..(by + 1) * SHRINK {
+                    for x in bx * SHRINK..(bx + 1) * SHRINK {
+                        let i = y * w + x;
+                        let luv = match planes {
+                            [g] => luv_from_rgb(g[i], g[i], g[i]),
+                            [r, g, b] => luv_from_rgb(r[i], g[i], b[i]),
+                            _ => unreachable!("one or three planes"),
+                        };
+                        add(&mut acc, luv);
+                    }
+                }
+                *o = acc.map(|v| v * inv);
+            }
+        }
+    }
+    out
+}
+
+/// The ten aggregated, smoothed channels of `input` (see the module docs).
+pub fn channels(input: &ChannelInput, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+    let mut c = channels_unsmoothed(input, spec)?;
+    smooth_channels(&mut c, spec.options().output_smooth);
+    Ok(c)
+}
