@@ -427,9 +427,12 @@ impl Walker<'_> {
 mod tests {
     use super::*;
 
+    /// (tag, type, count, inline value).
+    type TestEntry = (u16, u16, u32, u32);
+
     /// A little-endian TIFF: header, then IFDs given as (entries, next) laid out from offset 8,
     /// each entry (tag, type, count, value) with its value inline.
-    fn tiff(ifds: &[(Vec<(u16, u16, u32, u32)>, u32)]) -> Vec<u8> {
+    fn tiff(ifds: &[(Vec<TestEntry>, u32)]) -> Vec<u8> {
         let mut out = b"II*\0\x08\0\0\0".to_vec();
         for (entries, next) in ifds {
             out.extend((entries.len() as u16).to_le_bytes());
