@@ -3,7 +3,7 @@
 //! (`ActiveArea` → rawloader `crops`) with re-phasing, black/white levels, bit depth from the white
 //! level, and white-balance gains from `AsShotNeutral` normalised to G = 1.
 
-use mosaicd::raw::load::load_camera_raw;
+use mosaicd::raw::load::{load_camera_raw, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 use mosaicd::raw::{load_input, Cfa, InputOptions, Levels};
 
 /// One IFD entry: tag, TIFF type, count, little-endian value bytes.
@@ -127,6 +127,8 @@ fn synthetic_dng_crop_levels_and_gains() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("synth.dng");
     std::fs::write(&p, &bytes).unwrap();
+    // One IFD for rawloader to walk: well within the pre-check's limit.
+    assert_eq!(rawloader_ifd_visits(&bytes, MAX_TIFF_IFD_VISITS), 1);
     let f = load_camera_raw(&p).unwrap();
     // Cropped at (1, 1): 8x6, GRBG re-phased to GBRG.
     assert_eq!((f.width(), f.height()), (8, 6));

@@ -2,7 +2,10 @@
 //! A missing file fails with a message saying where to put the data.
 
 use mosaicd::data::require;
-use mosaicd::raw::load::{load_camera_raw, load_headerless, load_png_mosaic, MosaicFormat};
+use mosaicd::raw::load::{
+    load_camera_raw, load_headerless, load_png_mosaic, rawloader_ifd_visits, MosaicFormat,
+    MAX_TIFF_IFD_VISITS,
+};
 use mosaicd::raw::{
     load_input, Cfa, CfaChannel, Container, Endian, InputOptions, Levels, RawError, RawFormat, RawFrame,
 };
@@ -237,6 +240,10 @@ fn kodak_dc50_kdc_loads_as_grbg_768x512_14_bit() {
         Err(e) => assert!(e.to_string().contains("DC50"), "{e}"),
         Ok(_) => panic!("rawloader now decodes the DC50: compare it with our RADC decoder"),
     }
+    // rawloader's IFD walk of it, as counted before rawloader is called: far below the limit.
+    let visits = rawloader_ifd_visits(&std::fs::read(&p).unwrap(), MAX_TIFF_IFD_VISITS);
+    eprintln!("RAW_KODAK_DC50.KDC: {visits} IFD visits (limit {MAX_TIFF_IFD_VISITS})");
+    assert!((1..=10).contains(&visits), "{visits}");
     let f = load_camera_raw(&p).unwrap();
     assert_eq!((f.width(), f.height()), (768, 512));
     assert_eq!(f.cfa(), Cfa::Grbg);

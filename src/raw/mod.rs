@@ -139,6 +139,18 @@ pub enum RawError {
         /// What kind of file ("a camera raw file", ...).
         what: &'static str,
     },
+    /// A TIFF-structured camera raw file whose directories (IFDs) point at each other so that
+    /// rawloader's walk of them would build more IFDs than the limit (an exponential walk: a
+    /// hostile or corrupt file), refused before rawloader reads it.
+    #[error("{path}: its TIFF directories would make the raw decoder visit at least {visits} IFDs, more than the limit of {limit} (sub-IFD pointers that loop back: a corrupt or hostile file)")]
+    TiffWalk {
+        /// File.
+        path: PathBuf,
+        /// IFD visits counted when the walk stopped (a lower bound).
+        visits: u64,
+        /// The limit, [`load::MAX_TIFF_IFD_VISITS`].
+        limit: u64,
+    },
     /// A value in a file exceeds the declared bit depth.
     #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]
     ValueOutOfRange {

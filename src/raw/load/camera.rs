@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
+use super::tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 use super::{bits_for, format_err, meta_for, read_at_most, too_large};
 use crate::raw::kodak_radc;
 use crate::raw::{Cfa, FrameLimits, Levels, RawError, RawFrame, RawPixels};
@@ -62,12 +63,22 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// The file is `stat`ed first: one larger than [`max_camera_raw_bytes`] is
 /// [`RawError::FileTooLarge`] before it is read; a decoded frame beyond the frame-size limit is
 /// [`RawError::TooLarge`] (rawloader allocates the frame its header describes while decoding:
-/// that allocation is bounded by rawloader, not by us).
+/// that allocation is bounded by rawloader, not by us). A TIFF structure whose IFD walk inside
+/// rawloader would exceed [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is
+/// [`RawError::TiffWalk`], before rawloader is called.
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     let bytes = read_at_most(path, max_camera_raw_bytes(limits), "a camera raw file")?;
     if let Some(info) = kodak_radc::identify(&bytes) {
         return load_kodak_radc(path, &bytes, &info);
+    }
+    let visits = rawloader_ifd_visits(&bytes, MAX_TIFF_IFD_VISITS);
+    if visits > MAX_TIFF_IFD_VISITS {
+        return Err(RawError::TiffWalk {
+            path: path.to_path_buf(),
+            visits,
+            limit: MAX_TIFF_IFD_VISITS,
+        });
     }
     let raw = decode_quietly(&bytes).map_err(|e| {
         let e = e.to_string();

@@ -59,12 +59,14 @@ mod headerless;
 mod pgm;
 mod png;
 mod rgb;
+mod tiff_walk;
 
 pub use camera::{load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
 pub use headerless::{frame_from_bytes, headerless_format, load_headerless, Container, Endian, RawFormat};
 pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
 pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
 pub use rgb::{decode_image, load_rgb8};
+pub use tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 
 use png::png_header;
 use rgb::rgb_input;
