@@ -12,8 +12,10 @@ deb=$(realpath "$1")
 unset MOSAICD_DATA
 work=$(mktemp -d)
 trap 'dpkg --purge mosaicd >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
-fail() { echo "deb-test: FAILED: $*" >&2; exit 1; }
-step() { echo "deb-test: $*"; }
+passed=0
+fail() { echo "deb-test: FAILED: $*" >&2; echo "deb-test: $passed passed, 1 failed"; exit 1; }
+# Each step that reaches the next one passed.
+step() { [ -z "${current:-}" ] || passed=$((passed + 1)); current=$1; echo "deb-test: $*"; }
 cd /
 
 step "dpkg -i $(basename "$deb")"
@@ -76,6 +78,16 @@ mosaicd check --config "$work/low.toml" | tee "$work/check.txt"
 grep -q '/usr/share/mosaicd/models/mosaic_raw_srgb_low.json' "$work/check.txt" || fail "model not resolved"
 mosaicd run --config "$work/low.toml" 2>&1 | grep '5 frames processed of 5 captured' || fail "run low.toml"
 
+step "the installed Python client reads a recording the installed binary made as user mosaicd"
+chown mosaicd "$work"
+printf '%s\n' '[publish]' 'enabled = false' '[record]' 'enabled = true' 'frames = true' \
+	"path = \"$work/raw.mcap\"" '[compute]' 'detect = false' '[[camera]]' 'name = "syn"' \
+	'source = "synthetic"' 'width = 64' 'height = 48' 'frames = 3' >"$work/rec.toml"
+runuser -u mosaicd -- mosaicd run --config "$work/rec.toml" >/dev/null 2>&1 || fail "recording run"
+n=$(python3 /usr/share/mosaicd/clients/python/read_recording.py "$work/raw.mcap" | grep -c '"bit_depth": 12') ||
+	fail "read_recording.py"
+[ "$n" -eq 3 ] || fail "read_recording.py printed $n frames, not 3"
+
 step "dpkg -r: binary and units gone, conffile kept"
 dpkg -r mosaicd
 [ ! -e /usr/bin/mosaicd ] || fail "/usr/bin/mosaicd still there"
@@ -88,4 +100,5 @@ dpkg --purge mosaicd
 [ ! -e /etc/mosaicd/mosaicd.toml ] || fail "purge left /etc/mosaicd/mosaicd.toml"
 [ ! -e /etc/systemd/system/multi-user.target.wants/mosaicd.service ] || fail "purge left the enablement"
 if dpkg-query -W -f='${Status}\n' mosaicd 2>/dev/null | grep -q installed; then fail "still known to dpkg"; fi
-step "ok"
+step "done"
+echo "deb-test: $passed passed, 0 failed"
