@@ -40,7 +40,7 @@ use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::stats::{RecorderState, Stats};
+use super::stats::{RecorderState, Stats, StatsSnapshot};
 
 /// The latency quantiles written.
 pub const QUANTILES: [f64; 4] = [0.5, 0.9, 0.99, 1.0];
@@ -92,70 +92,61 @@ pub fn render(cams: &[(&str, &Stats)], version: &str, kernels: &str, start_time_
     );
     let _ = writeln!(o, "# TYPE mosaicd_start_time_seconds gauge");
     let _ = writeln!(o, "mosaicd_start_time_seconds {start_time_s}");
-    let count = |f: fn(&super::stats::StatsSnapshot) -> u64| {
-        move |s: &Stats| vec![("", String::new(), f(&s.snapshot()) as f64)]
-    };
-    family(
-        &mut o,
-        "mosaicd_frames_captured_total",
-        "counter",
-        "Frames the source delivered.",
-        cams,
-        count(|s| s.captured),
-    );
-    family(
-        &mut o,
-        "mosaicd_frames_processed_total",
-        "counter",
-        "Frames computed and handed to the sinks.",
-        cams,
-        count(|s| s.processed),
-    );
-    family(
-        &mut o,
-        "mosaicd_frames_dropped_total",
-        "counter",
-        "Frames dropped, by reason: queue_full (a live camera's oldest frame when compute falls behind), driver (sensor sequence gaps).",
-        cams,
-        |s| {
-            let s = s.snapshot();
-            vec![
-                ("", ",reason=\"queue_full\"".into(), s.dropped_queue_full as f64),
-                ("", ",reason=\"driver\"".into(), s.dropped_driver as f64),
-            ]
-        },
-    );
-    family(
-        &mut o,
-        "mosaicd_failures_total",
-        "counter",
-        "Errors, by stage: source (a frame or file that could not be read), compute, sink (publish or record).",
-        cams,
-        |s| {
-            let s = s.snapshot();
-            vec![
-                ("", ",stage=\"source\"".into(), s.failed_source as f64),
-                ("", ",stage=\"compute\"".into(), s.failed_compute as f64),
-                ("", ",stage=\"sink\"".into(), s.failed_sink as f64),
-            ]
-        },
-    );
-    family(
-        &mut o,
-        "mosaicd_sink_frames_lost_total",
-        "counter",
-        "Frames a sink received but did not write (a recording paused or stopped by a write error).",
-        cams,
-        count(|s| s.sink_frames_lost),
-    );
-    family(
-        &mut o,
-        "mosaicd_detections_total",
-        "counter",
-        "Pedestrian boxes found.",
-        cams,
-        count(|s| s.detections),
-    );
+    // The counters: name, help, and each sample's extra label ("" for none) and value.
+    type Samples = fn(&StatsSnapshot) -> Vec<(&'static str, u64)>;
+    let counters: [(&str, &str, Samples); 6] = [
+        (
+            "mosaicd_frames_captured_total",
+            "Frames the source delivered.",
+            |s| vec![("", s.captured)],
+        ),
+        (
+            "mosaicd_frames_processed_total",
+            "Frames computed and handed to the sinks.",
+            |s| vec![("", s.processed)],
+        ),
+        (
+            "mosaicd_frames_dropped_total",
+            "Frames dropped, by reason: queue_full (a live camera's oldest frame when compute falls behind), driver (sensor sequence gaps).",
+            |s| vec![("reason=\"queue_full\"", s.dropped_queue_full), ("reason=\"driver\"", s.dropped_driver)],
+        ),
+        (
+            "mosaicd_failures_total",
+            "Errors, by stage: source (a frame or file that could not be read), compute, sink (publish or record).",
+            |s| {
+                vec![
+                    ("stage=\"source\"", s.failed_source),
+                    ("stage=\"compute\"", s.failed_compute),
+                    ("stage=\"sink\"", s.failed_sink),
+                ]
+            },
+        ),
+        (
+            "mosaicd_sink_frames_lost_total",
+            "Frames a sink received but did not write (a recording paused or stopped by a write error).",
+            |s| vec![("", s.sink_frames_lost)],
+        ),
+        (
+            "mosaicd_detections_total",
+            "Pedestrian boxes found.",
+            |s| vec![("", s.detections)],
+        ),
+    ];
+    for (name, help, samples) in counters {
+        family(&mut o, name, "counter", help, cams, |s| {
+            samples(&s.snapshot())
+                .into_iter()
+                .map(|(label, v)| {
+                    let label = if label.is_empty() {
+                        String::new()
+                    } else {
+                        format!(",{label}")
+                    };
+                    ("", label, v as f64)
+                })
+                .collect()
+        });
+    }
     family(
         &mut o,
         "mosaicd_latency_seconds",
