@@ -49,16 +49,83 @@ pub trait Clock: Send + Sync + std::fmt::Debug {
     }
 }
 
-/// `CLOCK_MONOTONIC` in nanoseconds.
-pub fn monotonic_ns() -> u64 {
+/// `clock` (a `CLOCK_*` id every Linux has) in nanoseconds; a time before its epoch reads 0.
+fn clock_ns(clock: libc::clockid_t) -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC is always available on Linux.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC and CLOCK_REALTIME, the only
+    // ids passed here, are always available on Linux.
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
     debug_assert_eq!(rc, 0);
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+    (ts.tv_sec.max(0) as u64) * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// `CLOCK_MONOTONIC` in nanoseconds.
+pub fn monotonic_ns() -> u64 {
+    clock_ns(libc::CLOCK_MONOTONIC)
+}
+
+/// `CLOCK_REALTIME` (the wall clock, UTC) in nanoseconds since the Unix epoch; 0 before 1970.
+pub fn realtime_ns() -> u64 {
+    clock_ns(libc::CLOCK_REALTIME)
+}
+
+/// One reading of the wall clock against the monotonic clock: what turns a `CLOCK_MONOTONIC`
+/// timestamp (a live frame's, since boot) into wall-clock time,
+/// `realtime = monotonic + offset_ns()`. Recordings of live cameras store it per file
+/// (`mosaicd.clock` metadata, docs/recording.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WallClock {
+    /// `CLOCK_REALTIME`, ns since the Unix epoch.
+    pub realtime_ns: u64,
+    /// `CLOCK_MONOTONIC`, ns since boot, at the same instant.
+    pub monotonic_ns: u64,
+}
+
+impl WallClock {
+    /// Read both clocks now: the monotonic reading is the midpoint of two taken around the
+    /// realtime one, so the pair is off by at most half the time between them (well under 1 µs).
+    pub fn now() -> Self {
+        let before = monotonic_ns();
+        let realtime_ns = realtime_ns();
+        let after = monotonic_ns();
+        Self {
+            realtime_ns,
+            monotonic_ns: before + (after - before) / 2,
+        }
+    }
+
+    /// `CLOCK_REALTIME − CLOCK_MONOTONIC` in ns.
+    pub fn offset_ns(&self) -> i128 {
+        self.realtime_ns as i128 - self.monotonic_ns as i128
+    }
+
+    /// The wall-clock time (ns since the epoch) of a `CLOCK_MONOTONIC` timestamp.
+    pub fn realtime_of(&self, monotonic_ns: u64) -> i128 {
+        monotonic_ns as i128 + self.offset_ns()
+    }
+}
+
+/// Where a wall-clock reading comes from: the system's clocks, read when asked, or a fixed
+/// reading (tests, so that a file's bytes do not depend on when it was written).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WallClockSource {
+    /// [`WallClock::now`].
+    System,
+    /// This reading.
+    Fixed(WallClock),
+}
+
+impl WallClockSource {
+    /// A reading.
+    pub fn read(self) -> WallClock {
+        match self {
+            WallClockSource::System => WallClock::now(),
+            WallClockSource::Fixed(w) => w,
+        }
+    }
 }
 
 /// The system monotonic clock (live operation, and pacing).
@@ -212,6 +279,22 @@ impl Stop {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_wall_clock_reading_maps_monotonic_to_realtime() {
+        let w = WallClock::now();
+        // After 2020-01-01 and consistent with a second reading.
+        assert!(w.realtime_ns > 1_577_836_800_000_000_000, "{w:?}");
+        let later = WallClock::now();
+        let drift = (later.offset_ns() - w.offset_ns()).abs();
+        assert!(drift < 50_000_000, "offset moved {drift} ns between two readings");
+        assert_eq!(w.realtime_of(w.monotonic_ns), w.realtime_ns as i128);
+        let fixed = WallClock {
+            realtime_ns: 1_000,
+            monotonic_ns: 400,
+        };
+        assert_eq!((fixed.offset_ns(), fixed.realtime_of(500)), (600, 1_100));
+    }
 
     #[test]
     fn replay_clock_follows_frames_and_never_goes_back() {

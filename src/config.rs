@@ -133,6 +133,9 @@ pub struct Config {
     /// Prometheus metrics through node_exporter's textfile collector (`[metrics]`).
     #[serde(default)]
     pub metrics: MetricsConfig,
+    /// Live view in Foxglove over a WebSocket (`[foxglove]`, off by default).
+    #[serde(default)]
+    pub foxglove: FoxgloveConfig,
     /// One entry per camera (`[[camera]]`); at least one.
     #[serde(default, rename = "camera")]
     pub cameras: Vec<CameraConfig>,
@@ -323,6 +326,54 @@ impl Default for RecordConfig {
             overwrite: false,
             retry_ms: 30_000,
         }
+    }
+}
+
+/// `[foxglove]`: the live view, a WebSocket server speaking Foxglove's protocol (the `foxglove`
+/// crate's), off unless `listen` is set. See `docs/daemon.md`, "Live view in Foxglove".
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FoxgloveConfig {
+    /// Address to listen on, `"host:port"` (e.g. `"127.0.0.1:8765"`, Foxglove's default; port 0
+    /// picks a free one, logged at start). Unset: no live view, no socket.
+    pub listen: Option<String>,
+    /// The live preview keeps every n-th 2x2 tile of the mosaic (`1..=16`; 2 makes a 1080p frame
+    /// a 960x540 `foxglove.RawImage`, 518 kB).
+    pub preview_decimation: u32,
+    /// Messages queued per client before its oldest are dropped (`4..=4096`): a slow or
+    /// vanished client holds at most this many (an image, its boxes, keypoints, stats: about
+    /// 3 per frame), and only it loses them.
+    pub client_backlog: usize,
+}
+
+impl Default for FoxgloveConfig {
+    fn default() -> Self {
+        Self {
+            listen: None,
+            preview_decimation: 2,
+            client_backlog: 32,
+        }
+    }
+}
+
+impl FoxgloveConfig {
+    /// The validated listen address (`None`: live view off).
+    pub fn listen_addr(&self) -> Result<Option<std::net::SocketAddr>, ConfigError> {
+        self.listen
+            .as_deref()
+            .map(|l| {
+                l.parse().map_err(|_| ConfigError::OutOfRange {
+                    key: "foxglove.listen".into(),
+                    value: format!("{l:?}"),
+                    allowed: "an IP address and port, e.g. \"127.0.0.1:8765\" or \"[::1]:8765\"".into(),
+                })
+            })
+            .transpose()
+    }
+
+    /// Whether the live view is on.
+    pub fn enabled(&self) -> bool {
+        self.listen.is_some()
     }
 }
 
@@ -801,6 +852,14 @@ impl Config {
         range("record.rotate_secs", self.record.rotate_secs, 0, 31_536_000)?;
         range("record.max_files", self.record.max_files, 0, 1_000_000)?;
         range("record.retry_ms", self.record.retry_ms, 0, 86_400_000)?;
+        self.foxglove.listen_addr()?;
+        range(
+            "foxglove.preview_decimation",
+            self.foxglove.preview_decimation,
+            1,
+            16,
+        )?;
+        range("foxglove.client_backlog", self.foxglove.client_backlog, 4, 4096)?;
         if self.record.max_files > 0
             && (self.record.overwrite || self.record.rotate_mb == 0 && self.record.rotate_secs == 0)
         {

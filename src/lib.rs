@@ -29,6 +29,7 @@ pub mod metrics;
 pub mod npy;
 pub mod pipeline;
 pub mod pool;
+pub mod progress;
 pub mod publish;
 pub mod raw;
 pub mod record;

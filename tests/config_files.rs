@@ -35,6 +35,7 @@ fn default_config_equals_built_in_defaults_and_mentions_every_key() {
     assert_eq!(c.record, d.record);
     assert_eq!(c.compute, d.compute);
     assert_eq!(c.limits, d.limits);
+    assert_eq!(c.foxglove, d.foxglove);
     let text =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/mosaicd.toml")).unwrap();
     let keys = toml::Value::try_from(&c).unwrap();

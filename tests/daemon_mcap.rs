@@ -54,7 +54,8 @@ fn fnv(data: &[u8]) -> u64 {
 }
 
 /// One line per message: topic, log time, and the payload with wall-clock fields removed (JSON:
-/// the `"wall"` group; periodic stats, whose count depends on timing, are left out).
+/// the `"wall"` group; periodic stats, whose count depends on timing, are left out). An image's
+/// base64 `data` (the preview) is fingerprinted.
 fn canonical(path: &Path) -> String {
     let mut out = String::new();
     for_each_message(path, |m| {
@@ -65,6 +66,9 @@ fn canonical(path: &Path) -> String {
                 }
                 if let Some(o) = v.as_object_mut() {
                     o.remove("wall");
+                    if let Some(serde_json::Value::String(d)) = o.get_mut("data") {
+                        *d = format!("base64 {} chars fnv {:016x}", d.len(), fnv(d.as_bytes()));
+                    }
                 }
                 v.to_string()
             }
@@ -111,6 +115,8 @@ fn replay_to_mcap_is_byte_identical_for_1_2_4_threads_twice_and_matches_the_gold
                 "every frame's annotations"
             );
             assert_eq!(info.count(&topics.detections), FRAMES, "every frame's detections");
+            // `--out` records a preview by default, for Foxglove's image panel.
+            assert_eq!(info.count(&topics.preview), FRAMES, "every frame's preview");
             dumps.push((format!("round {round}, {threads} threads"), canonical(&out)));
             files.push((std::fs::read(&out).unwrap(), std::fs::read(&results).unwrap()));
         }
@@ -644,4 +650,75 @@ fn sighup_finishes_the_recording_file_and_starts_the_next_without_losing_a_frame
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no frame count in {stdout}"));
     assert_eq!(all.len(), processed, "no processed frame lost between the files");
+}
+
+#[test]
+fn logs_to_a_pipe_have_no_colour_codes_and_print_values_not_options() {
+    // stderr is a pipe here, as under journald or in CI: plain text (colour only on a terminal).
+    let dir = tempfile::tempdir().unwrap();
+    let o = replay(&recording(), &dir.path().join("l.mcap"), &[])
+        .env("RUST_LOG", "info")
+        .env_remove("NO_COLOR")
+        .output()
+        .unwrap();
+    let err = stderr_of(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("INFO"), "{err}");
+    assert!(!err.contains('\x1b'), "ANSI escapes in a piped log: {err:?}");
+    assert!(!err.contains("Some("), "{err}");
+}
+
+/// The metadata records of an MCAP file: (name, key → value).
+fn metadata_of(path: &Path) -> Vec<(String, std::collections::BTreeMap<String, String>)> {
+    let buf = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&buf).unwrap().expect("a summary");
+    summary
+        .metadata_indexes
+        .iter()
+        .map(|i| {
+            let m = mcap::read::metadata(&buf, i).unwrap();
+            (m.name, m.metadata)
+        })
+        .collect()
+}
+
+#[test]
+fn a_live_recording_carries_the_wall_clock_and_a_replay_does_not() {
+    use mosaicd::record::recorder::WALL_CLOCK_METADATA;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("live.toml");
+    let path = dir.path().join("live.mcap");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[publish]\nenabled = false\n[compute]\ndetect = false\n\
+             [record]\nenabled = true\npath = {:?}\n\
+             [[camera]]\nname = \"live\"\nsource = \"synthetic\"\nwidth = 64\nheight = 48\nfps = 100.0\nframes = 10\nlive = true\n",
+            path.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    run_config(&cfg);
+    let now = mosaicd::clock::WallClock::now();
+    let meta = metadata_of(&path);
+    assert_eq!(meta.len(), 1, "{meta:?}");
+    let (name, m) = &meta[0];
+    assert_eq!(name, WALL_CLOCK_METADATA);
+    assert_eq!(m["timestamps"], "CLOCK_MONOTONIC");
+    let offset: i128 = m["realtime_minus_monotonic_ns"].parse().unwrap();
+    assert!((offset - now.offset_ns()).abs() < 1_000_000_000, "{m:?}");
+    assert!(m["realtime_utc"].ends_with('Z'), "{m:?}");
+    // The frames' log times are this boot's monotonic time; with the offset, this run's wall time.
+    let info = RecordingInfo::read(&path).unwrap();
+    let start_wall = info.start_ns as i128 + offset;
+    assert!(
+        (start_wall - now.realtime_ns as i128).abs() < 60_000_000_000,
+        "{m:?}"
+    );
+
+    // A replay's times are the recording's: no reading of today's clocks in its file.
+    let out = dir.path().join("replay.mcap");
+    let o = replay(&recording(), &out, &[]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    assert!(metadata_of(&out).is_empty());
 }

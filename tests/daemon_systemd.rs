@@ -122,3 +122,27 @@ fn sysusers_snippet_puts_the_user_in_video() {
     assert!(text.lines().any(|l| l.starts_with("u mosaicd ")));
     assert!(text.lines().any(|l| l.trim() == "m mosaicd video"));
 }
+
+/// The live view's drop-in (systemd/live-view.conf.example, installed as
+/// `<unit>.d/live-view.conf`) verifies, opens IPv4/IPv6 sockets to loopback only, and keeps the
+/// unit within [`MAX_EXPOSURE`].
+#[test]
+fn the_live_view_drop_in_allows_loopback_tcp_and_stays_hardened() {
+    let dir = tempfile::tempdir().unwrap();
+    install(dir.path());
+    let drop_in = Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd/live-view.conf.example");
+    let text = std::fs::read_to_string(&drop_in).unwrap();
+    assert!(text.contains("RestrictAddressFamilies=AF_UNIX AF_INET AF_INET6"));
+    assert!(text.contains("IPAddressAllow=localhost") && !text.contains("\nIPAddressDeny="));
+    let without = exposure(dir.path(), "mosaicd.service");
+    let d = dir.path().join("mosaicd.service.d");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::copy(&drop_in, d.join("live-view.conf")).unwrap();
+    verify(dir.path(), "mosaicd.service");
+    let score = exposure(dir.path(), "mosaicd.service");
+    assert!(
+        score > without,
+        "the drop-in was not applied: exposure {score}, {without} without"
+    );
+    assert!(score <= MAX_EXPOSURE, "exposure {score} with the drop-in");
+}

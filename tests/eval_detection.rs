@@ -601,3 +601,83 @@ fn detection_scores(json: &[u8]) -> Vec<f64> {
         .map(|d| d["score"].as_f64().unwrap())
         .collect()
 }
+
+/// `detect` reads every input `gradients` reads, with the same flags and the same loader: a Kodak
+/// KDC (our RADC decoder), and a headerless big-endian 12-bit file with padded rows, four black
+/// levels and an explicit container; without `--bit-depth` both refuse it with the same words.
+#[test]
+fn detect_reads_what_gradients_reads_with_the_same_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let kdc = data().join("raw/rawpy_kodak_dc50/RAW_KODAK_DC50.KDC");
+    let out = ok(&["detect", kdc.to_str().unwrap(), "--max-levels", "1", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        (v["domain"].as_str(), v["cfa"].as_str()),
+        (Some("mosaic"), Some("GRBG")),
+        "{v}"
+    );
+
+    // 64x128, 12-bit big-endian u16, 160-byte rows (32 bytes of padding).
+    let raw = dir.path().join("frame.raw");
+    let mut bytes = Vec::new();
+    for y in 0..128u32 {
+        for x in 0..64u32 {
+            let v = 64 + ((x * 37 + y * 11) % 3000) as u16;
+            bytes.extend_from_slice(&v.to_be_bytes());
+        }
+        bytes.extend_from_slice(&[0; 32]);
+    }
+    std::fs::write(&raw, bytes).unwrap();
+    let grad_out = dir.path().join("grad");
+    let format = [
+        "--width",
+        "64",
+        "--height",
+        "128",
+        "--cfa",
+        "RGGB",
+        "--black",
+        "60,61,62,63",
+        "--white",
+        "4095",
+        "--endian",
+        "big",
+        "--stride",
+        "160",
+        "--container",
+        "u16",
+    ];
+    let with_depth = |cmd: &[&str]| -> Vec<String> {
+        let mut a: Vec<String> = cmd.iter().map(|s| s.to_string()).collect();
+        a.extend(format.iter().map(|s| s.to_string()));
+        a
+    };
+    let mut d = with_depth(&["detect", raw.to_str().unwrap(), "--max-levels", "1", "--json"]);
+    d.extend(["--bit-depth".into(), "12".into()]);
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&d.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
+    assert_eq!(v["cfa"].as_str(), Some("RGGB"), "{v}");
+    let mut g = with_depth(&[
+        "gradients",
+        raw.to_str().unwrap(),
+        "--out",
+        grad_out.to_str().unwrap(),
+    ]);
+    g.extend(["--bit-depth".into(), "12".into()]);
+    ok(&g.iter().map(String::as_str).collect::<Vec<_>>());
+    // The same default (none) and the same refusal for both.
+    for a in [
+        with_depth(&["detect", raw.to_str().unwrap()]),
+        with_depth(&[
+            "gradients",
+            raw.to_str().unwrap(),
+            "--out",
+            grad_out.to_str().unwrap(),
+        ]),
+    ] {
+        let o = mosaicd(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{a:?}: {err}");
+        assert!(err.contains("needs --bit-depth"), "{a:?}: {err}");
+    }
+}

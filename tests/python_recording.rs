@@ -194,3 +194,44 @@ fn damaged_and_foreign_files_are_refused() {
         assert_same_header(line, f);
     }
 }
+
+/// A recording without a raw channel (results only) or a topic it does not hold: the script says
+/// so, lists the channels the file holds, and exits 1 instead of printing nothing and exiting 0.
+#[test]
+fn a_recording_without_raw_frames_or_the_topic_is_said_and_exits_1() {
+    use mosaicd::record::{McapRecorder, RecorderOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("results.mcap");
+    let mut rec = McapRecorder::create(
+        &path,
+        RecorderOptions {
+            camera: "cam".into(),
+            raw: false,
+            preview: None,
+            ..RecorderOptions::default()
+        },
+    )
+    .unwrap();
+    rec.write_detections(0, 0, 64, 48, &[]).unwrap();
+    rec.finish().unwrap();
+    for (args, says) in [
+        (vec![path.as_os_str()], "no raw frame"),
+        (
+            vec![path.as_os_str(), "--topic".as_ref(), "/cam/nothing".as_ref()],
+            "no message on /cam/nothing",
+        ),
+    ] {
+        let out = read_recording(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(out.stdout.is_empty());
+        assert!(
+            err.contains(says) && err.contains("/cam/detections (json)"),
+            "{err}"
+        );
+    }
+    // The topic it does hold prints and exits 0.
+    let out = read_recording(&[path.as_os_str(), "--topic".as_ref(), "/cam/detections".as_ref()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 1);
+}

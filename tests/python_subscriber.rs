@@ -381,7 +381,8 @@ fn with_python_subscriber(
         .stderr(Stdio::piped())
         .spawn()
         .expect("python3 runs");
-    let sub_err = wait_for_subscribed(&mut sub);
+    let (line, sub_err) = wait_for_subscribed(&mut sub);
+    common::assert_says_what_it_subscribed_to(&line, args);
     common::run_daemon_ok(BIN, cfg, results);
     let sout = sub.wait_with_output().unwrap();
     let err = sub_err.join().unwrap();
@@ -391,7 +392,7 @@ fn with_python_subscriber(
 
 /// Wait until a subscriber process says on stderr that it has subscribed; the rest of its stderr
 /// is collected by a thread, whose handle gives it back once the process has ended.
-fn wait_for_subscribed(sub: &mut std::process::Child) -> std::thread::JoinHandle<String> {
+fn wait_for_subscribed(sub: &mut std::process::Child) -> (String, std::thread::JoinHandle<String>) {
     use std::io::{BufRead, BufReader, Read};
     let mut err = BufReader::new(sub.stderr.take().unwrap());
     let mut line = String::new();
@@ -404,11 +405,12 @@ fn wait_for_subscribed(sub: &mut std::process::Child) -> std::thread::JoinHandle
         line.contains("subscribed"),
         "the Python subscriber did not start (run `make setup`): {seen}{line}"
     );
-    std::thread::spawn(move || {
+    let rest = std::thread::spawn(move || {
         let mut rest = String::new();
         let _ = err.read_to_string(&mut rest);
         rest
-    })
+    });
+    (line, rest)
 }
 
 /// The gradients service (dynamic `u8` slices with a `GradientsHeader`) read from Python: a paced

@@ -855,3 +855,82 @@ fn looping_a_recording_whose_time_goes_backwards_does_not_overflow() {
         assert!(b > a && b - a < 10 * FRAME_NS, "pass 2 {ts:?}");
     }
 }
+
+/// A recorder of frames only (`results: false`, what `mosaicd record` uses) declares no result
+/// channel, so no channel in its file is empty, and refuses results with the option's name.
+#[test]
+fn a_frames_only_recording_declares_no_result_channels() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.mcap");
+    let opts = RecorderOptions {
+        results: false,
+        ..RecorderOptions::default()
+    };
+    let mut rec = McapRecorder::create(&p, opts).unwrap();
+    for i in 0..3 {
+        rec.write_frame(&frame(i, 64, 48)).unwrap();
+    }
+    for e in [
+        rec.write_detections(0, 0, 64, 48, &det(0)).unwrap_err(),
+        rec.write_stats(0, &serde_json::json!({})).unwrap_err(),
+    ] {
+        assert!(e.to_string().contains("results = false"), "{e}");
+    }
+    rec.finish().unwrap();
+    let info = RecordingInfo::read(&p).unwrap();
+    let got: Vec<(&str, u64)> = info
+        .channels
+        .values()
+        .map(|c| (c.topic.as_str(), c.messages))
+        .collect();
+    assert_eq!(got, [("/camera/preview", 3), ("/camera/raw", 3)]);
+}
+
+/// With a wall-clock source every file (rotated ones too) starts with its `mosaicd.clock` record;
+/// without one (the default: replays, recipes) there is none.
+#[test]
+fn the_wall_clock_record_is_written_per_file_only_when_asked() {
+    use mosaicd::clock::{WallClock, WallClockSource};
+    use mosaicd::record::recorder::WALL_CLOCK_METADATA;
+    let dir = tempfile::tempdir().unwrap();
+    let reading = WallClock {
+        realtime_ns: 1_795_737_600_123_456_789,
+        monotonic_ns: 5_000_000_000,
+    };
+    let meta = |p: &Path| {
+        let buf = std::fs::read(p).unwrap();
+        let s = mcap::Summary::read(&buf).unwrap().unwrap();
+        s.metadata_indexes
+            .iter()
+            .map(|i| mcap::read::metadata(&buf, i).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let p = dir.path().join("clock.mcap");
+    let s = record(
+        &p,
+        4,
+        RecorderOptions {
+            wall_clock: Some(WallClockSource::Fixed(reading)),
+            rotate: RotatePolicy {
+                bytes: None,
+                duration_ns: Some(60_000_000),
+            },
+            ..RecorderOptions::default()
+        },
+    );
+    assert!(s.files.len() > 1, "{:?}", s.files);
+    for f in &s.files {
+        let m = meta(f);
+        assert_eq!(m.len(), 1, "{}", f.display());
+        assert_eq!(m[0].name, WALL_CLOCK_METADATA);
+        let kv = &m[0].metadata;
+        assert_eq!(kv["timestamps"], "CLOCK_MONOTONIC");
+        assert_eq!(kv["realtime_minus_monotonic_ns"], "1795737595123456789");
+        assert_eq!(kv["realtime_ns"], "1795737600123456789");
+        assert_eq!(kv["monotonic_ns"], "5000000000");
+        assert_eq!(kv["realtime_utc"], "2026-11-27T00:00:00.123456789Z");
+    }
+    let plain = dir.path().join("plain.mcap");
+    record(&plain, 2, RecorderOptions::default());
+    assert!(meta(&plain).is_empty());
+}

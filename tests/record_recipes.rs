@@ -46,6 +46,20 @@ fn synthetic_recording_matches_its_recipe_byte_for_byte() {
         golden.display()
     );
 
+    // A recording of frames declares no channel that holds no message (results channels are
+    // the daemon's, not `mosaicd record`'s).
+    let info = RecordingInfo::read(&golden).unwrap();
+    let topics: Vec<(&str, u64)> = info
+        .channels
+        .values()
+        .map(|c| (c.topic.as_str(), c.messages))
+        .collect();
+    assert_eq!(
+        topics,
+        [("/camera/preview", recipe.frames), ("/camera/raw", recipe.frames)],
+        "channels and their messages"
+    );
+
     let frames = frames_of(&golden);
     assert_eq!(frames.len() as u64, recipe.frames);
     let mut phases = std::collections::BTreeSet::new();
@@ -70,13 +84,13 @@ fn synthetic_recording_matches_its_recipe_byte_for_byte() {
 }
 
 #[test]
-fn demo_recipe_records_exact_crops_of_the_real_frame() {
+fn park_recipe_records_exact_crops_of_the_real_frame() {
     let data_file = mosaicd::data::require("raw/infinite_isp_8bit/Outdoor1_2592x1536_8bit_GRBG.raw");
     let data_root = data_file.ancestors().nth(3).unwrap().to_path_buf();
-    let mut recipe = Recipe::load(root().join("recordings/demo.toml")).unwrap();
+    let mut recipe = Recipe::load(root().join("recordings/park.toml")).unwrap();
     recipe.frames = 7; // the same path, sampled more coarsely, keeps the test quick
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("demo.mcap");
+    let out = dir.path().join("park.mcap");
     build_recording(&recipe, &data_root, Some(&out), |_, _| {}).unwrap();
     let still = std::fs::read(&data_file).unwrap();
     let frames = frames_of(&out);
@@ -95,6 +109,45 @@ fn demo_recipe_records_exact_crops_of_the_real_frame() {
     }
     // The last frame sits at the far waypoint (odd offsets 1311, 815: GRBG seen from (1,1) is GBRG).
     assert_eq!(frames[6].cfa(), Cfa::Gbrg);
+}
+
+/// The quick-start recipe: a sequence of 20 USC frames through the reverse ISP, each scaled 2.5x;
+/// frame `i` shows file `i mod 20`, so the scene moves and the sequence repeats exactly.
+#[test]
+fn demo_recipe_plays_its_image_sequence_through_the_reverse_isp() {
+    let first = mosaicd::data::require("pedestrian/usc/USCPedestrianSetB/OSME1cor_0.bmp");
+    let data_root = first.ancestors().nth(4).unwrap().to_path_buf();
+    let mut recipe = Recipe::load(root().join("recordings/demo.toml")).unwrap();
+    assert_eq!(recipe.source.files.len(), 20);
+    assert_eq!(recipe.frames % 20, 0, "whole passes of the sequence");
+    // Two images only, three frames: the third shows the first image again.
+    recipe.source.files.truncate(2);
+    recipe.frames = 3;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo.mcap");
+    build_recording(&recipe, &data_root, Some(&out), |_, _| {}).unwrap();
+    let frames = frames_of(&out);
+    assert_eq!(frames.len(), 3);
+    for f in &frames {
+        assert_eq!(
+            (f.width(), f.height(), f.cfa(), f.bit_depth()),
+            (960, 720, Cfa::Grbg, 12)
+        );
+    }
+    assert_ne!(frames[0].to_u16_vec(), frames[1].to_u16_vec(), "the scene moves");
+    assert_eq!(
+        frames[0].to_u16_vec(),
+        frames[2].to_u16_vec(),
+        "and the sequence repeats"
+    );
+    assert_eq!(frames[2].meta.timestamp_ns, 400_000_000, "5 fps");
+    // `files` is for RGB sources, without `file`.
+    let mut bad = recipe.clone();
+    bad.source.kind = "raw".into();
+    assert!(bad.validate().unwrap_err().to_string().contains("source.files"));
+    let mut bad = recipe;
+    bad.source.scale = Some(0.0);
+    assert!(bad.validate().unwrap_err().to_string().contains("source.scale"));
 }
 
 #[test]
@@ -116,6 +169,12 @@ fn cli_records_files_and_motion_and_reports_bad_input() {
         .output()
         .unwrap();
     assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    // stderr is a pipe here (as in CI): no progress bar and no progress lines, only the log.
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(
+        !err.contains('\r') && !err.contains('\x1b') && !err.contains("3 frames"),
+        "{err:?}"
+    );
     let frames = frames_of(&out);
     assert_eq!(frames.len(), 3);
     assert_eq!(frames[2].value(3, 3), 85);

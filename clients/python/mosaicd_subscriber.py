@@ -483,7 +483,10 @@ def main(argv: list[str] | None = None) -> int:
     kp = subscribe("keypoints", KeypointsMsg) if a.keypoints else None
     desc = subscribe("descriptors", DescriptorsMsg) if a.descriptors else None
     grad = subscribe("gradients", None) if a.gradients else None
-    print(f"mosaicd_subscriber: subscribed to {a.prefix}/{a.camera}/{{detections,stats}}", file=sys.stderr, flush=True)
+    services = ["detections", "stats"] + [
+        name for on, name in ((a.keypoints, "keypoints"), (a.descriptors, "descriptors"), (a.gradients, "gradients")) if on
+    ]
+    print(f"mosaicd_subscriber: subscribed to {a.prefix}/{a.camera}/{{{','.join(services)}}}", file=sys.stderr, flush=True)
 
     out = sys.stdout
     received = 0

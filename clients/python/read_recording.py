@@ -26,6 +26,11 @@ the JSON messages of a channel instead, ``--npy DIR`` also writes each frame as
 
     python3 clients/python/read_recording.py recordings/synthetic_pan.mcap
     python3 clients/python/read_recording.py out/demo.mcap --topic /demo/detections
+
+Exit status: 0 after printing at least one message; 1 when the recording holds no raw frame (or,
+with ``--topic``, no message on that topic): the channels it does hold are listed on stderr (a
+results-only recording, ``mosaicd replay --out-frames none``, has no raw channel); 2 for a file
+that is not a readable recording; 3 for a recording cut short.
 """
 
 from __future__ import annotations
@@ -92,10 +97,12 @@ def decode_raw_frame(data: bytes, where: str = "message") -> tuple[dict, np.ndar
     return header, mosaic.astype(np.uint16) if bits == 16 else mosaic
 
 
-def messages(path: str) -> Iterator[tuple[Channel, Schema | None, Message]]:
+def messages(path: str, channels: dict[int, Channel] | None = None) -> Iterator[tuple[Channel, Schema | None, Message]]:
     """Every message of the recording in file order, with its channel and schema; read as a stream
-    with CRC checks, so a recording without its summary (cut short) is read up to the cut."""
-    channels: dict[int, Channel] = {}
+    with CRC checks, so a recording without its summary (cut short) is read up to the cut.
+    ``channels``, when given, is filled with every channel declared so far (id → channel)."""
+    if channels is None:
+        channels = {}
     schemas: dict[int, Schema] = {}
     count = 0
     def records(f):
@@ -132,16 +139,20 @@ def messages(path: str) -> Iterator[tuple[Channel, Schema | None, Message]]:
             raise ValueError(f"{path}: not a readable MCAP recording after {count} messages: {type(e).__name__}: {e}") from None
 
 
-def raw_frames(path: str, topic: str | None = None) -> Iterator[tuple[dict, np.ndarray]]:
-    """The raw frames (``mosaicd.rawframe.v1`` channels, or only ``topic``) as (header, mosaic)."""
-    for ch, _, m in messages(path):
+def raw_frames(
+    path: str, topic: str | None = None, channels: dict[int, Channel] | None = None
+) -> Iterator[tuple[dict, np.ndarray]]:
+    """The raw frames (``mosaicd.rawframe.v1`` channels, or only ``topic``) as (header, mosaic);
+    ``channels`` as for :func:`messages`."""
+    for ch, _, m in messages(path, channels):
         if ch.message_encoding == RAW_FRAME_ENCODING and (topic is None or ch.topic == topic):
             yield decode_raw_frame(m.data, f"{path}: {ch.topic} message {m.sequence}")
 
 
-def json_messages(path: str, topic: str) -> Iterator[tuple[int, Any]]:
-    """(log time ns, decoded JSON) of each message on a JSON channel."""
-    for ch, _, m in messages(path):
+def json_messages(path: str, topic: str, channels: dict[int, Channel] | None = None) -> Iterator[tuple[int, Any]]:
+    """(log time ns, decoded JSON) of each message on a JSON channel; ``channels`` as for
+    :func:`messages`."""
+    for ch, _, m in messages(path, channels):
         if ch.topic == topic:
             if ch.message_encoding != "json":
                 raise ValueError(f"{path}: {topic} is {ch.message_encoding!r}, not JSON")
@@ -154,23 +165,32 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--topic", help="print this JSON channel's messages instead of the raw frames")
     p.add_argument("--npy", help="also write each raw frame as DIR/<sequence>.npy")
     a = p.parse_args(argv)
+    channels: dict[int, Channel] = {}
+    printed = 0
     try:
         if a.topic:
-            for t, v in json_messages(a.recording, a.topic):
+            for t, v in json_messages(a.recording, a.topic, channels):
                 print(json.dumps({"log_time": t, "message": v}))
-            return 0
-        if a.npy:
-            os.makedirs(a.npy, exist_ok=True)
-        for header, mosaic in raw_frames(a.recording):
-            print(json.dumps({**header, "min": int(mosaic.min()), "max": int(mosaic.max()), "mean": float(mosaic.mean())}))
+                printed += 1
+        else:
             if a.npy:
-                np.save(os.path.join(a.npy, f"{header['sequence']}.npy"), mosaic)
+                os.makedirs(a.npy, exist_ok=True)
+            for header, mosaic in raw_frames(a.recording, channels=channels):
+                print(json.dumps({**header, "min": int(mosaic.min()), "max": int(mosaic.max()), "mean": float(mosaic.mean())}))
+                printed += 1
+                if a.npy:
+                    np.save(os.path.join(a.npy, f"{header['sequence']}.npy"), mosaic)
     except TruncatedRecording as e:
         print(f"read_recording: {e}", file=sys.stderr)
         return 3
     except (OSError, ValueError) as e:
         print(f"read_recording: {e}", file=sys.stderr)
         return 2
+    if printed == 0:
+        what = f"no message on {a.topic}" if a.topic else f"no raw frame (no message on a {RAW_FRAME_ENCODING} channel)"
+        held = ", ".join(f"{c.topic} ({c.message_encoding})" for c in sorted(channels.values(), key=lambda c: c.topic))
+        print(f"read_recording: {a.recording} holds {what}; its channels: {held or 'none'}", file=sys.stderr)
+        return 1
     return 0
 
 

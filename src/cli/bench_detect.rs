@@ -12,6 +12,7 @@ use mosaicd::detect::input::MosaicPrep;
 use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfile};
 use mosaicd::features::hog::{HogInput, MosaicTone};
 use mosaicd::image::ImageView;
+use mosaicd::progress::Progress;
 use mosaicd::raw::levels::Gains;
 use mosaicd::raw::tone::mosaic_from_raw_toned_into;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
@@ -162,7 +163,9 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     // the mosaic buffer is reused between frames, as the daemon's pooled buffers are
     let mut buf = Vec::new();
     let strip_rows = mosaicd::pipeline::stage::StageSpec::default().strip_rows;
+    let bar = Progress::new("bench detect", Some(a.frames as u64 + 1));
     for i in 0..=a.frames {
+        bar.set(i as u64, "ours");
         let (t_norm, t_all, stats, nb) = pool.install(|| -> anyhow::Result<_> {
             let t0 = Instant::now();
             // the daemon's way: the model's tone, `auto` gains (this frame has none: grey world);
@@ -184,6 +187,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         acc += stats;
         boxes = nb;
     }
+    bar.finish();
     let f = a.frames.max(1) as u32;
     let ours_s = total.as_secs_f64() / f as f64;
 

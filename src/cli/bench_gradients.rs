@@ -12,6 +12,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
+use mosaicd::progress::Progress;
 
 use mosaicd::features::gradient::{mag_bin, synthetic_mosaic, MagBinOptions, MagBinSpec, Operator};
 use mosaicd::image::Image;
@@ -223,10 +224,14 @@ pub fn run(args: BenchGradientsArgs) -> anyhow::Result<()> {
     let commit = commit();
     let mut rows = Vec::new();
     let mut opencv_version = String::new();
-    for &(w, h) in &sizes {
-        eprintln!("bench gradients: generating {w}x{h} synthetic mosaic (seed {SEED})");
+    let bar = Progress::new("bench gradients", Some((sizes.len() * args.bits.len()) as u64));
+    for (k, &(w, h)) in sizes.iter().enumerate() {
+        bar.println(&format!(
+            "bench gradients: generating {w}x{h} synthetic mosaic (seed {SEED})"
+        ));
         let m16 = synthetic_mosaic(w, h, 12, SEED);
-        for &bits in &args.bits {
+        for (j, &bits) in args.bits.iter().enumerate() {
+            bar.set((k * args.bits.len() + j) as u64, &format!("{w}x{h} {bits}-bit"));
             let (m8, m16b);
             let (src, raw_bytes, descr): (RawView<'_>, Vec<u8>, &str) = if bits == 8 {
                 m8 = m16.map(|v| (v >> 4) as u8);

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use anyhow::{bail, Context};
+use mosaicd::progress::Progress;
 
 use mosaicd::features::sift::{features_from_frame, SiftSpec};
 use mosaicd::kernels;
@@ -98,7 +99,9 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     let run_ours = |spec: SiftSpec| -> anyhow::Result<(f64, usize)> {
         let mut times = Vec::new();
         let mut n = 0;
-        for _ in 0..args.reps {
+        let bar = Progress::new("bench sift", Some(args.reps as u64));
+        for r in 0..args.reps {
+            bar.set(r as u64, "ours");
             let t0 = std::time::Instant::now();
             // Normalisation (black, white) and SIFT, as the daemon runs them.
             let f = pool.install(|| features_from_frame(&frame, &spec))?;

@@ -3,6 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
+
+use super::input::InputArgs;
 use mosaicd::detect::input::{with_overrides, MosaicPrep};
 use mosaicd::detect::{Detector, DetectorOptions, Domain, LinearModel, NmsMethod, ScorePrecision};
 use mosaicd::eval::draw::draw_boxes;
@@ -10,19 +12,17 @@ use mosaicd::features::hog::{HogInput, MosaicTaps, MosaicTone};
 use mosaicd::image::Image;
 use mosaicd::isp::grey::grey_from_rgb_u8;
 use mosaicd::raw::levels::Gains;
-use mosaicd::raw::load::{load_headerless, Container, Endian, RawFormat};
-use mosaicd::raw::{Cfa, Levels, RawFrame};
+use mosaicd::raw::{Cfa, RawFrame};
 
 /// Arguments of `mosaicd detect`.
 #[derive(clap::Args, Debug)]
 pub struct DetectArgs {
-    /// Input: a headerless raw mosaic (`.raw`, little-endian u16, or u8 with --bit-depth 8), or a
-    /// PNG/JPEG image (colour or grey; a 16-bit grey PNG with --cfa is read as a mosaic).
-    pub input: PathBuf,
+    /// The input frame and how to read it (shared with `gradients` and `sift`: one loader).
     #[command(flatten)]
-    pub raw: RawInputArgs,
-    /// Interpret an image as `colour`, `grey`, or `mosaic` (a colour image is then sampled through
-    /// --cfa into a mosaic, no ISP). Default: mosaic for raw input, colour for colour images.
+    pub input: InputArgs,
+    /// Interpret an RGB image as `colour`, `grey`, or `mosaic` (sampled through --cfa into a
+    /// mosaic, no ISP). Default: grey for an image whose pixels are all grey, else colour. A
+    /// mosaic input (raw, camera raw, grey PNG/PGM mosaic) is detected as a mosaic only.
     #[arg(long = "as", value_enum)]
     pub as_domain: Option<DomainArg>,
     /// Model: a built-in name (`mosaic-raw-srgb`, the default; `mosaic-raw-srgb-low`,
@@ -42,29 +42,6 @@ pub struct DetectArgs {
     /// Worker threads (own rayon pool; 0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-}
-
-/// Raw-frame description for headerless input.
-#[derive(clap::Args, Debug, Clone)]
-pub struct RawInputArgs {
-    /// Raw width in pixels.
-    #[arg(long)]
-    pub width: Option<usize>,
-    /// Raw height in pixels.
-    #[arg(long)]
-    pub height: Option<usize>,
-    /// Bits per sample (8..=16).
-    #[arg(long, default_value_t = 12)]
-    pub bit_depth: u8,
-    /// CFA pattern, physical name (RGGB = red at (0,0)).
-    #[arg(long)]
-    pub cfa: Option<Cfa>,
-    /// Black level.
-    #[arg(long, default_value_t = 0)]
-    pub black: u16,
-    /// White level (default 2^bit_depth − 1).
-    #[arg(long)]
-    pub white: Option<u16>,
 }
 
 /// Detector options on the command line.
@@ -264,103 +241,52 @@ impl Frame {
     }
 }
 
-/// Read a headerless raw file into a frame.
-pub fn read_raw(path: &Path, a: &RawInputArgs) -> anyhow::Result<RawFrame> {
-    let (Some(w), Some(h)) = (a.width, a.height) else {
-        bail!("{}: raw input needs --width and --height", path.display());
-    };
-    let cfa = a
-        .cfa
-        .with_context(|| format!("{}: raw input needs --cfa", path.display()))?;
-    let white = a.white.unwrap_or(((1u32 << a.bit_depth.min(16)) - 1) as u16);
-    let container = if a.bit_depth == 8 {
-        Container::U8
-    } else {
-        Container::U16
-    };
-    let fmt = RawFormat::new(
-        w,
-        h,
-        a.bit_depth,
-        cfa,
-        container,
-        Endian::Little,
-        Levels::uniform(a.black, white),
-    );
-    // The library loader: frame-size limit, checked sizes, `stat` before `read`.
-    Ok(load_headerless(path, &fmt)?)
-}
-
-/// Load any supported input as a frame; `mosaic` turns a raw frame into the detector's mosaic
-/// (e.g. [`DetectorArgs::mosaic`] for the model).
+/// Load the input through the one loader ([`InputArgs::load`]) as a frame in the domain it will
+/// be detected in; `mosaic` turns a raw frame into the detector's mosaic (e.g.
+/// [`DetectorArgs::mosaic`] for the model).
 pub fn load_frame(
-    path: &Path,
-    raw: &RawInputArgs,
+    input: &InputArgs,
     as_domain: Option<DomainArg>,
     mosaic: &dyn Fn(&RawFrame) -> anyhow::Result<Image<f32>>,
 ) -> anyhow::Result<Frame> {
     let want: Option<Domain> = as_domain.map(Domain::from);
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    if ext == "raw" || ext == "bin" {
-        let f = read_raw(path, raw)?;
-        if f.width() % 2 != 0 || f.height() % 2 != 0 {
-            bail!(
-                "{}: mosaic size {}x{} must be even",
-                path.display(),
-                f.width(),
-                f.height()
-            );
+    let path = &input.input;
+    let loaded = input.load()?;
+    let f = &loaded.frame;
+    let (w, h) = (f.width(), f.height());
+    let even = || -> anyhow::Result<()> {
+        if w % 2 != 0 || h % 2 != 0 {
+            bail!("{}: mosaic size {w}x{h} must be even", path.display());
         }
-        let m = mosaic(&f)?;
+        Ok(())
+    };
+    let Some(colour) = loaded.rgb else {
+        // Raw, camera raw, or a grey PNG/PGM mosaic.
         return match want.unwrap_or(Domain::Mosaic) {
-            Domain::Mosaic => Ok(Frame::Mosaic(m, f.cfa())),
-            d => bail!("raw input can only be detected as mosaic, not {d:?}"),
-        };
-    }
-    let img =
-        mosaicd::raw::load::decode_image(path).with_context(|| format!("decoding {}", path.display()))?;
-    if let (image::DynamicImage::ImageLuma16(g), Some(cfa)) = (&img, raw.cfa) {
-        let (w, h) = g.dimensions();
-        let f = RawFrame::from_u16(
-            w as usize,
-            h as usize,
-            g.as_raw().clone(),
-            cfa,
-            raw.bit_depth,
-            Levels::uniform(
-                raw.black,
-                raw.white.unwrap_or(((1u32 << raw.bit_depth) - 1) as u16),
+            Domain::Mosaic => {
+                even()?;
+                Ok(Frame::Mosaic(mosaic(f)?, f.cfa()))
+            }
+            d => bail!(
+                "{}: a raw mosaic can only be detected as mosaic, not {}",
+                path.display(),
+                d.name()
             ),
-        )?;
-        return Ok(Frame::Mosaic(mosaic(&f)?, cfa));
-    }
-    let is_grey = matches!(
-        img.color(),
-        image::ColorType::L8 | image::ColorType::L16 | image::ColorType::La8
-    );
-    let colour = mosaicd::image_io::rgb8_from_buffer(&img.to_rgb8());
-    let (w, h) = colour.dimensions();
+        };
+    };
+    let is_grey = colour.as_slice().iter().all(|&[r, g, b]| r == g && g == b);
     match want.unwrap_or(if is_grey { Domain::Grey } else { Domain::Colour }) {
         Domain::Colour => Ok(Frame::Colour(colour)),
         Domain::Grey => Ok(Frame::Grey(grey_from_rgb_u8(&colour.view()))),
         Domain::Mosaic => {
-            let cfa = raw.cfa.unwrap_or(Cfa::Rggb);
-            if w % 2 != 0 || h % 2 != 0 {
-                bail!("{}: {w}x{h} must be even to sample a mosaic", path.display());
-            }
-            let m = Image::from_fn(w, h, |x, y| {
-                let p = colour.get(x, y);
-                match cfa.colour_at(x, y) {
-                    mosaicd::raw::Colour::Red => p[0] as f32,
-                    mosaicd::raw::Colour::Green => p[1] as f32,
-                    mosaicd::raw::Colour::Blue => p[2] as f32,
-                }
-            });
-            Ok(Frame::Mosaic(m, cfa))
+            even()?;
+            // The loader sampled the image through --cfa: already sRGB values, used as they are
+            // (the model's tone applies to raw values only).
+            let px = f.to_u16_vec();
+            Ok(Frame::Mosaic(
+                Image::from_fn(w, h, |x, y| px[y * w + x] as f32),
+                f.cfa(),
+            ))
         }
     }
 }
@@ -376,9 +302,7 @@ pub fn save_png(img: &Image<[u8; 3]>, path: &Path) -> anyhow::Result<()> {
 /// Run `mosaicd detect`.
 pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     let model = args.det.model(load_model(&args.model, Domain::Grey)?);
-    let frame = load_frame(&args.input, &args.raw, args.as_domain, &|f| {
-        args.det.mosaic(&model, f)
-    })?;
+    let frame = load_frame(&args.input, args.as_domain, &|f| args.det.mosaic(&model, f))?;
     let det = Detector::new(model, &args.det.options()?)?;
     let ours = Path::new(&args.model).extension().is_some_and(|e| e == "json");
     // An unasked-for transfer case (the user did not choose the domain with --as).
@@ -392,7 +316,7 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
         eprintln!(
             "warning: {} was trained on {md} input, but {} is read as {fd} (a transfer case{hint})",
             args.model,
-            args.input.display()
+            args.input.input.display()
         );
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -402,7 +326,7 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     if args.json {
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
         let out = serde_json::json!({
-            "input": args.input.display().to_string(),
+            "input": args.input.input.display().to_string(),
             "domain": frame.domain(),
             "cfa": frame.cfa().map(|c| c.name()),
             "model": args.model,
@@ -419,7 +343,7 @@ pub fn run(args: DetectArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "{}: {} detections ({} levels, {} windows, {} hits, {:.1} ms)",
-            args.input.display(),
+            args.input.input.display(),
             boxes.len(),
             stats.levels,
             stats.windows,

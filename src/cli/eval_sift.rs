@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use mosaicd::progress::Progress;
 use plotters::prelude::*;
 
 use mosaicd::eval::draw::{draw_keypoints, draw_line, paint_grey};
@@ -116,7 +117,10 @@ pub fn run(args: EvalSiftArgs) -> anyhow::Result<()> {
         transforms.len()
     );
     let t0 = std::time::Instant::now();
+    let spinner = Progress::new("eval sift", None);
+    spinner.message(&format!("{} images", paths.len()));
     let rows = evaluate(&paths, &transforms, &grey_spec, &mosaic_spec, warp)?;
+    spinner.finish();
     eprintln!("eval sift: done in {:.1} s", t0.elapsed().as_secs_f64());
     let summary = summarise(&rows);
     std::fs::write(args.out.join("rows.json"), serde_json::to_string_pretty(&rows)?)?;

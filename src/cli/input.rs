@@ -1,4 +1,5 @@
-//! Shared input options for the one-frame subcommands (`gradients`, `detect`, `sift`).
+//! Shared input options for the one-frame subcommands (`gradients`, `detect`, `sift`): one flag
+//! set, one loader ([`mosaicd::raw::load_input`]), so every command reads every input alike.
 //!
 //! Subcommands embed [`InputArgs`] with `#[command(flatten)]` and call [`InputArgs::load`]:
 //!
@@ -14,7 +15,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use mosaicd::raw::levels::{Compression, Gains, NormaliseOptions, NormaliseSpec};
 use mosaicd::raw::{load_input, Cfa, Container, Endian, InputOptions, LoadedInput};
 
 /// Parse `--black`: one value for every tile position, or four comma-separated values in tile
@@ -62,17 +62,8 @@ pub struct InputArgs {
     /// Sample container of a headerless file (default: u8 for 8-bit, u16 above).
     #[arg(long, value_enum)]
     pub container: Option<Container>,
-    /// White-balance gains applied when normalising: none (default, measured best for gradient
-    /// parity, see docs/raw.md), file, grey-world, auto (file, else grey world) or R,G,B.
-    #[arg(long, default_value = "none")]
-    pub gains: Gains,
-    /// Tone compression after normalising: none (default), sqrt (as OpenCV HOG) or gamma:EXPONENT.
-    #[arg(long, default_value = "none")]
-    pub compress: Compression,
 }
 
-// Used by the subcommands that flatten `InputArgs` (gradients, detect, sift) as they land.
-#[allow(dead_code)]
 impl InputArgs {
     /// The loader options these arguments describe.
     pub fn options(&self) -> InputOptions {
@@ -89,15 +80,6 @@ impl InputArgs {
         }
     }
 
-    /// The validated normalisation spec of `--gains` and `--compress`.
-    pub fn normalise_spec(&self) -> anyhow::Result<NormaliseSpec> {
-        Ok(NormaliseOptions {
-            gains: self.gains,
-            compression: self.compress,
-        }
-        .build()?)
-    }
-
     /// Load the input.
     pub fn load(&self) -> anyhow::Result<LoadedInput> {
         let loaded = load_input(&self.input, &self.options())
@@ -111,7 +93,7 @@ impl InputArgs {
             bit_depth = f.bit_depth(),
             black = ?f.levels().black,
             white = f.levels().white,
-            wb_gains = ?f.wb_gains,
+            wb_gains = %f.wb_gains.map_or("none".to_string(), |[r, g, b]| format!("{r},{g},{b}")),
             rgb = loaded.rgb.is_some(),
             "loaded input"
         );
@@ -214,16 +196,10 @@ mod tests {
         let c = Cli::try_parse_from(["x", "f.png", "--black", "1,2,3,4", "--cfa", "gbrg"]).unwrap();
         assert_eq!(c.input.black, Some([1, 2, 3, 4]));
         assert_eq!(c.input.cfa, Some(Cfa::Gbrg));
-        assert_eq!(c.input.gains, Gains::None);
-        assert_eq!(c.input.compress, Compression::None);
-        let c = Cli::try_parse_from(["x", "f", "--gains", "1.5,1,2", "--compress", "gamma:0.45"]).unwrap();
-        assert_eq!(c.input.gains, Gains::Fixed([1.5, 1.0, 2.0]));
-        assert_eq!(
-            c.input.normalise_spec().unwrap().compression(),
-            Compression::Gamma(0.45)
-        );
-        let c = Cli::try_parse_from(["x", "f", "--gains", "0,1,1"]).unwrap();
-        assert!(c.input.normalise_spec().is_err());
+        // No command normalises with gains or compression from the command line: refused, not
+        // accepted and ignored.
+        assert!(Cli::try_parse_from(["x", "f", "--gains", "1.5,1,2"]).is_err());
+        assert!(Cli::try_parse_from(["x", "f", "--compress", "sqrt"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--bit-depth", "17"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--black", "1,2"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--cfa", "RGBG"]).is_err());

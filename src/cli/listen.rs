@@ -105,8 +105,24 @@ fn detections_json(m: &DetectionsMsg) -> serde_json::Value {
     })
 }
 
+/// The services `args` subscribe to, in the order they are opened.
+fn subscribed_services(args: &ListenArgs) -> Vec<&'static str> {
+    let mut v = vec!["detections", "stats"];
+    for (on, name) in [
+        (args.gradients, "gradients"),
+        (args.keypoints, "keypoints"),
+        (args.descriptors, "descriptors"),
+    ] {
+        if on {
+            v.push(name);
+        }
+    }
+    v
+}
+
 /// Run `mosaicd listen`.
 pub fn run(args: ListenArgs) -> anyhow::Result<()> {
+    let services = subscribed_services(&args).join(",");
     let root = root_dir(&Iox2Root::from(args.root))?;
     let node = create_node(&format!("mosaicd-listen-{}", std::process::id()), false, &root)?;
     let det = detections_service(&node, &args.prefix, &args.camera, args.buffer)?;
@@ -137,9 +153,10 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
         None
     };
     eprintln!(
-        "mosaicd listen: subscribed to {}/{}/{{detections,stats}} under {}",
+        "mosaicd listen: subscribed to {}/{}/{{{}}} under {}",
         args.prefix,
         args.camera,
+        services,
         root.display()
     );
     let start = Instant::now();

@@ -16,6 +16,8 @@ use mosaicd::capture::files::{FileSource, FileSourceOptions, Sidecar};
 use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
 use mosaicd::capture::v4l2_formats::parse_fourcc;
 use mosaicd::capture::Source;
+use mosaicd::clock::WallClockSource;
+use mosaicd::progress::Progress;
 use mosaicd::raw::Levels;
 use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
 use mosaicd::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
@@ -125,6 +127,8 @@ fn recorder_options(a: &RecordArgs) -> RecorderOptions {
         preview: (a.opts.preview_decimation > 0).then_some(PreviewOptions {
             decimation: a.opts.preview_decimation,
         }),
+        // Frames only: no result channels that would hold no message.
+        results: false,
         ..Default::default()
     }
 }
@@ -147,10 +151,9 @@ fn parse_path(s: &str) -> anyhow::Result<Vec<[usize; 2]>> {
         .collect()
 }
 
-fn progress(done: u64, total: u64) {
-    if total > 0 && (done == total || done.is_multiple_of((total / 10).max(1))) {
-        eprintln!("  {done}/{total} frames");
-    }
+/// A frames bar for `total` frames (a counter when unknown); drawn only on a terminal.
+fn frames_bar(total: Option<u64>) -> Progress {
+    Progress::new("record", total)
 }
 
 fn record_source(
@@ -159,7 +162,13 @@ fn record_source(
     limit: Option<u64>,
     out: PathBuf,
 ) -> anyhow::Result<()> {
-    let mut rec = McapRecorder::create(&out, recorder_options(a))?;
+    let opts = RecorderOptions {
+        // A camera stamps frames with CLOCK_MONOTONIC: each file records the wall clock.
+        wall_clock: a.device.is_some().then_some(WallClockSource::System),
+        ..recorder_options(a)
+    };
+    let mut rec = McapRecorder::create(&out, opts)?;
+    let bar = frames_bar(limit);
     let mut n = 0u64;
     let mut errors = 0u64;
     while limit.is_none_or(|l| n < l) {
@@ -167,20 +176,17 @@ fn record_source(
             Ok(Some(f)) => {
                 rec.write_frame(&f)?;
                 n += 1;
-                if let Some(l) = limit {
-                    progress(n, l);
-                } else if n.is_multiple_of(10) {
-                    eprintln!("  {n} frames");
-                }
+                bar.set(n, "frames");
             }
             Ok(None) => break,
             Err(e) if !src.is_finished() => {
                 errors += 1;
-                eprintln!("  skipped: {e}");
+                bar.println(&format!("  skipped: {e}"));
             }
             Err(e) => return Err(e.into()),
         }
     }
+    bar.finish();
     let s = rec.finish()?;
     if n == 0 {
         // An empty recording is not a success: every input was skipped (or there was none).
@@ -225,6 +231,8 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             recipe.frames,
             recipe_path.display()
         );
+        let bar = frames_bar(Some(recipe.frames));
+        let progress = |done, _| bar.set(done, "frames");
         let s = build_recording(&recipe, &data_root, a.out.as_deref(), progress).with_context(|| {
             format!(
                 "recipe {} (data root {})",
@@ -232,6 +240,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 data_root.display()
             )
         })?;
+        bar.finish();
         print_files(s.frames, &s.files);
         return Ok(());
     }
@@ -297,6 +306,8 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
             source: SourceSpec {
                 kind: if rgb { "rgb" } else { "raw" }.into(),
                 file: Some(std::path::absolute(input)?),
+                files: Vec::new(),
+                scale: None,
                 format,
                 profile: a.opts.profile.clone(),
                 cfa: a.opts.cfa.clone(),
@@ -318,7 +329,10 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
                 rotate_secs: a.opts.rotate_secs,
             },
         };
+        let bar = frames_bar(Some(recipe.frames));
+        let progress = |done, _| bar.set(done, "frames");
         let s = build_recording(&recipe, std::path::Path::new("/"), Some(&out), progress)?;
+        bar.finish();
         print_files(s.frames, &s.files);
         return Ok(());
     }

@@ -1,6 +1,7 @@
 //! `mosaicd run` (the daemon, from a config) and `mosaicd replay FILE.mcap`.
 //!
-//! Both load a config (default `config/mosaicd.toml`), apply command-line overrides, validate once,
+//! Both load a config (`run`: default `config/mosaicd.toml`; `replay`: default the built-in
+//! defaults), apply command-line overrides, validate once,
 //! run until the sources end or SIGTERM/SIGINT, and print a summary (frames, detections,
 //! throughput, latency p50/p99, drops and failures by reason). Exit status is non-zero when a
 //! source ended with an error (truncated or corrupt recording, lost device), when a run that
@@ -14,6 +15,7 @@ use anyhow::Context;
 use mosaicd::config::{CameraConfig, Config, SourceType};
 use mosaicd::pipeline::daemon::{self, DaemonError, RunOptions, RunSummary};
 use mosaicd::pipeline::engine::SinkFactory;
+use mosaicd::pipeline::sinks::foxglove::LiveView;
 use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 
 /// Default config file.
@@ -60,7 +62,8 @@ pub struct RunArgs {
 pub struct ReplayArgs {
     /// The recording.
     file: PathBuf,
-    /// Config file for everything but the source (missing file: built-in defaults).
+    /// Config file for everything but the source. Default: the built-in defaults (the values
+    /// config/mosaicd.toml spells out); no file is read from the working directory.
     #[arg(long, short)]
     config: Option<PathBuf>,
     /// Camera name used in service names and outputs.
@@ -72,9 +75,17 @@ pub struct ReplayArgs {
     /// Loop the recording.
     #[arg(long = "loop")]
     looped: bool,
-    /// Record results (and frames) to this MCAP file.
+    /// Record results (detections as foxglove.ImageAnnotations and mosaicd.Detections, stats) and
+    /// the frames `--out-frames` names to this MCAP file (overwritten).
     #[arg(long, value_name = "OUT.mcap")]
     out: Option<PathBuf>,
+    /// Frames recorded with `--out`: `preview` (an 8-bit foxglove.RawImage of every frame, which
+    /// Foxglove's image panel draws the boxes on; every n-th 2x2 tile, n = the config's
+    /// `record.preview_decimation`, 2 when that is 0), `raw` (the lossless frames at full bit
+    /// depth: large, and replayable), `both`, or `none` (results only). Replaces the config's
+    /// `record.frames` and `record.preview_decimation`.
+    #[arg(long, value_enum, default_value_t = OutFrames::Preview, requires = "out")]
+    out_frames: OutFrames,
     /// Keep wall-clock values (timer-driven stats, latency, frames/s) in the output files. Without
     /// it a replay's files are byte-identical for any thread count
     /// (`daemon.deterministic_outputs`).
@@ -82,6 +93,35 @@ pub struct ReplayArgs {
     wall_clock: bool,
     #[command(flatten)]
     overrides: Overrides,
+}
+
+/// `replay --out-frames` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutFrames {
+    /// The 8-bit Foxglove preview.
+    Preview,
+    /// The lossless raw frames.
+    Raw,
+    /// Both.
+    Both,
+    /// Results only.
+    None,
+}
+
+/// Preview decimation of `replay --out` when the config records no preview.
+const OUT_PREVIEW_DECIMATION: u32 = 2;
+
+impl OutFrames {
+    /// Set `record.frames` and `record.preview_decimation` of `cfg`.
+    fn apply(self, cfg: &mut Config) {
+        let preview = matches!(self, OutFrames::Preview | OutFrames::Both);
+        cfg.record.frames = matches!(self, OutFrames::Raw | OutFrames::Both);
+        cfg.record.preview_decimation = match cfg.record.preview_decimation {
+            _ if !preview => 0,
+            0 => OUT_PREVIEW_DECIMATION,
+            n => n,
+        };
+    }
 }
 
 fn apply(cfg: &mut Config, o: &Overrides) -> anyhow::Result<()> {
@@ -104,7 +144,10 @@ fn apply(cfg: &mut Config, o: &Overrides) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError> + '_ {
+fn sinks_for<'a>(
+    cfg: &'a Config,
+    live: Option<&'a LiveView>,
+) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>, DaemonError> + 'a {
     move |cam: &CameraConfig| {
         let mut v = Vec::new();
         if cfg.publish.enabled {
@@ -118,6 +161,9 @@ fn sinks_for(cfg: &Config) -> impl Fn(&CameraConfig) -> Result<Vec<SinkFactory>,
         if cfg.record.enabled {
             v.push(mosaicd::pipeline::sinks::mcap::recorder_sink(cfg, cam)?);
         }
+        if let Some(l) = live {
+            v.push(l.sink_factory(&cam.name, cfg.compute.keypoints));
+        }
         Ok(v)
     }
 }
@@ -130,9 +176,16 @@ fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
     let opts = RunOptions {
         results_out: o.results.clone(),
     };
-    let builder = sinks_for(cfg);
-    let summary = daemon::run(cfg, &opts, &builder)?;
-    report(&summary, o.json_summary)
+    // The live view's server, one for every camera, up before the first frame and down after
+    // the last.
+    let live = LiveView::start(&cfg.foxglove)?;
+    let builder = sinks_for(cfg, live.as_ref());
+    let summary = daemon::run(cfg, &opts, &builder);
+    drop(builder);
+    if let Some(l) = live {
+        l.stop();
+    }
+    report(&summary?, o.json_summary)
 }
 
 fn report(summary: &RunSummary, json: bool) -> anyhow::Result<()> {
@@ -189,14 +242,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let mut cfg = match &args.config {
         Some(p) => Config::load(p)?,
-        None => {
-            let default = PathBuf::from(DEFAULT_CONFIG);
-            if default.exists() {
-                Config::load(&default)?
-            } else {
-                Config::default()
-            }
-        }
+        None => Config::default(),
     };
     let mut cam = CameraConfig::synthetic(&args.camera, 2, 2, 0);
     cam.source = SourceType::Mcap;
@@ -210,8 +256,35 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         // A command-line output is overwritten, as `record -o` and `--results` are.
         cfg.record.overwrite = true;
         cfg.record.max_files = 0;
+        args.out_frames.apply(&mut cfg);
     }
     cfg.daemon.deterministic_outputs = !args.wall_clock;
     apply(&mut cfg, &args.overrides)?;
     execute(&cfg, &args.overrides)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_frames_decide_what_replay_out_records() {
+        let rec = |f: OutFrames, decimation: u32, frames: bool| {
+            let mut c = Config::default();
+            c.record.preview_decimation = decimation;
+            c.record.frames = frames;
+            f.apply(&mut c);
+            (c.record.frames, c.record.preview_decimation)
+        };
+        // The default: a preview for Foxglove's image panel, even when the config records none.
+        assert_eq!(rec(OutFrames::Preview, 0, false), (false, OUT_PREVIEW_DECIMATION));
+        assert_eq!(
+            rec(OutFrames::Preview, 4, true),
+            (false, 4),
+            "the config's decimation"
+        );
+        assert_eq!(rec(OutFrames::Raw, 4, false), (true, 0));
+        assert_eq!(rec(OutFrames::Both, 0, false), (true, OUT_PREVIEW_DECIMATION));
+        assert_eq!(rec(OutFrames::None, 4, true), (false, 0));
+    }
 }

@@ -8,6 +8,7 @@ use mosaicd::detect::train::{
 };
 use mosaicd::detect::ScorePrecision;
 use mosaicd::features::hog::{MosaicTaps, MosaicTone};
+use mosaicd::progress::Progress;
 use mosaicd::raw::levels::Gains;
 use mosaicd::raw::Cfa;
 
@@ -138,7 +139,12 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     let root = mosaicd::data::data_root()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
-    let mut progress = |s: &str| eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+    // Each stage is a log line (above a spinner on a terminal, showing the stage and the time).
+    let spinner = Progress::new("train", None);
+    let mut progress = |s: &str| {
+        spinner.println(&format!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64()));
+        spinner.message(s);
+    };
     let mut split = split_data(&root, o.seed, o.val_fraction, o.fold)?;
     split.extra_train_neg =
         list_negative_dirs(&a.negatives_dir).map_err(|e| anyhow::anyhow!("--negatives-dir: {e}"))?;
@@ -150,7 +156,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
             a.select_c
         );
         let (c, results) = pool.install(|| select_c(&split, &o, &a.select_c, &mut progress))?;
-        eprintln!("select C: chose C = {c}");
+        spinner.println(&format!("select C: chose C = {c}"));
         o.c = c;
         selection = Some(results);
     }
@@ -175,10 +181,10 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     model.provenance["train_seconds"] = serde_json::json!(t0.elapsed().as_secs_f64());
     let held_out = !split.val_pos.is_empty() && !split.val_neg.is_empty();
     if !a.no_eval && !held_out {
-        eprintln!(
+        spinner.println(&format!(
             "validation: skipped, nothing is held out (--val-fraction {})",
             o.val_fraction
-        );
+        ));
     } else if !a.no_eval {
         let ev = pool.install(|| {
             evaluate_windows_via(
@@ -192,12 +198,13 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
                 &mut progress,
             )
         })?;
-        eprintln!(
+        spinner.println(&format!(
             "validation: {} positives, {} negative windows, miss rate at FPPW {:?}",
             ev.positives, ev.negative_windows, ev.miss_rate_at
-        );
+        ));
         model.provenance["validation"] = serde_json::to_value(&ev)?;
     }
+    spinner.finish();
     model.save(&a.out)?;
     eprintln!("wrote {}", a.out.display());
     Ok(())

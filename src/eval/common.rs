@@ -8,7 +8,6 @@ use crate::features::superpixel::SuperPixelError;
 use crate::image::{Image, ImageView};
 use crate::metrics::MetricsError;
 use crate::raw::Cfa;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -295,35 +294,30 @@ impl Report {
     }
 }
 
-/// A one-line progress counter on stderr (`[3/24] kodim03`), silent when disabled.
+/// Progress over the images of an experiment: a bar on stderr ([`crate::progress::Progress`])
+/// when enabled and stderr is a terminal, nothing otherwise (no `\r` lines in CI logs).
 #[derive(Debug)]
 pub struct Progress {
-    label: String,
-    total: usize,
-    enabled: bool,
+    shown: crate::progress::Progress,
 }
 
 impl Progress {
     /// A counter for `total` steps.
     pub fn new(label: &str, total: usize, enabled: bool) -> Self {
-        Self {
-            label: label.to_string(),
-            total,
-            enabled,
-        }
+        let shown = if enabled {
+            crate::progress::Progress::new(label, Some(total as u64))
+        } else {
+            crate::progress::Progress::with_display(false, label, None)
+        };
+        Self { shown }
     }
     /// Reports step `i` (0-based) on `what`.
     pub fn step(&self, i: usize, what: &str) {
-        if self.enabled {
-            eprint!("\r{} [{}/{}] {what:<24}", self.label, i + 1, self.total);
-            let _ = std::io::stderr().flush();
-        }
+        self.shown.set(i as u64, what);
     }
-    /// Ends the line.
+    /// Ends the display.
     pub fn done(&self) {
-        if self.enabled {
-            eprintln!();
-        }
+        self.shown.finish();
     }
 }
 

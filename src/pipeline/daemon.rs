@@ -121,7 +121,8 @@ pub struct CameraSummary {
     pub camera: String,
     /// Counters.
     pub stats: StatsSnapshot,
-    /// Processed frames per second of wall time.
+    /// Processed frames per second of wall time, from the start to the last frame handed to the
+    /// sinks (equal to the final stats message's `fps`).
     pub throughput_fps: f64,
     /// The source's last error (a skipped frame or file, or what the input ended on).
     pub source_error: Option<String>,
@@ -291,7 +292,8 @@ pub fn run(
             queue_depth: cfg.daemon.queue_depth,
             max_in_flight: cfg.daemon.max_in_flight,
             stage: stage.clone(),
-            keep_frames: cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0),
+            keep_frames: (cfg.record.enabled && (cfg.record.frames || cfg.record.preview_decimation > 0))
+                || cfg.foxglove.enabled(),
         };
         let p = Pipeline::start(spec, source, pool.clone(), clock, sinks, frame_pool).map_err(|e| {
             DaemonError::Sink {
@@ -330,7 +332,8 @@ pub fn run(
         cameras: reports
             .into_iter()
             .map(|r| CameraSummary {
-                throughput_fps: r.stats.processed as f64 / r.elapsed.as_secs_f64().max(1e-9),
+                // The same division as the final stats message's fps.
+                throughput_fps: r.stats.processed as f64 / r.active.as_secs_f64().max(1e-9),
                 camera: r.camera,
                 stats: r.stats,
                 source_error: r.source_error,
@@ -425,7 +428,9 @@ async fn supervise(
     ]);
     tracing::info!(cameras = pipelines.len(), "ready");
 
-    let mut stats_tick = tokio::time::interval(stats_every);
+    // The first tick one interval after the start (tokio's `interval` ticks at once, which made the
+    // first stats line and message all zeros).
+    let mut stats_tick = tokio::time::interval_at(tokio::time::Instant::now() + stats_every, stats_every);
     stats_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     // Pet at half the watchdog period, but only when frames progressed.
     let mut dog_tick = tokio::time::interval(watchdog.map(|d| d / 2).unwrap_or(Duration::from_secs(3600)));
@@ -552,6 +557,38 @@ mod tests {
         };
         let chain = format!("{:#}", anyhow::Error::from(e));
         assert_eq!(chain.matches("not a directory").count(), 1, "{chain}");
+    }
+
+    #[test]
+    fn the_first_stats_come_one_interval_in_and_the_final_fps_is_the_summarys() {
+        // A live synthetic camera at 100 fps for 0.4 s, stats every 50 ms.
+        let cfg = Config::from_toml_str(
+            "[daemon]\nstats_interval_ms = 50\n[publish]\nenabled = false\n[compute]\ndetect = false\n\
+             [[camera]]\nname = \"a\"\nsource = \"synthetic\"\nwidth = 64\nheight = 48\n\
+             fps = 100\nframes = 40\nlive = true\n",
+        )
+        .unwrap();
+        let sink = crate::pipeline::sinks::CollectSink::default();
+        let builder = |cam: &CameraConfig| Ok(vec![sink.factory(&cam.name)]);
+        let summary = run(&cfg, &RunOptions::default(), &builder).unwrap();
+        let records = sink.take();
+        let stats: Vec<_> = records.iter().filter(|r| r["type"] == "stats").collect();
+        let first = stats.first().expect("periodic stats in 0.4 s at 50 ms");
+        assert!(
+            first["captured"].as_u64().unwrap() > 0,
+            "the first stats message is not all zeros: {first}"
+        );
+        let last = records.last().unwrap();
+        assert_eq!(last["type"], "final_stats");
+        let c = &summary.cameras[0];
+        assert_eq!(c.stats.processed, 40);
+        // Over the whole run, not the last partial interval: the summary's figure exactly.
+        assert_eq!(
+            last["wall"]["fps"].as_f64().unwrap() as f32,
+            c.throughput_fps as f32,
+            "{last}"
+        );
+        assert!((20.0..=150.0).contains(&c.throughput_fps), "{}", c.throughput_fps);
     }
 
     #[test]

@@ -90,6 +90,9 @@ pub struct PipelineReport {
     pub sink_interruptions: Vec<String>,
     /// Wall time from start to the end of the drain.
     pub elapsed: Duration,
+    /// Wall time from start to the final stats message (the last frame handed to the sinks):
+    /// the final stats' `fps` is `processed / active`, and so is the summary's throughput.
+    pub active: Duration,
 }
 
 struct Item {
@@ -124,7 +127,7 @@ pub struct Pipeline {
     /// The last source error and whether the source ended on it.
     source_error: Arc<Mutex<Option<(String, bool)>>>,
     threads: Vec<JoinHandle<()>>,
-    orderer: Option<JoinHandle<SinkOutcome>>,
+    orderer: Option<JoinHandle<(SinkOutcome, Duration)>>,
     queue: Arc<FrameQueue<Item>>,
     maps_pool: BufferPool<GradientMaps>,
     frame_pool: BufferPool<RawPixels>,
@@ -189,6 +192,8 @@ impl Pipeline {
             permit_tx.send(()).expect("capacity max_in_flight");
         }
 
+        // The run's start: the summary's throughput and the final stats' fps count from here.
+        let started = Instant::now();
         // Capture thread.
         let capture = {
             let (stop, stats, queue, err, fpool) = (
@@ -257,7 +262,7 @@ impl Pipeline {
                         abort: &abort,
                         stats: &stats,
                     };
-                    order_loop(ev_rx, permit_tx, &*clock, camera, mpool, &out);
+                    let active = order_loop(ev_rx, permit_tx, &*clock, camera, mpool, &out, started);
                     drop(sink_txs);
                     let mut all = SinkOutcome::default();
                     for j in sink_joins {
@@ -272,7 +277,7 @@ impl Pipeline {
                             }
                         }
                     }
-                    all
+                    (all, active)
                 })
                 .expect("spawn orderer thread")
         };
@@ -289,7 +294,7 @@ impl Pipeline {
             queue,
             maps_pool,
             frame_pool,
-            started: Instant::now(),
+            started,
         })
     }
 
@@ -358,12 +363,15 @@ impl Pipeline {
         }
         // A failed sink stops itself (the pipeline goes on); each counted itself in
         // `failed_sink` when it failed, so later stats messages carry it.
-        let sinks = match self.orderer.take().map(|j| j.join()) {
+        let (sinks, active) = match self.orderer.take().map(|j| j.join()) {
             Some(Ok(o)) => o,
-            _ => SinkOutcome {
-                errors: vec!["the orderer thread panicked".into()],
-                interruptions: Vec::new(),
-            },
+            _ => (
+                SinkOutcome {
+                    errors: vec!["the orderer thread panicked".into()],
+                    interruptions: Vec::new(),
+                },
+                self.started.elapsed(),
+            ),
         };
         let last = self
             .source_error
@@ -378,6 +386,7 @@ impl Pipeline {
             sink_errors: sinks.errors,
             sink_interruptions: sinks.interruptions,
             elapsed: self.started.elapsed(),
+            active,
         }
     }
 }
@@ -572,23 +581,28 @@ fn order_loop(
     camera: Arc<str>,
     mpool: BufferPool<GradientMaps>,
     out: &Outputs<'_>,
-) {
+    started: Instant,
+) -> Duration {
     let stats = out.stats;
     let mut pending: BTreeMap<u64, Box<Computed>> = BTreeMap::new();
     let mut next = 0u64;
     let mut total: Option<u64> = None;
-    let mut last_tick = (Instant::now(), 0u64);
     let send_all = |ev: SinkEvent| out.send_all(ev);
+    // fps: over the last interval for periodic stats; over the whole run for the final stats
+    // (so it agrees with the summary's throughput), never over the partial last interval.
+    let mut last_tick = (started, 0u64);
     let stats_msg = |last_tick: &mut (Instant, u64), is_final: bool| {
         let snap = stats.snapshot();
-        let dt = last_tick.0.elapsed().as_secs_f64();
+        let now = Instant::now();
+        let (since, base) = if is_final { (started, 0) } else { *last_tick };
+        let dt = now.duration_since(since).as_secs_f64();
         let fps = if dt > 0.0 {
-            (snap.processed - last_tick.1) as f64 / dt
+            (snap.processed - base) as f64 / dt
         } else {
             0.0
         };
-        *last_tick = (Instant::now(), snap.processed);
-        snap.to_msg(clock.now_ns(), fps as f32, is_final)
+        *last_tick = (now, snap.processed);
+        (snap.to_msg(clock.now_ns(), fps as f32, is_final), now - started)
     };
     loop {
         if total == Some(next) {
@@ -615,7 +629,7 @@ fn order_loop(
             }
             Event::DispatchFinished(n) => total = Some(n),
             Event::Stats => {
-                let msg = stats_msg(&mut last_tick, false);
+                let (msg, _) = stats_msg(&mut last_tick, false);
                 send_all(SinkEvent::Stats(msg));
             }
             Event::Reopen => send_all(SinkEvent::Reopen),
@@ -663,8 +677,9 @@ fn order_loop(
             }
         }
     }
-    let msg = stats_msg(&mut last_tick, true);
+    let (msg, active) = stats_msg(&mut last_tick, true);
     send_all(SinkEvent::Stats(msg));
+    active
 }
 
 fn sink_thread(

@@ -31,8 +31,10 @@
 //! align = "any"
 //! ```
 //!
-//! `kind = "rgb"` takes `file` (an sRGB PNG/JPEG under the data root), `profile` (a stem of
-//! `config/cameras/`, default the Infinite-ISP indoor tuning), optional `cfa` and `bit_depth`.
+//! `kind = "rgb"` takes `file` (an sRGB PNG/JPEG/BMP under the data root) or `files` (several:
+//! frame `i` shows file `i mod n`, each taken through the reverse ISP once), `profile` (a stem of
+//! `config/cameras/`, default the Infinite-ISP indoor tuning), optional `cfa`, `bit_depth` and
+//! `scale` (bilinear resize of the images first).
 //! `kind = "synthetic"` takes `width`, `height` and the same profile keys, and draws a scene from
 //! `seed` (sky gradient, ground, coloured boxes and discs, a bar chart of stripes).
 //!
@@ -77,6 +79,13 @@ pub struct SourceSpec {
     pub kind: String,
     /// File under the data root (`raw`, `rgb`).
     pub file: Option<PathBuf>,
+    /// Instead of `file` (`rgb`): a sequence of images under the data root; frame `i` shows image
+    /// `i mod n` (a stream with motion in the scene, e.g. consecutive frames of a video).
+    #[serde(default)]
+    pub files: Vec<PathBuf>,
+    /// Scale factor applied to RGB images before the reverse ISP (`rgb`; bilinear, default 1):
+    /// a small photo as a larger sensor would see it.
+    pub scale: Option<f64>,
     /// Headerless raw description (`raw`; camera raw files need none).
     pub format: Option<Sidecar>,
     /// Camera profile stem in `config/cameras/` (`rgb`, `synthetic`).
@@ -277,6 +286,22 @@ impl Recipe {
         if self.motion.waypoints.is_empty() {
             return bad("motion.waypoints", "[]".into(), "at least one [x, y]");
         }
+        if !self.source.files.is_empty() && (self.source.kind != "rgb" || self.source.file.is_some()) {
+            return bad(
+                "source.files",
+                format!("{} files", self.source.files.len()),
+                "kind = \"rgb\" and no source.file",
+            );
+        }
+        if let Some(k) = self.source.scale {
+            if !(k > 0.0 && k <= 8.0) || self.source.kind != "rgb" {
+                return bad(
+                    "source.scale",
+                    k.to_string(),
+                    "0 < scale <= 8, with kind = \"rgb\"",
+                );
+            }
+        }
         Ok(())
     }
 
@@ -407,7 +432,42 @@ fn reverse_options(spec: &SourceSpec, profile: &CameraProfile) -> Result<Reverse
     Ok(o)
 }
 
-/// The still frame of a recipe (files resolved under `data_root`).
+/// The still frames of a recipe (files resolved under `data_root`): one, or one per `files`
+/// entry; frame `i` of the stream is cut from still `i mod n`.
+pub fn source_frames(recipe: &Recipe, data_root: &Path) -> Result<Vec<RawFrame>, RecipeError> {
+    let spec = &recipe.source;
+    if spec.files.is_empty() {
+        return Ok(vec![source_frame(recipe, data_root)?]);
+    }
+    let profile = profile_for(spec)?;
+    let opts = reverse_options(spec, &profile)?;
+    spec.files
+        .iter()
+        .map(|f| {
+            let rgb = scaled(load_rgb8(&data_root.join(f))?, spec.scale);
+            Ok(raw_from_srgb(rgb.view(), &profile, &opts)?)
+        })
+        .collect()
+}
+
+/// `rgb` resized by `scale` (bilinear; unchanged when `None` or 1).
+fn scaled(rgb: Image<[u8; 3]>, scale: Option<f64>) -> Image<[u8; 3]> {
+    let Some(k) = scale.filter(|&k| k != 1.0) else {
+        return rgb;
+    };
+    let (w, h) = rgb.dimensions();
+    let buf = image::RgbImage::from_fn(w as u32, h as u32, |x, y| {
+        image::Rgb(rgb.get(x as usize, y as usize))
+    });
+    let (nw, nh) = (
+        ((w as f64 * k).round() as u32).max(1),
+        ((h as f64 * k).round() as u32).max(1),
+    );
+    let out = image::imageops::resize(&buf, nw, nh, image::imageops::FilterType::Triangle);
+    crate::image_io::rgb8_from_buffer(&out)
+}
+
+/// The still frame of a recipe with one source file or scene (files resolved under `data_root`).
 pub fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, RecipeError> {
     let spec = &recipe.source;
     let file = || -> Result<PathBuf, RecipeError> {
@@ -427,7 +487,7 @@ pub fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, Recip
             }
         }
         "rgb" => {
-            let rgb = load_rgb8(&file()?)?;
+            let rgb = scaled(load_rgb8(&file()?)?, spec.scale);
             let profile = profile_for(spec)?;
             Ok(raw_from_srgb(
                 rgb.view(),
@@ -478,7 +538,7 @@ pub fn build_recording(
     mut progress: impl FnMut(u64, u64),
 ) -> Result<RecordingSummary, RecipeError> {
     recipe.validate()?;
-    let still = source_frame(recipe, data_root)?;
+    let stills = source_frames(recipe, data_root)?;
     let out = output.unwrap_or(&recipe.output);
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|source| RecipeError::Io {
@@ -497,11 +557,13 @@ pub fn build_recording(
         preview: (recipe.recorder.preview_decimation > 0).then_some(PreviewOptions {
             decimation: recipe.recorder.preview_decimation,
         }),
+        // Frames only: no result channels that would hold no message.
+        results: false,
         ..Default::default()
     };
     let mut rec = McapRecorder::create(out, opts)?;
     for i in 0..recipe.frames {
-        let f = recipe_frame(recipe, &still, i)?;
+        let f = recipe_frame(recipe, &stills[(i % stills.len() as u64) as usize], i)?;
         rec.write_frame(&f)?;
         progress(i + 1, recipe.frames);
     }

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use super::preview::preview_from_raw;
+use crate::clock::{WallClock, WallClockSource};
 use crate::detect::Detection;
 use crate::features::sift::Keypoint;
 use crate::raw::RawFrame;
@@ -23,6 +24,12 @@ pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
 /// Default zstd level: level 1 is about 4x faster than zstd's default (3) on noisy 12-bit 1080p
 /// frames for a file about 2 % larger (measured: docs/recording.md).
 pub const DEFAULT_COMPRESSION_LEVEL: u32 = 1;
+/// Name of the metadata record that ties a live recording's `CLOCK_MONOTONIC` times to the wall
+/// clock. Keys: `timestamps` (`CLOCK_MONOTONIC`: what log times, publish times and the frames'
+/// timestamps count), `realtime_minus_monotonic_ns` (add it to any of them for ns since the Unix
+/// epoch, UTC), `realtime_ns` and `monotonic_ns` (the reading it comes from, taken when the file was
+/// opened) and `realtime_utc` (the same instant, RFC 3339).
+pub const WALL_CLOCK_METADATA: &str = "mosaicd.clock";
 /// Write buffer in front of the file (bytes).
 const FILE_BUFFER: usize = 1 << 20;
 
@@ -113,9 +120,18 @@ pub struct RecorderOptions {
     pub raw: bool,
     /// Record the 8-bit Foxglove preview.
     pub preview: Option<PreviewOptions>,
+    /// Declare the result channels (`/<camera>/annotations`, `/<camera>/detections`,
+    /// `/<camera>/stats`). Off for a recording of frames only (`mosaicd record`), so its file
+    /// declares no channel that holds no message; writing results is then refused.
+    pub results: bool,
     /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations) and
     /// the `/<camera>/sift` channel (`mosaicd.SiftFeatures`: full-frame keypoints and descriptors).
     pub keypoints: bool,
+    /// Frame timestamps are `CLOCK_MONOTONIC` (a live camera): each file then starts with a
+    /// `mosaicd.clock` metadata record holding this reading of the wall clock against it, taken
+    /// when the file is opened ([`WALL_CLOCK_METADATA`]). `None` for recorded or synthetic time
+    /// (replays, recipes), whose output must not depend on when it was made.
+    pub wall_clock: Option<WallClockSource>,
     /// Never overwrite an existing file (the daemon: a restart must not truncate the recording of
     /// the run before it). Files are then numbered as rotation numbers them, `stem-NNNN.mcap`,
     /// after the highest number already in the directory; the plain path is used only while it
@@ -138,6 +154,8 @@ impl Default for RecorderOptions {
             rotate: RotatePolicy::default(),
             raw: true,
             preview: Some(PreviewOptions { decimation: 2 }),
+            results: true,
+            wall_clock: None,
             keypoints: false,
             keep_existing: false,
             max_files: None,
@@ -236,9 +254,9 @@ impl Seek for Counted {
 struct ChannelIds {
     raw: Option<u16>,
     preview: Option<u16>,
-    annotations: u16,
-    detections: u16,
-    stats: u16,
+    annotations: Option<u16>,
+    detections: Option<u16>,
+    stats: Option<u16>,
     keypoints: Option<u16>,
     sift: Option<u16>,
 }
@@ -565,6 +583,11 @@ impl McapRecorder {
             .create(counted)
             .map_err(|e| fail(&path, e))?;
         let ids = Self::add_channels(&mut writer, &self.topics, &self.opts).map_err(|e| fail(&path, e))?;
+        if let Some(clock) = self.opts.wall_clock {
+            writer
+                .write_metadata(&wall_clock_metadata(&clock.read()))
+                .map_err(|e| fail(&path, e))?;
+        }
         self.files.push(path.clone());
         let preamble = len.load(Ordering::Relaxed);
         self.state = State::Open(Box::new(Segment {
@@ -607,27 +630,37 @@ impl McapRecorder {
             }
             None => None,
         };
-        let s = w.add_schema(
-            schema::IMAGE_ANNOTATIONS_SCHEMA,
-            "jsonschema",
-            schema::image_annotations_json_schema().as_bytes(),
-        )?;
-        let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
-        let annotations_schema = s;
-        let s = w.add_schema(
-            schema::DETECTIONS_SCHEMA,
-            "jsonschema",
-            schema::DETECTIONS_JSON_SCHEMA.as_bytes(),
-        )?;
-        let detections = w.add_channel(s, &topics.detections, "json", &none)?;
-        let s = w.add_schema(
-            schema::STATS_SCHEMA,
-            "jsonschema",
-            schema::STATS_JSON_SCHEMA.as_bytes(),
-        )?;
-        let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+        let annotations_schema = if opts.results || opts.keypoints {
+            Some(w.add_schema(
+                schema::IMAGE_ANNOTATIONS_SCHEMA,
+                "jsonschema",
+                schema::image_annotations_json_schema().as_bytes(),
+            )?)
+        } else {
+            None
+        };
+        let (annotations, detections, stats) = match annotations_schema.filter(|_| opts.results) {
+            Some(s) => {
+                let annotations = w.add_channel(s, &topics.annotations, "json", &none)?;
+                let s = w.add_schema(
+                    schema::DETECTIONS_SCHEMA,
+                    "jsonschema",
+                    schema::DETECTIONS_JSON_SCHEMA.as_bytes(),
+                )?;
+                let detections = w.add_channel(s, &topics.detections, "json", &none)?;
+                let s = w.add_schema(
+                    schema::STATS_SCHEMA,
+                    "jsonschema",
+                    schema::STATS_JSON_SCHEMA.as_bytes(),
+                )?;
+                let stats = w.add_channel(s, &topics.stats, "json", &none)?;
+                (Some(annotations), Some(detections), Some(stats))
+            }
+            None => (None, None, None),
+        };
         // Added last, so the other channels keep their ids whether or not keypoints are recorded.
-        let (keypoints, sift) = if opts.keypoints {
+        let (keypoints, sift) = if let (true, Some(annotations_schema)) = (opts.keypoints, annotations_schema)
+        {
             let k = w.add_channel(annotations_schema, &topics.keypoints, "json", &none)?;
             let s = w.add_schema(
                 schema::SIFT_FEATURES_SCHEMA,
@@ -827,10 +860,13 @@ impl McapRecorder {
             self.begin_frame(timestamp_ns)?;
         }
         let ids = self.segment()?.ids;
+        let (Some(annotations), Some(detections_ch)) = (ids.annotations, ids.detections) else {
+            return Err(no_results());
+        };
         let scale = self.opts.preview.map(|p| p.decimation as f64).unwrap_or(1.0);
         let ann = schema::annotations_from_detections(timestamp_ns, detections, scale);
         let json = serde_json::to_vec(&ann).expect("annotations serialise");
-        self.write_message(2, ids.annotations, timestamp_ns, &json)?;
+        self.write_message(2, annotations, timestamp_ns, &json)?;
         let msg = DetectionsMessage {
             sequence,
             timestamp_ns,
@@ -839,7 +875,7 @@ impl McapRecorder {
             detections: detections.to_vec(),
         };
         let json = serde_json::to_vec(&msg).expect("detections serialise");
-        self.write_message(3, ids.detections, timestamp_ns, &json)?;
+        self.write_message(3, detections_ch, timestamp_ns, &json)?;
         self.detections += 1;
         Ok(())
     }
@@ -906,13 +942,15 @@ impl McapRecorder {
         timestamp_ns: u64,
         stats: &T,
     ) -> Result<(), RecordError> {
-        let ids = self.segment()?.ids;
+        let Some(stats_ch) = self.segment()?.ids.stats else {
+            return Err(no_results());
+        };
         let json = serde_json::to_vec(stats).map_err(|e| RecordError::Option {
             name: "stats",
             value: e.to_string(),
             why: "a value that serialises to JSON",
         })?;
-        self.write_message(4, ids.stats, timestamp_ns, &json)?;
+        self.write_message(4, stats_ch, timestamp_ns, &json)?;
         self.stats += 1;
         Ok(())
     }
@@ -947,6 +985,56 @@ impl McapRecorder {
             detections: self.detections,
             stats: self.stats,
         }
+    }
+}
+
+/// The [`WALL_CLOCK_METADATA`] record of a reading.
+pub fn wall_clock_metadata(w: &WallClock) -> mcap::records::Metadata {
+    let metadata = BTreeMap::from([
+        ("timestamps".to_string(), "CLOCK_MONOTONIC".to_string()),
+        (
+            "realtime_minus_monotonic_ns".to_string(),
+            w.offset_ns().to_string(),
+        ),
+        ("realtime_ns".to_string(), w.realtime_ns.to_string()),
+        ("monotonic_ns".to_string(), w.monotonic_ns.to_string()),
+        ("realtime_utc".to_string(), rfc3339_utc(w.realtime_ns)),
+    ]);
+    mcap::records::Metadata {
+        name: WALL_CLOCK_METADATA.to_string(),
+        metadata,
+    }
+}
+
+/// `ns` since the Unix epoch as RFC 3339 UTC with nanoseconds (`2026-11-27T06:50:00.000000000Z`),
+/// by the days-to-civil conversion of the proleptic Gregorian calendar (H. Hinnant, "chrono-
+/// Compatible Low-Level Date Algorithms").
+fn rfc3339_utc(ns: u64) -> String {
+    let (secs, nanos) = (ns / 1_000_000_000, ns % 1_000_000_000);
+    let (days, rem) = ((secs / 86_400) as i64, secs % 86_400);
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{nanos:09}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+/// Writing results to a recorder created without result channels.
+fn no_results() -> RecordError {
+    RecordError::Option {
+        name: "results",
+        value: "false".into(),
+        why: "true to record detections and stats",
     }
 }
 
@@ -996,4 +1084,23 @@ fn numbered_files(base: &Path) -> Result<Vec<(u32, PathBuf)>, RecordError> {
         .collect();
     v.sort();
     Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rfc3339_of_known_instants() {
+        assert_eq!(rfc3339_utc(0), "1970-01-01T00:00:00.000000000Z");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.789
+        assert_eq!(
+            rfc3339_utc(951_827_696_789_000_000),
+            "2000-02-29T12:34:56.789000000Z"
+        );
+        assert_eq!(
+            rfc3339_utc(1_795_737_600_000_000_001),
+            "2026-11-27T00:00:00.000000001Z"
+        );
+    }
 }

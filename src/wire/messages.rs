@@ -347,7 +347,8 @@ pub struct StatsMsg {
     pub detections: u64,
     /// Boxes beyond the message capacity.
     pub box_overflow: u64,
-    /// Frames per second over the last interval (wall clock).
+    /// Frames per second over the last interval (wall clock); in the final message, over the
+    /// whole run (the summary's throughput).
     pub fps: f32,
     /// Median latency so far, microseconds (wall clock).
     pub latency_p50_us: f32,

@@ -12,6 +12,12 @@
 //! | `/<camera>/keypoints` | `foxglove.ImageAnnotations` | `jsonschema` | `json` | with `compute.keypoints`: mosaic SIFT keypoints as one POINTS annotation, preview coordinates |
 //! | `/<camera>/sift` | `mosaicd.SiftFeatures` | `jsonschema` | `json` | with `compute.keypoints`: the keypoints in full-frame coordinates (x, y, size, angle, response, octave, layer), strongest first, and with `compute.keypoint_descriptors` their 128-byte descriptors (base64) |
 //!
+//! The `foxglove.*` JSON schemas are not written here: they are derived from the `foxglove`
+//! crate's own definitions of those types ([`foxglove_json_schema`]), the SDK whose WebSocket
+//! server the live view uses (it sends the same annotations protobuf-encoded:
+//! `From<&ImageAnnotations> for foxglove::messages::ImageAnnotations`). The messages stay JSON,
+//! byte for byte as before, so recordings read as they did.
+//!
 //! ## `mosaicd.RawFrame` (message encoding `mosaicd.rawframe.v1`)
 //!
 //! ```text
@@ -87,31 +93,113 @@ pub const SIFT_FEATURES_JSON_SCHEMA: &str = r#"{"title":"mosaicd.SiftFeatures","
 /// JSON schema of `mosaicd.Stats` (free-form object).
 pub const STATS_JSON_SCHEMA: &str = r#"{"title":"mosaicd.Stats","description":"Pipeline statistics (counters, latency); free-form object","type":"object"}"#;
 
+/// Foxglove's JSON form of `google.protobuf.Timestamp` (its JSON schemas' `time`).
 const TIME_SCHEMA: &str = r#"{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}}"#;
-const POINT2_SCHEMA: &str = r#"{"title":"foxglove.Point2","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}}"#;
-const COLOR_SCHEMA: &str = r#"{"title":"foxglove.Color","type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},"b":{"type":"number"},"a":{"type":"number"}}}"#;
+/// Foxglove's JSON form of `google.protobuf.Duration` (its JSON schemas' `duration`).
+const DURATION_SCHEMA: &str = r#"{"type":"object","title":"duration","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}}"#;
 
-/// JSON schema of `foxglove.RawImage` (same properties as the published Foxglove schema).
+/// JSON schema of `foxglove.RawImage`, from the `foxglove` crate's definition
+/// ([`foxglove_json_schema`]).
 pub fn raw_image_json_schema() -> String {
-    format!(
-        r#"{{"title":"foxglove.RawImage","description":"A raw image","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"frame_id":{{"type":"string"}},"width":{{"type":"integer","minimum":0}},"height":{{"type":"integer","minimum":0}},"encoding":{{"type":"string"}},"step":{{"type":"integer","minimum":0}},"data":{{"type":"string","contentEncoding":"base64"}}}}}}"#
-    )
+    foxglove_json_schema::<foxglove::messages::RawImage>()
 }
 
-/// JSON schema of `foxglove.ImageAnnotations` (same properties as the published Foxglove schema).
+/// JSON schema of `foxglove.ImageAnnotations`, from the `foxglove` crate's definition
+/// ([`foxglove_json_schema`]).
 pub fn image_annotations_json_schema() -> String {
-    let circle = format!(
-        r#"{{"title":"foxglove.CircleAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"position":{POINT2_SCHEMA},"diameter":{{"type":"number"}},"thickness":{{"type":"number"}},"fill_color":{COLOR_SCHEMA},"outline_color":{COLOR_SCHEMA}}}}}"#
-    );
-    let points = format!(
-        r#"{{"title":"foxglove.PointsAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"type":{{"title":"foxglove.PointsAnnotationType","oneOf":[{{"title":"UNKNOWN","const":0}},{{"title":"POINTS","const":1}},{{"title":"LINE_LOOP","const":2}},{{"title":"LINE_STRIP","const":3}},{{"title":"LINE_LIST","const":4}}]}},"points":{{"type":"array","items":{POINT2_SCHEMA}}},"outline_color":{COLOR_SCHEMA},"outline_colors":{{"type":"array","items":{COLOR_SCHEMA}}},"fill_color":{COLOR_SCHEMA},"thickness":{{"type":"number"}}}}}}"#
-    );
-    let text = format!(
-        r#"{{"title":"foxglove.TextAnnotation","type":"object","properties":{{"timestamp":{TIME_SCHEMA},"position":{POINT2_SCHEMA},"text":{{"type":"string"}},"font_size":{{"type":"number"}},"text_color":{COLOR_SCHEMA},"background_color":{COLOR_SCHEMA}}}}}"#
-    );
-    format!(
-        r#"{{"title":"foxglove.ImageAnnotations","description":"Array of annotations for a 2D image","type":"object","properties":{{"circles":{{"type":"array","items":{circle}}},"points":{{"type":"array","items":{points}}},"texts":{{"type":"array","items":{text}}}}}}}"#
-    )
+    foxglove_json_schema::<foxglove::messages::ImageAnnotations>()
+}
+
+/// The JSON schema of a Foxglove message type, derived from the `foxglove` crate's own
+/// definition of it (the protobuf descriptor its [`foxglove::Encode::get_schema`] gives), so the
+/// recorder's JSON channels and the live view's protobuf ones share one home for Foxglove's
+/// schemas: the SDK. Foxglove's JSON mapping: a message is an object of its fields by their
+/// protobuf names; numbers are `number`, integers `integer` (unsigned ones `minimum: 0`), enums
+/// `oneOf` their `{title, const}` values, `bytes` base64 strings, repeated fields arrays, and
+/// `google.protobuf.Timestamp` / `Duration` are `{sec, nsec}`. Only the message and field names
+/// and types come from the descriptor (it carries no comments). Deterministic (keys sorted).
+pub fn foxglove_json_schema<T: foxglove::Encode>() -> String {
+    use prost::Message as _;
+    let schema = T::get_schema().expect("every foxglove message type has a schema");
+    let set = prost_types::FileDescriptorSet::decode(schema.data.as_ref())
+        .expect("the foxglove crate's own descriptors decode");
+    let mut messages = std::collections::HashMap::new();
+    let mut enums = std::collections::HashMap::new();
+    for file in &set.file {
+        let package = file.package();
+        for m in &file.message_type {
+            index_message(&format!(".{package}"), m, &mut messages, &mut enums);
+        }
+        for e in &file.enum_type {
+            enums.insert(format!(".{package}.{}", e.name()), e);
+        }
+    }
+    json_schema_of(&format!(".{}", schema.name), &messages, &enums).to_string()
+}
+
+type Messages<'a> = std::collections::HashMap<String, &'a prost_types::DescriptorProto>;
+type Enums<'a> = std::collections::HashMap<String, &'a prost_types::EnumDescriptorProto>;
+
+/// Index a message and its nested messages and enums by full name (`.package.Outer.Inner`).
+fn index_message<'a>(
+    scope: &str,
+    m: &'a prost_types::DescriptorProto,
+    messages: &mut Messages<'a>,
+    enums: &mut Enums<'a>,
+) {
+    let name = format!("{scope}.{}", m.name());
+    for n in &m.nested_type {
+        index_message(&name, n, messages, enums);
+    }
+    for e in &m.enum_type {
+        enums.insert(format!("{name}.{}", e.name()), e);
+    }
+    messages.insert(name, m);
+}
+
+/// The JSON schema of the message `full_name` (see [`foxglove_json_schema`]).
+fn json_schema_of(full_name: &str, messages: &Messages<'_>, enums: &Enums<'_>) -> serde_json::Value {
+    use prost_types::field_descriptor_proto::{Label, Type};
+    use serde_json::json;
+    match full_name {
+        ".google.protobuf.Timestamp" => return serde_json::from_str(TIME_SCHEMA).expect("valid JSON"),
+        ".google.protobuf.Duration" => return serde_json::from_str(DURATION_SCHEMA).expect("valid JSON"),
+        _ => {}
+    }
+    let Some(m) = messages.get(full_name) else {
+        // not in the descriptor set: an object, no more is known
+        return json!({"title": full_name.trim_start_matches('.'), "type": "object"});
+    };
+    let mut props = serde_json::Map::new();
+    for f in &m.field {
+        let item = match f.r#type() {
+            Type::Double | Type::Float => json!({"type": "number"}),
+            Type::Uint32 | Type::Uint64 | Type::Fixed32 | Type::Fixed64 => {
+                json!({"type": "integer", "minimum": 0})
+            }
+            Type::Int32 | Type::Int64 | Type::Sint32 | Type::Sint64 | Type::Sfixed32 | Type::Sfixed64 => {
+                json!({"type": "integer"})
+            }
+            Type::Bool => json!({"type": "boolean"}),
+            Type::String => json!({"type": "string"}),
+            Type::Bytes => json!({"type": "string", "contentEncoding": "base64"}),
+            Type::Enum => match enums.get(f.type_name()) {
+                Some(e) => json!({
+                    "title": f.type_name().trim_start_matches('.'),
+                    "oneOf": e.value.iter().map(|v| json!({"title": v.name(), "const": v.number()})).collect::<Vec<_>>(),
+                }),
+                None => json!({"type": "integer"}),
+            },
+            Type::Message | Type::Group => json_schema_of(f.type_name(), messages, enums),
+        };
+        let v = if f.label() == Label::Repeated {
+            json!({"type": "array", "items": item})
+        } else {
+            item
+        };
+        props.insert(f.name().to_string(), v);
+    }
+    json!({"title": full_name.trim_start_matches('.'), "type": "object", "properties": props})
 }
 
 /// Errors decoding messages of our schemas.
@@ -457,6 +545,70 @@ pub struct ImageAnnotations {
     pub texts: Vec<TextAnnotation>,
 }
 
+impl From<FoxgloveTime> for foxglove::messages::Timestamp {
+    /// Seconds saturate at `u32::MAX` (the year 2106).
+    fn from(t: FoxgloveTime) -> Self {
+        Self::new(t.sec.min(u32::MAX as u64) as u32, t.nsec)
+    }
+}
+
+impl From<Point2> for foxglove::messages::Point2 {
+    fn from(p: Point2) -> Self {
+        Self { x: p.x, y: p.y }
+    }
+}
+
+impl From<Color> for foxglove::messages::Color {
+    fn from(c: Color) -> Self {
+        Self {
+            r: c.r,
+            g: c.g,
+            b: c.b,
+            a: c.a,
+        }
+    }
+}
+
+/// The same annotations as the SDK's protobuf message (the live view sends these): the same
+/// points, colours, texts and timestamps; `kind` is Foxglove's `PointsAnnotation.Type` number in
+/// both. No circles (we make none).
+impl From<&ImageAnnotations> for foxglove::messages::ImageAnnotations {
+    fn from(a: &ImageAnnotations) -> Self {
+        Self {
+            timestamp: None,
+            circles: Vec::new(),
+            points: a
+                .points
+                .iter()
+                .map(|p| foxglove::messages::PointsAnnotation {
+                    timestamp: Some(p.timestamp.into()),
+                    r#type: p.kind as i32,
+                    points: p.points.iter().map(|&q| q.into()).collect(),
+                    outline_color: Some(p.outline_color.into()),
+                    outline_colors: p.outline_colors.iter().map(|&c| c.into()).collect(),
+                    fill_color: Some(p.fill_color.into()),
+                    thickness: p.thickness,
+                    metadata: Vec::new(),
+                })
+                .collect(),
+            texts: a
+                .texts
+                .iter()
+                .map(|t| foxglove::messages::TextAnnotation {
+                    timestamp: Some(t.timestamp.into()),
+                    position: Some(t.position.into()),
+                    text: t.text.clone(),
+                    font_size: t.font_size,
+                    text_color: Some(t.text_color.into()),
+                    background_color: Some(t.background_color.into()),
+                    metadata: Vec::new(),
+                })
+                .collect(),
+            metadata: Vec::new(),
+        }
+    }
+}
+
 /// Box outline colour in annotations (opaque green).
 const BOX_COLOUR: Color = Color {
     r: 0.0,
@@ -758,8 +910,8 @@ mod tests {
         assert!(matches!(decode_raw_frame(&bad), Err(SchemaError::Short { .. })));
     }
 
-    #[test]
-    fn annotations_are_line_loops_scaled_to_preview() {
+    /// One box at (10, 20), 64x128, score 1.25, annotated at 1.5 s for a preview decimated by 2.
+    fn one_box_annotations() -> ImageAnnotations {
         let d = Detection {
             x: 10.0,
             y: 20.0,
@@ -767,7 +919,12 @@ mod tests {
             height: 128.0,
             score: 1.25,
         };
-        let a = annotations_from_detections(1_500_000_000, &[d], 2.0);
+        annotations_from_detections(1_500_000_000, &[d], 2.0)
+    }
+
+    #[test]
+    fn annotations_are_line_loops_scaled_to_preview() {
+        let a = one_box_annotations();
         assert_eq!(a.points.len(), 1);
         assert_eq!(a.points[0].kind, POINTS_LINE_LOOP);
         assert_eq!(a.points[0].points[0], Point2 { x: 5.0, y: 10.0 });
@@ -796,11 +953,22 @@ mod tests {
         k
     }
 
-    /// Property names of the published Foxglove JSON schemas (github.com/foxglove/schemas,
-    /// schemas/jsonschema/RawImage.json and ImageAnnotations.json, checked 2026-11).
+    /// `have` holds every name of `want`.
+    fn includes(have: &[String], want: &[&str]) {
+        for w in want {
+            assert!(have.iter().any(|h| h == w), "{w} missing from {have:?}");
+        }
+    }
+
+    /// The schemas derived from the foxglove crate hold the properties of the published Foxglove
+    /// JSON schemas (github.com/foxglove/schemas, schemas/jsonschema/RawImage.json and
+    /// ImageAnnotations.json, checked 2026-11; the SDK may add fields, e.g. `metadata`), with
+    /// Foxglove's JSON mapping (base64 bytes, `{sec, nsec}` time, enum values as numbers), and
+    /// every name our JSON messages carry.
     #[test]
     fn schemas_have_the_published_foxglove_properties() {
         let raw: serde_json::Value = serde_json::from_str(&raw_image_json_schema()).unwrap();
+        assert_eq!(raw["title"], "foxglove.RawImage");
         assert_eq!(
             props(&raw),
             sorted(&[
@@ -814,48 +982,59 @@ mod tests {
             ])
         );
         assert_eq!(raw["properties"]["data"]["contentEncoding"], "base64");
+        assert_eq!(raw["properties"]["width"]["type"], "integer");
+        assert_eq!(props(&raw["properties"]["timestamp"]), sorted(&["sec", "nsec"]));
         let ann: serde_json::Value = serde_json::from_str(&image_annotations_json_schema()).unwrap();
-        assert_eq!(props(&ann), sorted(&["circles", "points", "texts"]));
-        assert_eq!(
-            props(&ann["properties"]["circles"]["items"]),
-            sorted(&[
+        assert_eq!(ann["title"], "foxglove.ImageAnnotations");
+        includes(&props(&ann), &["circles", "points", "texts"]);
+        includes(
+            &props(&ann["properties"]["circles"]["items"]),
+            &[
                 "timestamp",
                 "position",
                 "diameter",
                 "thickness",
                 "fill_color",
-                "outline_color"
-            ])
+                "outline_color",
+            ],
         );
-        assert_eq!(
-            props(&ann["properties"]["points"]["items"]),
-            sorted(&[
+        let points = &ann["properties"]["points"]["items"];
+        includes(
+            &props(points),
+            &[
                 "timestamp",
                 "type",
                 "points",
                 "outline_color",
                 "outline_colors",
                 "fill_color",
-                "thickness"
-            ])
+                "thickness",
+            ],
         );
-        assert_eq!(
-            props(&ann["properties"]["texts"]["items"]),
-            sorted(&[
+        includes(
+            &props(&ann["properties"]["texts"]["items"]),
+            &[
                 "timestamp",
                 "position",
                 "text",
                 "font_size",
                 "text_color",
-                "background_color"
-            ])
+                "background_color",
+            ],
         );
-        let line_loop = &ann["properties"]["points"]["items"]["properties"]["type"]["oneOf"][2];
+        let kinds = points["properties"]["type"]["oneOf"].as_array().unwrap();
+        let value = |name: &str| kinds.iter().find(|k| k["title"] == name).unwrap()["const"].as_u64();
+        assert_eq!(value("POINTS"), Some(POINTS_POINTS as u64));
+        assert_eq!(value("LINE_LOOP"), Some(POINTS_LINE_LOOP as u64));
         assert_eq!(
-            (line_loop["title"].as_str(), line_loop["const"].as_u64()),
-            (Some("LINE_LOOP"), Some(2))
+            props(&points["properties"]["points"]["items"]),
+            sorted(&["x", "y"])
         );
-        // Our serialised messages carry exactly these names.
+        assert_eq!(
+            props(&points["properties"]["outline_color"]),
+            sorted(&["r", "g", "b", "a"])
+        );
+        // Our serialised messages carry only names the schemas have.
         let a = annotations_from_detections(
             0,
             &[Detection {
@@ -868,16 +1047,81 @@ mod tests {
             1.0,
         );
         let v = serde_json::to_value(&a).unwrap();
-        let keys = |o: &serde_json::Value| {
-            let mut k: Vec<String> = o.as_object().unwrap().keys().cloned().collect();
-            k.sort();
-            k
+        let keys =
+            |o: &serde_json::Value| -> Vec<String> { o.as_object().unwrap().keys().cloned().collect() };
+        includes(
+            &props(&ann),
+            &keys(&v).iter().map(String::as_str).collect::<Vec<_>>(),
+        );
+        includes(
+            &props(points),
+            &keys(&v["points"][0])
+                .iter()
+                .map(String::as_str)
+                .collect::<Vec<_>>(),
+        );
+        includes(
+            &props(&ann["properties"]["texts"]["items"]),
+            &keys(&v["texts"][0])
+                .iter()
+                .map(String::as_str)
+                .collect::<Vec<_>>(),
+        );
+        let img = RawImageMessage {
+            timestamp: FoxgloveTime::from_ns(0),
+            frame_id: String::new(),
+            width: 0,
+            height: 0,
+            encoding: String::new(),
+            step: 0,
+            data: String::new(),
         };
         assert_eq!(
-            keys(&v["points"][0]),
-            props(&ann["properties"]["points"]["items"])
+            keys(&serde_json::to_value(&img).unwrap()).len(),
+            props(&raw).len()
         );
-        assert_eq!(keys(&v["texts"][0]), props(&ann["properties"]["texts"]["items"]));
+    }
+
+    /// The live view's protobuf annotations are the recorder's JSON ones: same points, type,
+    /// colours, texts and timestamps.
+    #[test]
+    fn protobuf_annotations_equal_the_json_ones() {
+        let a = one_box_annotations();
+        let p = foxglove::messages::ImageAnnotations::from(&a);
+        assert_eq!(p.points.len(), 1);
+        let (q, j) = (&p.points[0], &a.points[0]);
+        assert_eq!(
+            q.r#type,
+            foxglove::messages::points_annotation::Type::LineLoop as i32
+        );
+        let pts: Vec<(f64, f64)> = q.points.iter().map(|p| (p.x, p.y)).collect();
+        let want: Vec<(f64, f64)> = j.points.iter().map(|p| (p.x, p.y)).collect();
+        assert_eq!(pts, want);
+        let t = q.timestamp.unwrap();
+        assert_eq!((t.sec(), t.nsec()), (1, 500_000_000));
+        assert_eq!(q.outline_color.as_ref().unwrap().g, 1.0);
+        assert_eq!(q.thickness, j.thickness);
+        assert_eq!(p.texts[0].text, "1.25");
+        assert_eq!(p.texts[0].position.unwrap().x, 5.0);
+        let kp = annotations_from_keypoints(
+            0,
+            &[Keypoint {
+                x: 4.0,
+                y: 6.0,
+                size: 1.0,
+                angle: 0.0,
+                response: 1.0,
+                octave: 0,
+                layer: 1,
+            }],
+            2.0,
+        );
+        let p = foxglove::messages::ImageAnnotations::from(&kp);
+        assert_eq!(
+            p.points[0].r#type,
+            foxglove::messages::points_annotation::Type::Points as i32
+        );
+        assert_eq!((p.points[0].points[0].x, p.points[0].points[0].y), (2.0, 3.0));
     }
 
     #[test]

@@ -65,7 +65,17 @@ pub fn spawn_listener(bin: &str, args: &[&str]) -> std::process::Child {
         line.clear();
     }
     assert!(line.contains("subscribed"), "listener did not start: {line}");
+    assert_says_what_it_subscribed_to(&line, args);
     listener
+}
+
+/// A subscriber's "subscribed to …/{…}" line names every service its flags asked for.
+pub fn assert_says_what_it_subscribed_to(line: &str, args: &[&str]) {
+    for service in ["keypoints", "descriptors", "gradients"] {
+        if args.contains(&format!("--{service}").as_str()) {
+            assert!(line.contains(service), "--{service}: {line}");
+        }
+    }
 }
 
 /// Run `mosaicd run --config CFG` (with `--results RESULTS` when given) to completion; it must

@@ -18,7 +18,8 @@
 
 use std::time::{Duration, Instant};
 
-use crate::config::{CameraConfig, Config};
+use crate::clock::WallClockSource;
+use crate::config::{CameraConfig, Config, SourceType};
 use crate::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
 use crate::wire::messages::StatsMsg;
 
@@ -53,6 +54,16 @@ struct Outage {
     failed_attempts: u64,
 }
 
+/// The camera's frames carry `CLOCK_MONOTONIC` timestamps: a V4L2 device, or a live synthetic
+/// stream (recordings and files carry recorded time).
+fn monotonic_timestamps(cam: &CameraConfig) -> bool {
+    match cam.source {
+        SourceType::V4l2 => true,
+        SourceType::Synthetic => cam.live,
+        SourceType::Mcap | SourceType::Files => false,
+    }
+}
+
 /// The recorder sink of a camera (`record.path`, `{camera}` substituted). The file is created in
 /// the sink thread at start-up, so a bad path stops the start with an error naming it.
 pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, DaemonError> {
@@ -70,6 +81,8 @@ pub fn recorder_sink(cfg: &Config, cam: &CameraConfig) -> Result<SinkFactory, Da
             decimation: cfg.record.preview_decimation,
         }),
         keypoints: cfg.compute.keypoints,
+        // A live camera's frames carry CLOCK_MONOTONIC time: each file records the wall clock.
+        wall_clock: monotonic_timestamps(cam).then_some(WallClockSource::System),
         rotate: RotatePolicy::from_limits(Some(cfg.record.rotate_mb), Some(cfg.record.rotate_secs)),
         max_files: (cfg.record.max_files > 0).then_some(cfg.record.max_files),
         // A restart (systemd, crash) must not truncate the run before it.
@@ -115,7 +128,7 @@ impl McapSink {
         if let Some(o) = self.outage.take() {
             tracing::info!(
                 camera = %self.camera,
-                file = ?self.recorder.files().last(),
+                file = %self.recorder.files().last().map(|p| p.display().to_string()).unwrap_or_default(),
                 frames_not_recorded = o.frames_lost,
                 failed_attempts = o.failed_attempts,
                 "recording resumed in a new file"
@@ -305,7 +318,11 @@ impl Sink for McapSink {
             Ok(true) => {
                 // the file was finished with everything written to it
                 self.since_flush = 0;
-                tracing::info!(camera = %self.camera, file = ?closed, "recording file finished; the next frame starts a new one");
+                tracing::info!(
+                    camera = %self.camera,
+                    file = %closed.map(|p| p.display().to_string()).unwrap_or_default(),
+                    "recording file finished; the next frame starts a new one"
+                );
                 Ok(())
             }
             Ok(false) => {

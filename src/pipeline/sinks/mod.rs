@@ -7,9 +7,11 @@
 //! | [`jsonl::JsonlSink`] | `jsonl.rs` | the deterministic JSON-lines results file (and [`jsonl::CollectSink`] for tests) |
 //! | [`mcap::McapSink`] | `mcap.rs` | the MCAP recording through [`crate::record::McapRecorder`] |
 //! | [`iceoryx::IceoryxSink`] | `iceoryx.rs` | the iceoryx2 services of [`crate::publish`] |
+//! | [`foxglove::FoxgloveSink`] | `foxglove.rs` | the live view: Foxglove's WebSocket server ([`foxglove::LiveView`]) |
 //!
 //! The engine ([`super::engine`]) imports this module, never the other way round.
 
+pub mod foxglove;
 pub mod iceoryx;
 pub mod jsonl;
 pub mod mcap;

@@ -175,30 +175,6 @@ fn vote<const R: usize>(perm: &[__m256i; R], [w0, w1]: [f32; 2]) -> [__m256; R] 
     v
 }
 
-/// The `R` registers of the half floats `at .. at + 8R` of `data`, as `f32` (halves past its end
-/// read as +0).
-#[target_feature(enable = "avx2,fma,f16c")]
-#[inline]
-fn load_halves<const R: usize>(data: &[u16], at: usize) -> [__m256; R] {
-    let mut out = [_mm256_setzero_ps(); R];
-    for (r, o) in out.iter_mut().enumerate() {
-        let a = at + 8 * r;
-        let h = if a + 8 <= data.len() {
-            let h = &data[a..a + 8];
-            // SAFETY: `h` holds 8 half floats (16 bytes).
-            unsafe { _mm_loadu_si128(h.as_ptr() as *const __m128i) }
-        } else {
-            let mut t = [0u16; 8];
-            let n = data.len().saturating_sub(a).min(8);
-            t[..n].copy_from_slice(&data[a..a + n]);
-            // SAFETY: `t` holds 8 half floats.
-            unsafe { _mm_loadu_si128(t.as_ptr() as *const __m128i) }
-        };
-        *o = _mm256_cvtph_ps(h);
-    }
-    out
-}
-
 /// The cell rows from `cy0` on (as many as `chunk` holds) with each cell's votes in registers
 /// ([`cells_body`]).
 ///
@@ -213,10 +189,10 @@ pub(crate) unsafe fn cells_strip(
     chunk: &mut [f32],
     cs: &mut CellScratch,
 ) {
-    if spec.nbins() <= 8 {
-        cells_body::<false, 1>(spec, p, cy0, chunk, cs, &mut [])
-    } else {
-        cells_body::<false, 2>(spec, p, cy0, chunk, cs, &mut [])
+    match spec.nbins() {
+        DEFAULT_NBINS => cells_body::<false, 2, DEFAULT_NBINS>(spec, p, cy0, chunk, cs, &mut []),
+        ..=8 => cells_body::<false, 1, 0>(spec, p, cy0, chunk, cs, &mut []),
+        _ => cells_body::<false, 2, 0>(spec, p, cy0, chunk, cs, &mut []),
     }
 }
 
@@ -238,10 +214,10 @@ pub(crate) unsafe fn cells_micro_row(
     cs: &mut CellScratch,
     micro: &mut [u16],
 ) {
-    if spec.nbins() <= 8 {
-        cells_body::<true, 1>(spec, p, cy, chunk, cs, micro)
-    } else {
-        cells_body::<true, 2>(spec, p, cy, chunk, cs, micro)
+    match spec.nbins() {
+        DEFAULT_NBINS => cells_body::<true, 2, DEFAULT_NBINS>(spec, p, cy, chunk, cs, micro),
+        ..=8 => cells_body::<true, 1, 0>(spec, p, cy, chunk, cs, micro),
+        _ => cells_body::<true, 2, 0>(spec, p, cy, chunk, cs, micro),
     }
 }
 
@@ -262,10 +238,14 @@ pub(crate) unsafe fn cells_micro_row(
 /// With `MICRO`, the vote vectors of the cell's 64 pixels are kept (stack) and summed per 2x2
 /// micro-cell afterwards.
 ///
+/// `NB` is the bin count as a constant (the detector's 9), or 0 to read it from `spec`: with a
+/// constant, the histogram stores are fixed-length moves instead of calls to `memcpy`.
+///
 /// # Safety
-/// As [`cells_micro_row`] when `MICRO`, else as [`cells_strip`]; `nb ≤ 8R`.
+/// As [`cells_micro_row`] when `MICRO`, else as [`cells_strip`]; `nb ≤ 8R`; `NB` is 0 or
+/// `spec.nbins()`.
 #[target_feature(enable = "avx2,fma,f16c")]
-unsafe fn cells_body<const MICRO: bool, const R: usize>(
+unsafe fn cells_body<const MICRO: bool, const R: usize, const NB: usize>(
     spec: &HogSpec,
     p: &Planes,
     cy0: usize,
@@ -273,7 +253,8 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
     cs: &mut CellScratch,
     micro: &mut [u16],
 ) {
-    let nb = spec.nbins();
+    debug_assert!(NB == 0 || NB == spec.nbins());
+    let nb = if NB > 0 { NB } else { spec.nbins() };
     debug_assert!(nb <= 8 * R && R <= 2);
     let ncx = p.width / CELL_SIZE;
     let cl = cell_len(nb);
@@ -381,111 +362,202 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
     }
 }
 
-/// An approximated level's cell row `cy` one cell at a time, in registers where they suffice: for
-/// each micro row landing in the row (in order), the cell's run of micro-cells is summed into 4
-/// x-profile accumulators (`4R` registers, bins in lanes; x-profile 2 is skipped left of the
-/// cell's split and 1 right of it, both exactly zero there), which are added with the micro row's
-/// four y-profile weights (times the gain) into the cell's 16 profile histograms. Those are
-/// `16R` registers, more than AVX2 has, so they live on the stack (L1) between micro rows; the
-/// AVX-512 fill keeps them in registers. The same fused multiply-adds in the same order as the
-/// portable fill (`approx::fill_cell_row`), so the same bits. Lanes past `nb` read the next
-/// micro-cell's bins and are never stored.
+/// An approximated level's cell row, one cell at a time (the register fill of the AVX2 path).
+///
+/// A cell's 16 profile histograms (4 y-profiles x 4 x-profiles, `nb` bins each) do not fit in
+/// AVX2's sixteen registers (they take 32 for 9 bins, which is what the one-pass AVX-512 fill
+/// keeps in 16 zmm), so the cell is built in two passes, both held in registers:
+/// 1. **x pass**, per micro row landing in the cell: the row's micro-cells times their 4
+///    x-profile weights, `FULL` registers of 8 bins per x-profile, and the `TAIL` bins past
+///    `8·FULL` with the 4 x-profiles in the lanes of one xmm per bin (so the 9th bin of the
+///    default geometry costs one 4-lane FMA per micro-cell instead of four 8-lane ones with
+///    7 idle lanes). Kept per row in a small L1 buffer.
+/// 2. **y pass**, per y-profile: the rows' x sums times the row's y weight, 4·`FULL` registers;
+///    the tail bins with two y-profiles per ymm.
+///
+/// Each value gets the same fused multiply-adds in the same order as the portable fill
+/// (`approx::fill_cell_row`): x sums over the micro columns left to right from +0, then the y
+/// sum over the micro rows top to bottom, the first a multiply. So the same bits. Where the
+/// portable fill skips a product whose weight is 0 (the x-profile that is zero on each half of a
+/// cell, a y-profile that is zero for a row), the tail lanes add `0·v` = +0 to a sum ≥ +0
+/// instead, which changes no bit (votes are finite and ≥ 0).
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA and F16C; `micro` has ≤ 16 bins and `taps` are its taps
 /// (`Taps::fits`).
 #[target_feature(enable = "avx2,fma,f16c")]
 pub(crate) unsafe fn fill_cell_row(micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
-    if micro.nbins <= 8 {
-        fill_body::<1>(micro, taps, cy, row)
-    } else {
-        fill_body::<2>(micro, taps, cy, row)
+    macro_rules! by_bins {
+        ($($nb:literal => ($f:literal, $t:literal)),* $(,)?) => {
+            match micro.nbins {
+                $($nb => fill_body::<$f, $t>(micro, taps, cy, row),)*
+                nb => unreachable!("{nb} bins: more than the register fill holds"),
+            }
+        };
     }
+    by_bins!(
+        1 => (0, 1), 2 => (0, 2), 3 => (0, 3), 4 => (0, 4), 5 => (0, 5), 6 => (0, 6),
+        7 => (0, 7), 8 => (1, 0), 9 => (1, 1), 10 => (1, 2), 11 => (1, 3), 12 => (1, 4),
+        13 => (1, 5), 14 => (1, 6), 15 => (1, 7), 16 => (2, 0),
+    )
 }
 
-/// The body of [`fill_cell_row`] with `R` registers per histogram.
+/// One micro row's x sums in [`fill_body`]: `[x-profile][register]` for the bins `0 .. 8·FULL`,
+/// and per tail bin the 4 x-profiles' sums in the lanes of an xmm.
+#[derive(Clone, Copy)]
+struct RowSums<const FULL: usize, const TAIL: usize> {
+    full: [[__m256; FULL]; PROFILES],
+    tail: [__m128; TAIL],
+}
+
+/// A micro row landing in the cell row being filled: its index, its y-profile weights (times the
+/// gain) broadcast, the same as two-y-profile pairs for the tail (`[w0 x4, w1 x4]`,
+/// `[w2 x4, w3 x4]`), and which weights are non-zero.
+struct RowWeights {
+    my: usize,
+    wy: [__m256; PROFILES],
+    pairs: [__m256; 2],
+    live: [bool; PROFILES],
+}
+
+/// The body of [`fill_cell_row`] for `nb = 8·FULL + TAIL` bins.
 ///
 /// # Safety
-/// As [`fill_cell_row`]; `nb ≤ 8R`.
+/// As [`fill_cell_row`]; `micro.nbins == 8·FULL + TAIL`, `TAIL < 8`.
 #[target_feature(enable = "avx2,fma,f16c")]
-unsafe fn fill_body<const R: usize>(micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
+unsafe fn fill_body<const FULL: usize, const TAIL: usize>(
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+) {
     let nb = micro.nbins;
-    debug_assert!(nb <= 8 * R);
+    debug_assert_eq!(nb, 8 * FULL + TAIL);
     let cl = cell_len(nb);
     let (lo, hi) = taps.rows[cy];
     let stride = micro.nmx * nb;
     let data = &micro.data[..];
     let zero = _mm256_setzero_ps();
-    // The y-profile weights (times the gain) of the rows landing in this cell row, as the
-    // portable fill computes them, broadcast, and whether each is non-zero.
-    let wys: Vec<(usize, [__m256; PROFILES], [bool; PROFILES])> = (lo..hi)
+    let rows: Vec<RowWeights> = (lo..hi)
         .filter_map(|my| {
             taps.yt[my].map(|ty| {
                 let w = ty.w.map(|w| w * taps.gain);
-                (my, w.map(|w| _mm256_set1_ps(w)), w.map(|w| w != 0.0))
+                let pair = |a: f32, b: f32| _mm256_setr_ps(a, a, a, a, b, b, b, b);
+                RowWeights {
+                    my,
+                    wy: w.map(|w| _mm256_set1_ps(w)),
+                    pairs: [pair(w[0], w[1]), pair(w[2], w[3])],
+                    live: w.map(|w| w != 0.0),
+                }
             })
         })
         .collect();
+    let empty = RowSums::<FULL, TAIL> {
+        full: [[zero; FULL]; PROFILES],
+        tail: [_mm_setzero_ps(); TAIL],
+    };
+    let mut sums = vec![empty; rows.len()];
     for (cx, cell) in row.chunks_exact_mut(cl).enumerate().take(taps.ncx) {
         let (clo, chi) = taps.cols[cx];
-        let mut t = [[zero; R]; PROFILES * PROFILES];
-        for (i, &(my, wy, live)) in wys.iter().enumerate() {
-            let mut acc = [[zero; R]; PROFILES];
+        // 1. x pass, one micro row at a time, in registers (`$live` a literal list of
+        //    x-profiles, so every index below is a constant).
+        for (rw, s) in rows.iter().zip(sums.iter_mut()) {
+            // The micro-cells `clo..chi` of this row, and their x-profile weights: every load
+            // below is inside these two slices (a micro-cell is `nb = 8·FULL + TAIL` halves).
+            let cells = &data[rw.my * stride + clo * nb..rw.my * stride + chi * nb];
+            let xw = &taps.xw[clo..chi];
+            let mut full = [[zero; FULL]; PROFILES];
+            let mut tail = [_mm_setzero_ps(); TAIL];
+            macro_rules! add {
+                ($range:expr, [$($p:literal),*]) => {
+                    for mx in $range {
+                        let at = (mx - clo) * nb;
+                        let w = &xw[mx - clo];
+                        // SAFETY: `at + nb ≤ cells.len()` (mx < chi): the `FULL` 8-half loads
+                        // end at `at + 8·FULL ≤ at + nb`.
+                        let v: [__m256; FULL] = std::array::from_fn(|r| unsafe {
+                            _mm256_cvtph_ps(_mm_loadu_si128(cells.as_ptr().add(at + 8 * r).cast()))
+                        });
+                        $(
+                            let wv = _mm256_set1_ps(w[$p]);
+                            for r in 0..FULL {
+                                full[$p][r] = _mm256_fmadd_ps(wv, v[r], full[$p][r]);
+                            }
+                        )*
+                        if TAIL > 0 {
+                            // SAFETY: `w` holds the 4 x-profile weights (16 bytes).
+                            let wx = unsafe { _mm_loadu_ps(w.as_ptr()) };
+                            for (k, t) in tail.iter_mut().enumerate() {
+                                // SAFETY: `at + 8·FULL + k < at + nb ≤ cells.len()`.
+                                let h = unsafe { *cells.get_unchecked(at + 8 * FULL + k) };
+                                let v = _mm_cvtph_ps(_mm_set1_epi16(h as i16));
+                                *t = _mm_fmadd_ps(wx, v, *t);
+                            }
+                        }
+                    }
+                };
+            }
+            const _: () = assert!(
+                matches!(LEFT_PROFILES, [0, 1, 3]) && matches!(RIGHT_PROFILES, [0, 2, 3]),
+                "the literal profile lists below are LEFT_PROFILES and RIGHT_PROFILES"
+            );
             match taps.split[cx] {
                 // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is: adding
                 // `0·v` (+0) to a sum ≥ +0 changes no bit, so those products are skipped.
                 Some(mid) => {
-                    for mx in clo..mid {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in LEFT_PROFILES {
-                            let wv = _mm256_set1_ps(w[p]);
-                            for r in 0..R {
-                                acc[p][r] = _mm256_fmadd_ps(wv, v[r], acc[p][r]);
-                            }
-                        }
-                    }
-                    for mx in mid..chi {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in RIGHT_PROFILES {
-                            let wv = _mm256_set1_ps(w[p]);
-                            for r in 0..R {
-                                acc[p][r] = _mm256_fmadd_ps(wv, v[r], acc[p][r]);
-                            }
-                        }
-                    }
+                    add!(clo..mid, [0, 1, 3]);
+                    add!(mid..chi, [0, 2, 3]);
                 }
-                None => {
-                    for mx in clo..chi {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in 0..PROFILES {
-                            let wv = _mm256_set1_ps(w[p]);
-                            for r in 0..R {
-                                acc[p][r] = _mm256_fmadd_ps(wv, v[r], acc[p][r]);
-                            }
+                None => add!(clo..chi, [0, 1, 2, 3]),
+            }
+            *s = RowSums { full, tail };
+        }
+        // 2. y pass, one y-profile at a time (a cell row without micro rows is all +0).
+        for py in 0..PROFILES {
+            let mut t = [[zero; FULL]; PROFILES];
+            for (i, (rw, s)) in rows.iter().zip(&sums).enumerate() {
+                if i == 0 {
+                    for (d, a) in t.iter_mut().zip(&s.full) {
+                        for r in 0..FULL {
+                            d[r] = _mm256_mul_ps(rw.wy[py], a[r]);
+                        }
+                    }
+                } else if rw.live[py] {
+                    for (d, a) in t.iter_mut().zip(&s.full) {
+                        for r in 0..FULL {
+                            d[r] = _mm256_fmadd_ps(rw.wy[py], a[r], d[r]);
                         }
                     }
                 }
             }
-            for py in 0..PROFILES {
-                let tr = &mut t[py * PROFILES..][..PROFILES];
-                if i == 0 {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        for r in 0..R {
-                            d[r] = _mm256_mul_ps(wy[py], a[r]);
-                        }
-                    }
-                } else if live[py] {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        for r in 0..R {
-                            d[r] = _mm256_fmadd_ps(wy[py], a[r], d[r]);
-                        }
-                    }
+            for (px, regs) in t.iter().enumerate() {
+                let dst = &mut cell[cell_slot(py, px) * nb..][..8 * FULL];
+                for (r, x) in regs.iter().enumerate() {
+                    // SAFETY: `dst` holds `8·FULL` floats.
+                    unsafe { _mm256_storeu_ps(dst[8 * r..].as_mut_ptr(), *x) };
                 }
             }
         }
-        for py in 0..PROFILES {
-            for px in 0..PROFILES {
-                store_lanes(&t[py * PROFILES + px], &mut cell[cell_slot(py, px) * nb..][..nb]);
+        for k in 0..TAIL {
+            let mut t = [zero; 2];
+            for (i, (rw, s)) in rows.iter().zip(&sums).enumerate() {
+                let a = _mm256_set_m128(s.tail[k], s.tail[k]);
+                for (d, w) in t.iter_mut().zip(&rw.pairs) {
+                    *d = if i == 0 {
+                        _mm256_mul_ps(*w, a)
+                    } else {
+                        _mm256_fmadd_ps(*w, a, *d)
+                    };
+                }
+            }
+            let mut lanes = [[0.0f32; 8]; 2];
+            for (l, x) in lanes.iter_mut().zip(&t) {
+                // SAFETY: `l` holds 8 floats.
+                unsafe { _mm256_storeu_ps(l.as_mut_ptr(), *x) };
+            }
+            for (j, v) in lanes.as_flattened().iter().enumerate() {
+                let (py, px) = (j / PROFILES, j % PROFILES);
+                cell[cell_slot(py, px) * nb + 8 * FULL + k] = *v;
             }
         }
     }

@@ -137,29 +137,6 @@ fn vote<const R: usize>(t: &[uint8x16_t; R], [w0, w1]: [f32; 2]) -> [float32x4_t
     v
 }
 
-/// The `R` registers of the half floats `at .. at + 4R` of `data`, as `f32` (halves past its end
-/// read as +0).
-#[target_feature(enable = "neon")]
-#[inline]
-fn load_halves<const R: usize>(data: &[u16], at: usize) -> [float32x4_t; R] {
-    let mut out = [vdupq_n_f32(0.0); R];
-    for (r, o) in out.iter_mut().enumerate() {
-        let a = at + 4 * r;
-        let h = if a + 4 <= data.len() {
-            // SAFETY: 4 half floats at `a` are inside `data`.
-            unsafe { vld1_u16(data[a..a + 4].as_ptr()) }
-        } else {
-            let mut t = [0u16; 4];
-            let n = data.len().saturating_sub(a).min(4);
-            t[..n].copy_from_slice(&data[a..a + n]);
-            // SAFETY: `t` holds 4 half floats.
-            unsafe { vld1_u16(t.as_ptr()) }
-        };
-        *o = f32x4_from_f16(h);
-    }
-    out
-}
-
 /// The cell rows from `cy0` on (as many as `chunk` holds) with each cell's votes in registers.
 ///
 /// # Safety
@@ -325,32 +302,62 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
     }
 }
 
-/// An approximated level's cell row `cy` one cell at a time (the AVX2 fill's scheme with 4-lane
-/// registers; the same bits as `approx::fill_cell_row`).
+/// An approximated level's cell row `cy` one cell at a time, in two register passes (the AVX2
+/// fill's scheme, `avx2::fill_cell_row`, with 4-lane registers): a cell's 16 profile histograms
+/// would take 48 registers for 9 bins, more than NEON's 32.
+/// 1. **x pass**, per micro row landing in the cell: `FULL = nb / 4` registers of bins per
+///    x-profile, and each of the `TAIL = nb mod 4` last bins with the 4 x-profiles in the lanes of
+///    one register (the 9th bin of the default geometry: one `fmla` per micro-cell instead of
+///    four with 3 idle lanes each). Kept per row in a small buffer.
+/// 2. **y pass**, per y-profile: the rows' x sums times the row's y weight.
+///
+/// The same fused multiply-adds in the same order as `approx::fill_cell_row`, so the same bits;
+/// where the portable fill skips an x-profile whose weight is exactly 0, the tail lanes add
+/// `0·v` = +0 to a sum ≥ +0, which changes no bit.
 ///
 /// # Safety
 /// The CPU must support NEON; `micro` has ≤ 16 bins and `taps` are its taps (`Taps::fits`).
 #[target_feature(enable = "neon")]
 pub(crate) unsafe fn fill_cell_row(micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
-    // SAFETY: this function's contract; R registers hold 4R ≥ nbins bins.
-    unsafe {
-        match micro.nbins.div_ceil(4) {
-            0 | 1 => fill_body::<1>(micro, taps, cy, row),
-            2 => fill_body::<2>(micro, taps, cy, row),
-            3 => fill_body::<3>(micro, taps, cy, row),
-            _ => fill_body::<4>(micro, taps, cy, row),
-        }
+    macro_rules! by_bins {
+        ($($nb:literal => ($f:literal, $t:literal)),* $(,)?) => {
+            // SAFETY: this function's contract; `nb = 4·FULL + TAIL`.
+            unsafe {
+                match micro.nbins {
+                    $($nb => fill_body::<$f, $t>(micro, taps, cy, row),)*
+                    nb => unreachable!("{nb} bins: more than the register fill holds"),
+                }
+            }
+        };
     }
+    by_bins!(
+        1 => (0, 1), 2 => (0, 2), 3 => (0, 3), 4 => (1, 0), 5 => (1, 1), 6 => (1, 2),
+        7 => (1, 3), 8 => (2, 0), 9 => (2, 1), 10 => (2, 2), 11 => (2, 3), 12 => (3, 0),
+        13 => (3, 1), 14 => (3, 2), 15 => (3, 3), 16 => (4, 0),
+    )
 }
 
-/// The body of [`fill_cell_row`] with `R` registers per histogram.
+/// One micro row's x sums in [`fill_body`]: `[x-profile][register]` for the bins `0 .. 4·FULL`,
+/// and per tail bin the 4 x-profiles' sums in the lanes of one register.
+#[derive(Clone, Copy)]
+struct RowSums<const FULL: usize, const TAIL: usize> {
+    full: [[float32x4_t; FULL]; PROFILES],
+    tail: [float32x4_t; TAIL],
+}
+
+/// The body of [`fill_cell_row`] for `nb = 4·FULL + TAIL` bins.
 ///
 /// # Safety
-/// As [`fill_cell_row`]; `nb ≤ 4R`.
+/// As [`fill_cell_row`]; `micro.nbins == 4·FULL + TAIL`, `TAIL < 4`.
 #[target_feature(enable = "neon")]
-unsafe fn fill_body<const R: usize>(micro: &MicroGrid, taps: &Taps, cy: usize, row: &mut [f32]) {
+unsafe fn fill_body<const FULL: usize, const TAIL: usize>(
+    micro: &MicroGrid,
+    taps: &Taps,
+    cy: usize,
+    row: &mut [f32],
+) {
     let nb = micro.nbins;
-    debug_assert!(nb <= 4 * R);
+    debug_assert_eq!(nb, 4 * FULL + TAIL);
     let cl = cell_len(nb);
     let (lo, hi) = taps.rows[cy];
     let stride = micro.nmx * nb;
@@ -359,62 +366,103 @@ unsafe fn fill_body<const R: usize>(micro: &MicroGrid, taps: &Taps, cy: usize, r
     let wys: Vec<(usize, [f32; PROFILES])> = (lo..hi)
         .filter_map(|my| taps.yt[my].map(|ty| (my, ty.w.map(|w| w * taps.gain))))
         .collect();
+    let empty = RowSums::<FULL, TAIL> {
+        full: [[zero; FULL]; PROFILES],
+        tail: [zero; TAIL],
+    };
+    let mut sums = vec![empty; wys.len()];
+    const _: () = assert!(
+        matches!(LEFT_PROFILES, [0, 1, 3]) && matches!(RIGHT_PROFILES, [0, 2, 3]),
+        "the literal profile lists below are LEFT_PROFILES and RIGHT_PROFILES"
+    );
     for (cx, cell) in row.chunks_exact_mut(cl).enumerate().take(taps.ncx) {
         let (clo, chi) = taps.cols[cx];
-        let mut t = [[zero; R]; PROFILES * PROFILES];
-        for (i, &(my, wy)) in wys.iter().enumerate() {
-            let mut acc = [[zero; R]; PROFILES];
-            match taps.split[cx] {
-                // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is.
-                Some(mid) => {
-                    for mx in clo..mid {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in LEFT_PROFILES {
-                            for r in 0..R {
-                                acc[p][r] = vfmaq_n_f32(acc[p][r], v[r], w[p]);
+        // 1. x pass, one micro row at a time, in registers.
+        for (&(my, _), s) in wys.iter().zip(sums.iter_mut()) {
+            // The micro-cells `clo..chi` of this row and their weights: every load below is
+            // inside these two slices (a micro-cell is `nb = 4·FULL + TAIL` halves).
+            let cells = &data[my * stride + clo * nb..my * stride + chi * nb];
+            let xw = &taps.xw[clo..chi];
+            let mut full = [[zero; FULL]; PROFILES];
+            let mut tail = [zero; TAIL];
+            macro_rules! add {
+                ($range:expr, [$($p:literal),*]) => {
+                    for mx in $range {
+                        let at = (mx - clo) * nb;
+                        let w = &xw[mx - clo];
+                        // SAFETY: `at + nb ≤ cells.len()` (mx < chi): the `FULL` 4-half loads
+                        // end at `at + 4·FULL ≤ at + nb`.
+                        let v: [float32x4_t; FULL] = std::array::from_fn(|r| {
+                            f32x4_from_f16(unsafe { vld1_u16(cells.as_ptr().add(at + 4 * r)) })
+                        });
+                        $(
+                            for r in 0..FULL {
+                                full[$p][r] = vfmaq_n_f32(full[$p][r], v[r], w[$p]);
+                            }
+                        )*
+                        if TAIL > 0 {
+                            // SAFETY: `w` holds the 4 x-profile weights.
+                            let wx = unsafe { vld1q_f32(w.as_ptr()) };
+                            for (k, t) in tail.iter_mut().enumerate() {
+                                // SAFETY: `at + 4·FULL + k < at + nb ≤ cells.len()`.
+                                let h = unsafe { *cells.get_unchecked(at + 4 * FULL + k) };
+                                *t = vfmaq_f32(*t, wx, f32x4_from_f16(vdup_n_u16(h)));
                             }
                         }
                     }
-                    for mx in mid..chi {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in RIGHT_PROFILES {
-                            for r in 0..R {
-                                acc[p][r] = vfmaq_n_f32(acc[p][r], v[r], w[p]);
-                            }
-                        }
-                    }
-                }
-                None => {
-                    for mx in clo..chi {
-                        let (w, v) = (&taps.xw[mx], load_halves::<R>(data, my * stride + mx * nb));
-                        for p in 0..PROFILES {
-                            for r in 0..R {
-                                acc[p][r] = vfmaq_n_f32(acc[p][r], v[r], w[p]);
-                            }
-                        }
-                    }
-                }
+                };
             }
-            for (py, &w) in wy.iter().enumerate() {
-                let tr = &mut t[py * PROFILES..][..PROFILES];
+            match taps.split[cx] {
+                // Left of `mid` x-profile 2 is exactly 0 and right of it x-profile 1 is: adding
+                // `0·v` (+0) to a sum ≥ +0 changes no bit, so those products are skipped.
+                Some(mid) => {
+                    add!(clo..mid, [0, 1, 3]);
+                    add!(mid..chi, [0, 2, 3]);
+                }
+                None => add!(clo..chi, [0, 1, 2, 3]),
+            }
+            *s = RowSums { full, tail };
+        }
+        // 2. y pass, one y-profile at a time (a cell row without micro rows is all +0).
+        for py in 0..PROFILES {
+            let mut t = [[zero; FULL]; PROFILES];
+            let mut tt = [zero; TAIL];
+            for (i, (&(_, wy), s)) in wys.iter().zip(&sums).enumerate() {
+                let w = wy[py];
                 if i == 0 {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        for r in 0..R {
+                    for (d, a) in t.iter_mut().zip(&s.full) {
+                        for r in 0..FULL {
                             d[r] = vmulq_n_f32(a[r], w);
                         }
                     }
+                    for (d, a) in tt.iter_mut().zip(&s.tail) {
+                        *d = vmulq_n_f32(*a, w);
+                    }
                 } else if w != 0.0 {
-                    for (d, a) in tr.iter_mut().zip(&acc) {
-                        for r in 0..R {
+                    for (d, a) in t.iter_mut().zip(&s.full) {
+                        for r in 0..FULL {
                             d[r] = vfmaq_n_f32(d[r], a[r], w);
                         }
                     }
+                    for (d, a) in tt.iter_mut().zip(&s.tail) {
+                        *d = vfmaq_n_f32(*d, *a, w);
+                    }
                 }
             }
-        }
-        for py in 0..PROFILES {
-            for px in 0..PROFILES {
-                store_lanes(&t[py * PROFILES + px], &mut cell[cell_slot(py, px) * nb..][..nb]);
+            for (px, regs) in t.iter().enumerate() {
+                let dst = &mut cell[cell_slot(py, px) * nb..][..4 * FULL];
+                for (r, x) in regs.iter().enumerate() {
+                    // SAFETY: `dst` holds `4·FULL` floats.
+                    unsafe { vst1q_f32(dst[4 * r..].as_mut_ptr(), *x) };
+                }
+            }
+            for (k, x) in tt.iter().enumerate() {
+                let mut lanes = [0.0f32; 4];
+                // SAFETY: `lanes` holds 4 floats.
+                unsafe { vst1q_f32(lanes.as_mut_ptr(), *x) };
+                for (px, v) in lanes.iter().enumerate() {
+                    cell[cell_slot(py, px) * nb + 4 * FULL + k] = *v;
+                }
             }
         }
     }
