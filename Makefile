@@ -22,7 +22,7 @@ test-note:
 	$(TEST_NOTE)
 
 .PHONY: setup demo recording test oracle skimage-negatives lint doc bench cross-build cross-lint cross-test \
-	fuzz fuzz-smoke fuzz-build
+	fuzz fuzz-smoke fuzz-build deb deb-arm64 deb-test
 
 setup:
 	@bash scripts/setup.sh
@@ -100,6 +100,30 @@ cross-test: cross-build
 
 bench: setup
 	$(CARGO) bench
+
+# The Debian package (README, "Install on an edge box"; [package.metadata.deb] in Cargo.toml): the
+# release build, then cargo-deb packages that binary (--no-build) with the units, the sysusers
+# snippet, /etc/mosaicd/mosaicd.toml, the models, examples, docs and Python clients.
+# -> $(TARGET_DIR)/debian/mosaicd_<version>-1_amd64.deb
+DEB_VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
+DEB_AMD64 := $(TARGET_DIR)/debian/mosaicd_$(DEB_VERSION)-1_amd64.deb
+deb: setup
+	$(CARGO) build --release --quiet
+	$(CARGO) deb --no-build --quiet --output $(DEB_AMD64)
+	@echo "deb: $(DEB_AMD64)"
+
+# The arm64 package, with the cross toolchain of `make cross-build` (stripped with
+# aarch64-linux-gnu-strip). -> $(TARGET_DIR)/debian/mosaicd_<version>-1_arm64.deb
+deb-arm64: setup
+	$(CARGO) build --release --quiet --target $(AARCH64)
+	$(CARGO) deb --no-build --quiet --target $(AARCH64) \
+		--output $(TARGET_DIR)/debian/mosaicd_$(DEB_VERSION)-1_arm64.deb
+	@echo "deb-arm64: $(TARGET_DIR)/debian/mosaicd_$(DEB_VERSION)-1_arm64.deb"
+
+# CI (root): install the amd64 package with dpkg -i, verify the installed units, run the installed
+# binary from / on an installed example config, then dpkg -r and dpkg --purge (scripts/deb_test.sh).
+deb-test: deb
+	bash scripts/deb_test.sh $(DEB_AMD64)
 
 # Fuzzing (docs/fuzzing.md): the fuzz/ crate's libFuzzer targets, built on the stable toolchain with
 # SanitizerCoverage (no sanitizer runtime), overflow checks and debug assertions on.

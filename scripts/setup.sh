@@ -33,8 +33,16 @@ if ! rustup target list --installed 2>/dev/null | grep -qx aarch64-unknown-linux
   rustup target add aarch64-unknown-linux-gnu
 fi
 
-# Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing, rawpy (LibRaw).
-if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy, rawpy; assert cv2.__version__.startswith("4.")' >/dev/null 2>&1; then
+# cargo-deb builds the Debian package (`make deb`); pinned to the version the package was made with.
+CARGO_DEB_VERSION=3.8.0
+if ! cargo deb --version 2>/dev/null | grep -qx "cargo-deb $CARGO_DEB_VERSION"; then
+  echo "setup: installing cargo-deb $CARGO_DEB_VERSION (cargo install, about 2 minutes)" >&2
+  cargo install cargo-deb --locked --quiet --version "$CARGO_DEB_VERSION"
+fi
+
+# Python oracles: OpenCV 4.x (5.x dropped HOGDescriptor), scikit-image, colour-demosaicing, rawpy (LibRaw),
+# and Prometheus's text-format parser (prometheus-client) for the metrics textfile.
+if ! python3 -c 'import cv2, skimage, colour_demosaicing, numpy, rawpy, prometheus_client.parser; assert cv2.__version__.startswith("4.")' >/dev/null 2>&1; then
   echo "setup: installing Python oracles (tests/oracle/requirements.txt)" >&2
   python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/oracle/requirements.txt
 fi

@@ -11,8 +11,9 @@
 # Environment: MOSAICD (binary, default target/release/mosaicd), OUT (default out/soak),
 # DURATION (seconds, default 600), FPS (default 15), WIDTH x HEIGHT (default 1920 x 1080),
 # THREADS (default 2), SVM (f32 or i8, default f32), APPROX (compute.approx_levels, default 14),
-# MODEL (compute.model, default models/mosaic.json; models/mosaic_raw_srgb.json runs the srgb
-# tone, with grey-world gains on every frame of the synthetic camera, which has none).
+# MODEL (compute.model: a built-in name or an absolute path, default mosaic, the built-in
+# models/mosaic.json; mosaic-raw-srgb runs the srgb tone, with grey-world gains on every frame of
+# the synthetic camera, which has none).
 # Needs no shared data (the shipped models). Exit status: the daemon's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -35,7 +36,7 @@ path = "$out/soak.mcap"
 rotate_secs = 60
 max_files = 3
 [compute]
-model = "${MODEL:-models/mosaic.json}"
+model = "${MODEL:-mosaic}"
 approx_levels = ${APPROX:-14}
 svm = "${SVM:-f32}"
 [[camera]]

@@ -5,6 +5,14 @@
 //! its key, and [`Config::validate`] checks every range once, at start-up, with an error that NAMES
 //! the key and the allowed range ([`ConfigError`]). Nothing downstream re-checks.
 //!
+//! **Relative paths in a file** ([`Config::load`], [`Config::resolve_paths`]) never depend on the
+//! working directory for inputs: a model file (`compute.model`) is looked for in the config
+//! file's directory, then in [`SYSTEM_MODEL_DIR`] (`/usr/share/mosaicd/models`, where the Debian
+//! package installs the model files); a camera's recording or raw files (`camera.path`) and
+//! `camera.sidecar` resolve against the config file's directory. Outputs (`record.path`,
+//! `metrics.textfile`) stay relative to the working directory, which the systemd units set to
+//! the state directory (`/var/lib/mosaicd`). Built-in model names are not paths.
+//!
 //! ```
 //! use mosaicd::config::Config;
 //! let cfg = Config::from_toml_str(r#"
@@ -50,6 +58,10 @@ const MAX_SUBSCRIBER_BUFFER: usize = 4096;
 const MAX_SIDE: usize = crate::raw::limits::MAX_SIDE;
 /// Allowed characters in a camera name (it becomes part of iceoryx2 service names).
 const NAME_CHARS: &str = "a-z, A-Z, 0-9, '_', '-'";
+
+/// Where a relative model file is looked for after the config file's directory: the model
+/// files the Debian package installs.
+pub const SYSTEM_MODEL_DIR: &str = "/usr/share/mosaicd/models";
 
 /// Errors from loading or validating a configuration. Each names the offending key.
 #[derive(Debug, thiserror::Error)]
@@ -118,6 +130,9 @@ pub struct Config {
     /// Limits on what inputs may claim (`[limits]`).
     #[serde(default)]
     pub limits: LimitsConfig,
+    /// Prometheus metrics through node_exporter's textfile collector (`[metrics]`).
+    #[serde(default)]
+    pub metrics: MetricsConfig,
     /// Live view in Foxglove over a WebSocket (`[foxglove]`, off by default).
     #[serde(default)]
     pub foxglove: FoxgloveConfig,
@@ -149,6 +164,19 @@ impl LimitsConfig {
     pub fn frame_limits(&self) -> crate::raw::FrameLimits {
         crate::raw::FrameLimits::new(self.max_frame_pixels).unwrap_or(crate::raw::FrameLimits::DEFAULT)
     }
+}
+
+/// `[metrics]`: fleet metrics without opening a port. With `textfile` set, the daemon writes
+/// its counters in Prometheus's text format to that file every `daemon.stats_interval_ms`
+/// (written to a temporary file beside it, then renamed over it), for node_exporter's textfile
+/// collector ([`crate::pipeline::textfile`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricsConfig {
+    /// The file, ending in `.prom` (what the collector reads), in a directory that exists;
+    /// relative to the working directory. Default: none (no metrics file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub textfile: Option<PathBuf>,
 }
 
 /// `[daemon]`: scheduling and process settings.
@@ -586,6 +614,26 @@ impl CameraConfig {
     }
 }
 
+/// One relative input path of a config file and where it was resolved ([`Config::resolve_paths`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ResolvedPath {
+    /// Dotted key, e.g. `compute.model` or `camera[0].path`.
+    pub key: String,
+    /// The value in the file.
+    pub given: PathBuf,
+    /// The absolute path used.
+    pub resolved: PathBuf,
+    /// Every place looked at, in order (`resolved` is the first that exists, else the first).
+    pub tried: Vec<PathBuf>,
+}
+
+impl ResolvedPath {
+    /// Whether `resolved` exists.
+    pub fn exists(&self) -> bool {
+        self.resolved.exists()
+    }
+}
+
 /// A `"model"`-or-value key: `None` for `"model"` (the model file's own), else `value` parsed.
 fn model_override<T: std::str::FromStr>(
     key: &str,
@@ -676,14 +724,69 @@ impl Config {
         Self::parse(s, "<string>")
     }
 
-    /// Read, parse and validate a file. Relative `path`s inside are resolved against the current
-    /// directory (the daemon's working directory), as on the command line.
+    /// Read, parse and validate a file, then resolve its relative input paths
+    /// ([`Config::resolve_paths`] against the file's directory and [`SYSTEM_MODEL_DIR`]).
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        Self::load_resolved(path).map(|(cfg, _)| cfg)
+    }
+
+    /// [`Config::load`], also returning how each relative input path was resolved.
+    pub fn load_resolved(path: &Path) -> Result<(Self, Vec<ResolvedPath>), ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::parse(&text, &path.display().to_string())
+        let mut cfg = Self::parse(&text, &path.display().to_string())?;
+        let dir = std::path::absolute(path)
+            .map_err(|source| ConfigError::Read {
+                path: path.to_path_buf(),
+                source,
+            })?
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("/"));
+        let resolved = cfg.resolve_paths(&dir, &[PathBuf::from(SYSTEM_MODEL_DIR)]);
+        Ok((cfg, resolved))
+    }
+
+    /// Makes the relative input paths absolute: `compute.model` (when it is a file, not a
+    /// built-in name) becomes the first of `config_dir/model`, `model_dirs[i]/model` that is a
+    /// file (or `config_dir/model` when none is, so that the error names it), `camera.path`
+    /// and `camera.sidecar` become `config_dir/path`. Returns what it changed, in key order.
+    pub fn resolve_paths(&mut self, config_dir: &Path, model_dirs: &[PathBuf]) -> Vec<ResolvedPath> {
+        let mut out = Vec::new();
+        let model = &mut self.compute.model;
+        let is_name =
+            crate::detect::shipped::shipped(model).is_some() || model == crate::detect::OPENCV_DEFAULT;
+        if !is_name && Path::new(model.as_str()).is_relative() && !model.is_empty() {
+            let tried: Vec<PathBuf> = std::iter::once(config_dir)
+                .chain(model_dirs.iter().map(PathBuf::as_path))
+                .map(|d| d.join(model.as_str()))
+                .collect();
+            let found = tried.iter().find(|p| p.is_file()).cloned();
+            let resolved = found.clone().unwrap_or_else(|| tried[0].clone());
+            out.push(ResolvedPath {
+                key: "compute.model".into(),
+                given: PathBuf::from(model.as_str()),
+                resolved: resolved.clone(),
+                tried,
+            });
+            *model = resolved.to_string_lossy().into_owned();
+        }
+        for (i, cam) in self.cameras.iter_mut().enumerate() {
+            for (k, slot) in [("path", &mut cam.path), ("sidecar", &mut cam.sidecar)] {
+                if let Some(p) = slot.as_mut().filter(|p| p.is_relative()) {
+                    let resolved = config_dir.join(&*p);
+                    out.push(ResolvedPath {
+                        key: format!("camera[{i}].{k}"),
+                        given: std::mem::replace(p, resolved.clone()),
+                        tried: vec![resolved.clone()],
+                        resolved,
+                    });
+                }
+            }
+        }
+        out
     }
 
     fn parse(s: &str, origin: &str) -> Result<Self, ConfigError> {
@@ -777,6 +880,17 @@ impl Config {
                 value: format!("{:?}", self.record.path.display().to_string()),
                 allowed: "a path containing {camera} when more than one camera records".into(),
             });
+        }
+        if let Some(t) = &self.metrics.textfile {
+            if t.extension().is_none_or(|e| e != "prom") || t.file_stem().is_none_or(|s| s.is_empty()) {
+                return Err(ConfigError::OutOfRange {
+                    key: "metrics.textfile".into(),
+                    value: format!("{:?}", t.display().to_string()),
+                    allowed:
+                        "a file name ending in .prom (node_exporter's textfile collector reads only those)"
+                            .into(),
+                });
+            }
         }
         let c = &self.compute;
         range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
@@ -1097,6 +1211,8 @@ mod tests {
                 "[record]\nrotate_mb = 1\nmax_files = 3\noverwrite = true\n",
                 "record.max_files",
             ),
+            ("[metrics]\ntextfile = \"mosaicd.txt\"\n", "metrics.textfile"),
+            ("[metrics]\ntextfile = \"/var/lib/x/.prom\"\n", "metrics.textfile"),
         ];
         for (extra, key) in cases {
             let err = Config::from_toml_str(&format!("{extra}{MIN}")).unwrap_err();
@@ -1206,6 +1322,61 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(msg.contains("camera[1].name"), "{msg}");
+    }
+
+    #[test]
+    fn metrics_textfile_is_off_by_default_and_a_prom_file() {
+        assert_eq!(Config::from_toml_str(MIN).unwrap().metrics.textfile, None);
+        let c = Config::from_toml_str(&format!("[metrics]\ntextfile = \"m/mosaicd.prom\"\n{MIN}")).unwrap();
+        assert_eq!(c.metrics.textfile, Some(PathBuf::from("m/mosaicd.prom")));
+    }
+
+    #[test]
+    fn relative_inputs_resolve_against_the_config_dir_then_the_model_dirs() {
+        let dir = tempfile::tempdir().unwrap();
+        let (conf, models) = (dir.path().join("etc"), dir.path().join("share"));
+        std::fs::create_dir_all(conf.join("local")).unwrap();
+        std::fs::create_dir_all(&models).unwrap();
+        std::fs::write(conf.join("local/mine.json"), "{}").unwrap();
+        std::fs::write(models.join("theirs.json"), "{}").unwrap();
+        let cam = "[[camera]]\nname = \"a\"\nsource = \"mcap\"\npath = \"rec/a.mcap\"\n";
+        let resolve = |model: &str| {
+            let mut c = Config::from_toml_str(&format!("[compute]\nmodel = {model:?}\n{cam}")).unwrap();
+            let r = c.resolve_paths(&conf, std::slice::from_ref(&models));
+            (c, r)
+        };
+        // The config's directory first, then the model directories.
+        let (c, r) = resolve("local/mine.json");
+        assert_eq!(c.compute.model, conf.join("local/mine.json").to_string_lossy());
+        assert_eq!(r[0].key, "compute.model");
+        assert_eq!(
+            r[0].tried,
+            vec![conf.join("local/mine.json"), models.join("local/mine.json")]
+        );
+        let (c, _) = resolve("theirs.json");
+        assert_eq!(c.compute.model, models.join("theirs.json").to_string_lossy());
+        // Found nowhere: the config's directory, so that the error names it; every place tried.
+        let (c, r) = resolve("none.json");
+        assert_eq!(c.compute.model, conf.join("none.json").to_string_lossy());
+        assert!(!r[0].exists() && r[0].tried.len() == 2);
+        // Built-in names and absolute paths are left alone; camera paths join the config's dir.
+        for model in [
+            crate::detect::DEFAULT_MODEL,
+            crate::detect::OPENCV_DEFAULT,
+            "/abs/m.json",
+        ] {
+            let (c, r) = resolve(model);
+            assert_eq!(c.compute.model, model);
+            assert_eq!(r.len(), 1, "{r:?}");
+            assert_eq!(r[0].key, "camera[0].path");
+            assert_eq!(
+                c.cameras[0].path.as_deref(),
+                Some(conf.join("rec/a.mcap").as_path())
+            );
+        }
+        // Outputs stay relative (to the working directory: the units' state directory).
+        let (c, _) = resolve("theirs.json");
+        assert_eq!(c.record.path, PathBuf::from("out/{camera}.mcap"));
     }
 
     #[test]

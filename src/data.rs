@@ -1,41 +1,63 @@
-//! Locating the shared real data (`MOSAICD_DATA`, default `../shared/data`).
+//! Locating the shared real data (`MOSAICD_DATA`).
 //!
 //! Tests, benches and evaluation read the real data sets by path and never copy them into the
-//! repository. When the data is missing, [`data_path`] returns an error that says where to put it,
-//! so a test that needs it fails loudly instead of passing silently.
+//! repository. The data directory is `$MOSAICD_DATA` and nothing else: no path is compiled into
+//! the binary, so an installed daemon never looks for a checkout's `../shared`. In a checkout,
+//! cargo (`.cargo/config.toml`, `[env]`) and the Makefile set it to `../shared/data` beside the
+//! repository unless it is already set. When the data is missing, [`data_path`] returns an error
+//! that says where to put it, so a test that needs it fails loudly instead of passing silently.
 
 use crate::raw::Cfa;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Environment variable naming the data directory.
 pub const DATA_ENV: &str = "MOSAICD_DATA";
 
+/// What the data directory holds, for messages.
+const DATA_HOLDS: &str = "kodak/, raw/, pedestrian/, opencv_hog/";
+
 /// Error when the shared data cannot be found.
 #[derive(Debug, thiserror::Error)]
-#[error("shared data not found at {path} (looked for {wanted}): set {DATA_ENV} to the directory holding kodak/, raw/, pedestrian/, opencv_hog/ (default ../shared/data relative to the repository)")]
-pub struct DataMissing {
-    /// The directory that was searched.
-    pub path: PathBuf,
-    /// The entry that was wanted.
-    pub wanted: String,
+pub enum DataMissing {
+    /// `$MOSAICD_DATA` is not set.
+    #[error("shared data wanted ({wanted}) but {DATA_ENV} is not set: set it to the directory holding {DATA_HOLDS} (in a checkout, cargo and make set it to the shared data beside the repository)")]
+    Unset {
+        /// The entry that was wanted.
+        wanted: String,
+    },
+    /// The entry is not in the data directory.
+    #[error("shared data not found at {path} (looked for {wanted}): set {DATA_ENV} to the directory holding {DATA_HOLDS}")]
+    NotFound {
+        /// The directory that was searched.
+        path: PathBuf,
+        /// The entry that was wanted.
+        wanted: String,
+    },
 }
 
-/// The data directory: `$MOSAICD_DATA`, else `../shared/data` next to the crate root.
-pub fn data_root() -> PathBuf {
+/// The data directory, `$MOSAICD_DATA` (`wanted` names what it is needed for, in the error).
+pub fn data_root_for(wanted: &str) -> Result<PathBuf, DataMissing> {
     match std::env::var_os(DATA_ENV) {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data"),
+        Some(p) if !p.is_empty() => Ok(PathBuf::from(p)),
+        _ => Err(DataMissing::Unset {
+            wanted: wanted.to_string(),
+        }),
     }
+}
+
+/// The data directory, `$MOSAICD_DATA`.
+pub fn data_root() -> Result<PathBuf, DataMissing> {
+    data_root_for("the data directory")
 }
 
 /// `data_root()/rel`, checked to exist.
 pub fn data_path(rel: &str) -> Result<PathBuf, DataMissing> {
-    let root = data_root();
+    let root = data_root_for(rel)?;
     let p = root.join(rel);
     if p.exists() {
         Ok(p)
     } else {
-        Err(DataMissing {
+        Err(DataMissing::NotFound {
             path: root,
             wanted: rel.to_string(),
         })
@@ -118,7 +140,7 @@ pub const INFINITE_ISP_SCENES: [RawInput; 5] = [
     ),
 ];
 
-/// The real raw frames used by the experiments (see `../shared/data/README.md`).
+/// The real raw frames used by the experiments (see the data directory's `README.md`).
 pub const RAW_INPUTS: [RawInput; 3] = [
     RawInput {
         name: "nikon_rose",
@@ -174,6 +196,11 @@ pub fn raw_profile(input: &RawInput) -> crate::isp::CameraProfile {
     p.bit_depth = input.bit_depth;
     p.cfa = input.cfa;
     p
+}
+
+/// Like [`data_root`] but panics with the explanatory message; for tests and benches.
+pub fn require_root() -> PathBuf {
+    data_root().unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Like [`data_path`] but panics with the explanatory message; for tests and benches.

@@ -19,6 +19,8 @@ struct Cli {
 enum Command {
     /// Run the daemon from a config file.
     Run(cli::run::RunArgs),
+    /// Check a config file without opening anything (no camera, no shared memory): exit 0 or 1.
+    Check(cli::check::CheckArgs),
     /// Replay an MCAP recording through the daemon pipeline as fast as possible (or at recorded rate).
     Replay(cli::run::ReplayArgs),
     /// Make a recording: from a V4L2 device, or from raw files / RGB images with a camera motion.
@@ -68,6 +70,7 @@ fn main() -> std::process::ExitCode {
     init_tracing(cli.log.as_deref());
     let result = match cli.command {
         Command::Run(a) => cli::run::run(a),
+        Command::Check(a) => cli::check::run(a),
         Command::Replay(a) => cli::run::replay(a),
         Command::Record(a) => cli::record::run(a),
         Command::Listen(a) => cli::listen::run(a),

@@ -18,6 +18,7 @@ fn shipped_configs_validate() {
         "camera.toml",
         "multi-camera.toml",
         "synthetic.toml",
+        "system.toml",
     ] {
         let c = load(name);
         assert!(!c.cameras.is_empty(), "{name}");

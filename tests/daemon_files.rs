@@ -62,7 +62,7 @@ fn a_directory_of_raw_files_plays_as_a_stream_and_a_broken_file_is_counted() {
     std::fs::write(
         &cfg,
         format!(
-            "[compute]\nmodel = \"models/mosaic.json\"\n[[camera]]\nname = \"files\"\nsource = \"files\"\n\
+            "[compute]\nmodel = \"mosaic\"\n[[camera]]\nname = \"files\"\nsource = \"files\"\n\
              path = {:?}\nfps = 10.0\n",
             raw.to_str().unwrap()
         ),
@@ -112,7 +112,7 @@ fn the_srgb_tone_needs_gains_file_gains_fail_clearly_and_auto_uses_grey_world() 
         std::fs::write(
             &cfg,
             format!(
-                "[compute]\nmodel = \"models/mosaic_raw_srgb.json\"\nhit_threshold = -10.0\nwb_gains = {gains:?}\n\
+                "[compute]\nmodel = \"mosaic-raw-srgb\"\nhit_threshold = -10.0\nwb_gains = {gains:?}\n\
                  [[camera]]\nname = \"files\"\nsource = \"files\"\npath = {:?}\nfps = 10.0\n",
                 raw.to_str().unwrap()
             ),

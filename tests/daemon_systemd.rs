@@ -2,7 +2,7 @@
 //! --offline=yes` rates both at an exposure of at most [`MAX_EXPOSURE`].
 //!
 //! verify insists that ExecStart names an existing executable, so the units are copied to a
-//! temporary directory with `/usr/local/bin/mosaicd` replaced by the binary cargo just built; the
+//! temporary directory with `/usr/bin/mosaicd` replaced by the binary cargo just built; the
 //! template is checked through an instance name. The tests fail (do not skip) when
 //! `systemd-analyze` is missing: it is part of the CI image (scripts/setup.sh installs systemd).
 
@@ -18,7 +18,7 @@ fn install(dir: &Path) {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd");
     for unit in ["mosaicd.service", "mosaicd@.service"] {
         let text = std::fs::read_to_string(src.join(unit)).unwrap();
-        std::fs::write(dir.join(unit), text.replace("/usr/local/bin/mosaicd", bin)).unwrap();
+        std::fs::write(dir.join(unit), text.replace("/usr/bin/mosaicd", bin)).unwrap();
     }
 }
 
@@ -75,6 +75,14 @@ fn units_verify() {
             text.contains("ExecReload=/bin/kill -HUP $MAINPID"),
             "{unit}: reload sends SIGHUP"
         );
+        // The config is checked before anything is opened, with the same file as the run.
+        let pre = text.lines().find(|l| l.starts_with("ExecStartPre=")).unwrap();
+        let start = text.lines().find(|l| l.starts_with("ExecStart=")).unwrap();
+        assert_eq!(
+            pre.replace("ExecStartPre=", "").replace(" check ", " run "),
+            start.replace("ExecStart=", ""),
+            "{unit}"
+        );
         // iceoryx2 lives in the runtime directory (publish.root's default), not in /tmp.
         assert!(
             text.contains("RuntimeDirectory=mosaicd\n") && text.contains("PrivateTmp=yes"),
@@ -89,7 +97,7 @@ fn units_verify() {
             text.contains("UMask=0027") && text.contains("PrivateNetwork=yes"),
             "{unit}"
         );
-        std::fs::write(dir.path().join(unit), text.replace("/usr/local/bin/mosaicd", bin)).unwrap();
+        std::fs::write(dir.path().join(unit), text.replace("/usr/bin/mosaicd", bin)).unwrap();
     }
     verify(dir.path(), "mosaicd.service");
     verify(dir.path(), "mosaicd@front.service");
@@ -109,7 +117,7 @@ fn units_are_hardened_to_an_exposure_of_at_most_2() {
 #[test]
 fn sysusers_snippet_puts_the_user_in_video() {
     let text =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd/mosaicd.sysusers.conf"))
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd/mosaicd.sysusers"))
             .unwrap();
     assert!(text.lines().any(|l| l.starts_with("u mosaicd ")));
     assert!(text.lines().any(|l| l.trim() == "m mosaicd video"));

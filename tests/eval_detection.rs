@@ -11,7 +11,7 @@ use mosaicd::eval::detection::{load_box_csv, load_usc};
 fn data() -> std::path::PathBuf {
     // Fails with a message naming MOSAICD_DATA when the shared data is missing.
     mosaicd::data::require("pedestrian/usc/usc_boxes_derived.csv");
-    mosaicd::data::data_root()
+    mosaicd::data::require_root()
 }
 
 fn mosaicd(args: &[&str]) -> Output {

@@ -15,7 +15,7 @@ fn mosaicd(args: &[&str]) -> Output {
     mosaicd::data::require("pedestrian/inria_pos_96x160");
     Command::new(env!("CARGO_BIN_EXE_mosaicd"))
         .args(args)
-        .env(mosaicd::data::DATA_ENV, mosaicd::data::data_root())
+        .env(mosaicd::data::DATA_ENV, mosaicd::data::require_root())
         .output()
         .expect("run mosaicd")
 }
@@ -259,7 +259,7 @@ fn negatives_dir_images_are_training_only_recorded_and_deterministic() {
         b.provenance["training_only_negatives"]
     );
     // The split's own negatives are those of the plain split (nothing of the new ones held out).
-    let split = split_data(&mosaicd::data::data_root(), 1, 0.2, 0).unwrap();
+    let split = split_data(&mosaicd::data::require_root(), 1, 0.2, 0).unwrap();
     assert_eq!(p["train_negative_images"], split.train_neg.len());
 }
 
@@ -336,7 +336,7 @@ fn val_fraction_zero_trains_on_every_file_and_still_selects_c() {
     assert!(log.contains("select C: chose C ="), "{log}");
     assert!(log.contains("validation: skipped, nothing is held out"), "{log}");
     let m = LinearModel::load(&out, Domain::Mosaic).unwrap();
-    let split = mosaicd::detect::train::split_data(&mosaicd::data::data_root(), 1, 0.2, 0).unwrap();
+    let split = mosaicd::detect::train::split_data(&mosaicd::data::require_root(), 1, 0.2, 0).unwrap();
     let every = split.train_pos.len() + split.val_pos.len();
     assert_eq!(m.provenance["train_positives"].as_u64().unwrap() as usize, every);
     assert!(m.provenance.get("validation").is_none());

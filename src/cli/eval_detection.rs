@@ -201,7 +201,7 @@ fn window_args(a: &EvalDetectionArgs) -> anyhow::Result<WindowProtocol> {
         a.val_fraction != 0.0,
         "--val-fraction 0 holds nothing out: there is nothing to evaluate"
     );
-    let root = mosaicd::data::data_root();
+    let root = mosaicd::data::data_root()?;
     let mut split = split_data(&root, a.seed, a.val_fraction, a.fold).map_err(|e| match e {
         // Only missing or unreadable data needs the hint; a bad --fold or --val-fraction says so.
         TrainError::Data { .. } => anyhow::Error::new(e).context(format!(

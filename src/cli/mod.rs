@@ -6,6 +6,7 @@ pub mod bench_detect;
 pub mod bench_gradients;
 pub mod bench_pipeline;
 pub mod bench_sift;
+pub mod check;
 pub mod detect;
 pub mod eval;
 pub mod eval_detection;

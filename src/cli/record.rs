@@ -42,7 +42,7 @@ pub struct RecordArgs {
     /// Output file (default: the recipe's output, else out/recording.mcap).
     #[arg(short, long)]
     pub out: Option<PathBuf>,
-    /// Data root for recipe files (default: $MOSAICD_DATA or ../shared/data).
+    /// Data root for recipe files (default: $MOSAICD_DATA).
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Frames to record (camera: required; files: default all; motion: default 30).
@@ -219,7 +219,10 @@ fn print_files(frames: u64, files: &[PathBuf]) {
 
 /// Run `mosaicd record`.
 pub fn run(a: RecordArgs) -> anyhow::Result<()> {
-    let data_root = a.data.clone().unwrap_or_else(mosaicd::data::data_root);
+    let data_root = match a.data.clone() {
+        Some(d) => d,
+        None => mosaicd::data::data_root_for("the recipe's source files")?,
+    };
     if let Some(recipe_path) = &a.recipe {
         let recipe = Recipe::load(recipe_path)?;
         eprintln!(

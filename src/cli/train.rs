@@ -155,8 +155,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         "--bias-scale: a positive number (1 = liblinear's -B 1), got {}",
         a.bias_scale
     );
-    let root = mosaicd::data::data_root();
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
+    let root = mosaicd::data::data_root()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
     // Each stage is a log line (above a spinner on a terminal, showing the stage and the time).

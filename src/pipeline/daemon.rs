@@ -4,8 +4,10 @@
 //! * **Start-up**: build the compute pool (`daemon.threads`), open every source and sink (an error
 //!   here names the camera and the key; nothing runs half-started), then `READY=1`.
 //! * **Running**: every `daemon.stats_interval_ms` each pipeline publishes a stats snapshot, the
-//!   daemon sends `STATUS=` (fps, drops, latency) and pets the watchdog (`WATCHDOG=1`) **only if
-//!   frames progressed** since the last pet (a stuck pipeline lets systemd restart the service).
+//!   daemon sends `STATUS=` (fps, drops, latency), rewrites the metrics textfile when
+//!   `metrics.textfile` is set ([`super::textfile`]; once more after the drain) and pets the
+//!   watchdog (`WATCHDOG=1`) **only if frames progressed** since the last pet (a stuck pipeline
+//!   lets systemd restart the service).
 //! * **Shutdown** (SIGTERM/SIGINT, or every source ended): capture stops, queued and in-flight frames
 //!   are drained, final stats are published, sinks finish (MCAP summary + index), iceoryx2 ports and
 //!   nodes are dropped (shared memory released).
@@ -30,6 +32,7 @@ use super::sinks::JsonlSink;
 use super::sources::{open_source, SourceOpenError};
 use super::stage::{Stage, StageSpec};
 use super::stats::StatsSnapshot;
+use super::textfile::Textfile;
 use crate::capture::SourceKind;
 use crate::clock::{Clock, MonotonicClock, ReplayClock};
 use crate::config::{CameraConfig, Config};
@@ -303,7 +306,27 @@ pub fn run(
 
     let stats_every = Duration::from_millis(cfg.daemon.stats_interval_ms);
     let timeout = Duration::from_millis(cfg.daemon.shutdown_timeout_ms);
-    let (reports, interrupted) = rt.block_on(supervise(pipelines, signals, stats_every, timeout))?;
+    let mut textfile = cfg.metrics.textfile.clone().map(|path| {
+        Textfile::new(
+            path,
+            pipelines
+                .iter()
+                .map(|p| (p.camera().to_string(), p.shared_stats()))
+                .collect(),
+        )
+    });
+    let supervised = rt.block_on(supervise(
+        pipelines,
+        signals,
+        stats_every,
+        timeout,
+        textfile.as_mut(),
+    ));
+    // The final counters (and the recorders' final state), also after a shutdown timeout.
+    if let Some(t) = &mut textfile {
+        t.write();
+    }
+    let (reports, interrupted) = supervised?;
     let elapsed = started.elapsed().as_secs_f64();
     Ok(RunSummary {
         cameras: reports
@@ -391,6 +414,7 @@ async fn supervise(
     signals: Signals,
     stats_every: Duration,
     timeout: Duration,
+    mut textfile: Option<&mut Textfile>,
 ) -> Result<(Vec<PipelineReport>, bool), DaemonError> {
     let Signals {
         mut term,
@@ -435,6 +459,7 @@ async fn supervise(
                 let line = status_line(&pipelines, fps);
                 tracing::info!("{line}");
                 notify(&[sd_notify::NotifyState::Status(&line)]);
+                if let Some(t) = textfile.as_deref_mut() { t.write(); }
             }
             _ = dog_tick.tick(), if watchdog.is_some() => {
                 let n = processed(&pipelines);

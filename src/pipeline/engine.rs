@@ -40,7 +40,7 @@ use super::queue::{FrameQueue, Push};
 /// Re-exported from [`super::sinks`], where they live.
 pub use super::sinks::{FrameResult, PooledMaps, Sink, SinkError, SinkEvent, SinkFactory};
 use super::stage::{GradientMaps, Stage, StageError, StageOutput};
-use super::stats::{Stats, StatsSnapshot};
+use super::stats::{RecorderState, Stats, StatsSnapshot};
 use crate::capture::{Source, SourceKind};
 use crate::clock::{monotonic_ns, Clock, Stop};
 use crate::raw::{FrameMeta, RawFrame, RawPixels};
@@ -328,6 +328,12 @@ impl Pipeline {
     /// Live counters.
     pub fn stats(&self) -> StatsSnapshot {
         self.stats.snapshot()
+    }
+
+    /// The shared counters themselves (latency histogram and recorder state too); they outlive
+    /// the pipeline, so their final values can be read after [`Pipeline::join`].
+    pub fn shared_stats(&self) -> Arc<Stats> {
+        self.stats.clone()
     }
 
     /// The camera name.
@@ -695,6 +701,14 @@ fn sink_thread(
     };
     let mut out = SinkOutcome::default();
     let name = sink.name();
+    // A recorder's state goes to the stats (the metrics textfile) after every event.
+    let recorder = sink.recorder_state().is_some();
+    let set_state = |s: Option<RecorderState>| {
+        if let (true, Some(s)) = (recorder, s) {
+            stats.set_recorder_state(s);
+        }
+    };
+    set_state(sink.recorder_state());
     let mut failed = false;
     let mut panicked = false;
     // the sink's own count of frames it did not write, as far as it is in `sink_frames_lost`
@@ -739,6 +753,7 @@ fn sink_thread(
                 }
                 failed = true;
                 panicked = true;
+                set_state(Some(RecorderState::Failed));
                 continue;
             }
         };
@@ -748,6 +763,7 @@ fn sink_thread(
             now += 1;
         }
         report_lost(&mut lost, now);
+        set_state(sink.recorder_state());
         match r {
             Ok(()) => {}
             Err(e @ SinkError::Interrupted { .. }) => {
@@ -760,6 +776,7 @@ fn sink_thread(
                 stats.failed_sink.fetch_add(1, Ordering::Relaxed);
                 out.errors.push(e.to_string());
                 failed = true;
+                set_state(Some(RecorderState::Failed));
             }
         }
     }
@@ -774,9 +791,16 @@ fn sink_thread(
         return out;
     }
     if !failed {
-        if let Err(e) = sink.finish() {
-            stats.failed_sink.fetch_add(1, Ordering::Relaxed);
-            out.errors.push(e.to_string());
+        let paused = sink.recorder_state() == Some(RecorderState::Paused);
+        match sink.finish() {
+            Err(e) => {
+                stats.failed_sink.fetch_add(1, Ordering::Relaxed);
+                out.errors.push(e.to_string());
+                set_state(Some(RecorderState::Failed));
+            }
+            // A recording still paused at the end stays so: its last file was cut by the error.
+            Ok(()) if !paused => set_state(Some(RecorderState::Finished)),
+            Ok(()) => {}
         }
         report_lost(&mut lost, sink.frames_not_written());
     }

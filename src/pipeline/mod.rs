@@ -41,6 +41,7 @@ pub mod sinks;
 pub mod sources;
 pub mod stage;
 pub mod stats;
+pub mod textfile;
 
 /// Re-exported from their homes: the pool is a leaf, the synthetic source a capture source.
 pub use crate::{capture::synthetic, pool};

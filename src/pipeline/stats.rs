@@ -16,7 +16,7 @@
 //! assert!((46.0..=55.0).contains(&p50), "{p50}");
 //! ```
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 use std::sync::Mutex;
 
 use serde::Serialize;
@@ -33,6 +33,8 @@ const OCTAVES: usize = 40;
 pub struct LatencyHistogram {
     counts: Vec<u64>,
     total: u64,
+    /// Sum of every sample, µs (a Prometheus summary's `_sum`).
+    sum_us: f64,
 }
 
 impl Default for LatencyHistogram {
@@ -40,6 +42,7 @@ impl Default for LatencyHistogram {
         Self {
             counts: vec![0; SUB_BUCKETS * OCTAVES + 1],
             total: 0,
+            sum_us: 0.0,
         }
     }
 }
@@ -59,8 +62,15 @@ impl LatencyHistogram {
 
     /// Record one latency.
     pub fn record_ns(&mut self, ns: u64) {
-        self.counts[Self::bucket(ns as f64 / 1000.0)] += 1;
+        let us = ns as f64 / 1000.0;
+        self.counts[Self::bucket(us)] += 1;
         self.total += 1;
+        self.sum_us += us;
+    }
+
+    /// Sum of every sample, in microseconds.
+    pub fn sum_us(&self) -> f64 {
+        self.sum_us
     }
 
     /// Number of samples.
@@ -110,6 +120,58 @@ pub struct Stats {
     /// Boxes beyond the message capacity.
     pub box_overflow: AtomicU64,
     latency: Mutex<LatencyHistogram>,
+    /// The MCAP recorder's [`RecorderState`], set by the engine from the sink.
+    recorder: AtomicU8,
+}
+
+/// What the camera's MCAP recorder is doing (the metrics textfile's `mosaicd_recorder_state`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum RecorderState {
+    /// No recorder (`record.enabled = false`).
+    #[default]
+    Off = 0,
+    /// Writing.
+    Recording = 1,
+    /// Paused by a write error, trying again in a new file every `record.retry_ms`.
+    Paused = 2,
+    /// Stopped by an error for the rest of the run.
+    Failed = 3,
+    /// Finished: the run ended and the file is complete.
+    Finished = 4,
+}
+
+impl RecorderState {
+    /// Every state, in order.
+    pub const ALL: [Self; 5] = [
+        Self::Off,
+        Self::Recording,
+        Self::Paused,
+        Self::Failed,
+        Self::Finished,
+    ];
+
+    /// The label value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Recording => "recording",
+            Self::Paused => "paused",
+            Self::Failed => "failed",
+            Self::Finished => "finished",
+        }
+    }
+}
+
+/// Latency quantiles, count and sum over the whole run ([`Stats::latency_summary`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LatencySummary {
+    /// `(q, seconds)` for each quantile asked for.
+    pub quantiles: Vec<(f64, f64)>,
+    /// Samples.
+    pub count: u64,
+    /// Sum of the samples, seconds.
+    pub sum_s: f64,
 }
 
 /// A point-in-time copy of [`Stats`], serialisable for the summary.
@@ -148,6 +210,30 @@ impl Stats {
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .record_ns(ns);
+    }
+
+    /// Latency quantiles `qs` (each in 0..=1), count and sum, in seconds.
+    pub fn latency_summary(&self, qs: &[f64]) -> LatencySummary {
+        let h = self.latency.lock().unwrap_or_else(|e| e.into_inner());
+        LatencySummary {
+            quantiles: qs.iter().map(|&q| (q, h.percentile_us(q) / 1e6)).collect(),
+            count: h.count(),
+            sum_s: h.sum_us() / 1e6,
+        }
+    }
+
+    /// The recorder's state.
+    pub fn recorder_state(&self) -> RecorderState {
+        let v = self.recorder.load(Ordering::Relaxed);
+        RecorderState::ALL
+            .into_iter()
+            .find(|s| *s as u8 == v)
+            .unwrap_or_default()
+    }
+
+    /// Sets the recorder's state.
+    pub fn set_recorder_state(&self, s: RecorderState) {
+        self.recorder.store(s as u8, Ordering::Relaxed);
     }
 
     /// Increment a counter.

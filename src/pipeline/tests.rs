@@ -22,8 +22,23 @@ fn run_with(
     threads: usize,
     in_flight: usize,
     spec: SyntheticSpec,
-    mut sinks: Vec<super::engine::SinkFactory>,
+    sinks: Vec<super::engine::SinkFactory>,
 ) -> (super::engine::PipelineReport, Vec<serde_json::Value>) {
+    let (report, records, _) = run_with_stats(threads, in_flight, spec, sinks);
+    (report, records)
+}
+
+/// [`run_with`], also returning the pipeline's shared counters after it ended.
+fn run_with_stats(
+    threads: usize,
+    in_flight: usize,
+    spec: SyntheticSpec,
+    mut sinks: Vec<super::engine::SinkFactory>,
+) -> (
+    super::engine::PipelineReport,
+    Vec<serde_json::Value>,
+    Arc<super::stats::Stats>,
+) {
     let pool = Arc::new(
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -56,8 +71,9 @@ fn run_with(
         frames,
     )
     .unwrap();
+    let stats = p.shared_stats();
     let report = p.join();
-    (report, sink.take())
+    (report, sink.take(), stats)
 }
 
 fn text(records: &[serde_json::Value]) -> String {
@@ -524,4 +540,69 @@ fn an_aborted_drain_lets_the_other_sinks_finish_while_one_is_stuck() {
         report.stats.sink_frames_lost > 0,
         "the stuck sink's queued frames are counted as lost"
     );
+}
+
+/// A recorder stand-in: `Recording`, `Paused` from frame `pause_at` on, a write error at frame
+/// `fail_at`.
+struct Recorder {
+    pause_at: Option<u64>,
+    fail_at: Option<u64>,
+    last: u64,
+}
+
+impl super::engine::Sink for Recorder {
+    fn name(&self) -> String {
+        "recorder".into()
+    }
+    fn frame(&mut self, r: &super::engine::FrameResult) -> Result<(), super::engine::SinkError> {
+        self.last = r.index;
+        if self.fail_at == Some(r.index) {
+            return Err(super::engine::SinkError::Write {
+                sink: self.name(),
+                message: "disk gone".into(),
+            });
+        }
+        Ok(())
+    }
+    fn stats(&mut self, _: &crate::wire::messages::StatsMsg) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+    fn finish(&mut self) -> Result<(), super::engine::SinkError> {
+        Ok(())
+    }
+    fn recorder_state(&self) -> Option<super::stats::RecorderState> {
+        Some(if self.pause_at.is_some_and(|p| self.last >= p) {
+            super::stats::RecorderState::Paused
+        } else {
+            super::stats::RecorderState::Recording
+        })
+    }
+}
+
+#[test]
+fn the_recorder_state_follows_the_recorder_sink_to_the_end_of_the_run() {
+    use super::stats::RecorderState;
+    let spec = SyntheticSpec {
+        width: 32,
+        height: 16,
+        frames: 6,
+        ..Default::default()
+    };
+    let state =
+        |sinks: Vec<super::engine::SinkFactory>| run_with_stats(1, 2, spec.clone(), sinks).2.recorder_state();
+    let rec = |pause_at, fail_at| -> super::engine::SinkFactory {
+        Box::new(move || {
+            Ok(Box::new(Recorder {
+                pause_at,
+                fail_at,
+                last: 0,
+            }) as Box<dyn super::engine::Sink>)
+        })
+    };
+    // No recorder: off, whatever the other sinks do.
+    assert_eq!(state(Vec::new()), RecorderState::Off);
+    // Finished cleanly; still paused at the end; stopped by a write error.
+    assert_eq!(state(vec![rec(None, None)]), RecorderState::Finished);
+    assert_eq!(state(vec![rec(Some(3), None)]), RecorderState::Paused);
+    assert_eq!(state(vec![rec(None, Some(2))]), RecorderState::Failed);
 }

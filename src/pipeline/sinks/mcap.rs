@@ -284,6 +284,15 @@ impl Sink for McapSink {
         self.not_written
     }
 
+    fn recorder_state(&self) -> Option<crate::pipeline::stats::RecorderState> {
+        use crate::pipeline::stats::RecorderState;
+        Some(if self.outage.is_some() {
+            RecorderState::Paused
+        } else {
+            RecorderState::Recording
+        })
+    }
+
     fn stats(&mut self, s: &StatsMsg) -> Result<(), SinkError> {
         if self.outage.is_some() {
             return Ok(()); // frames make the attempts (a flush tells whether one worked)

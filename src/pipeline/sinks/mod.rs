@@ -93,6 +93,12 @@ pub trait Sink {
     fn frames_not_written(&self) -> u64 {
         0
     }
+    /// The sink's state when it is a recorder (`None`: not one). The engine reads it after every
+    /// event and sets [`crate::pipeline::stats::Stats::set_recorder_state`]; a recorder that
+    /// stops on an error or finishes is marked by the engine.
+    fn recorder_state(&self) -> Option<crate::pipeline::stats::RecorderState> {
+        None
+    }
 }
 
 /// Builds a sink inside its own thread (ports that are not `Send` are created there).

@@ -1,0 +1,182 @@
+//! Relative paths in a config file resolve against the config file's directory (models also
+//! against /usr/share/mosaicd/models), never the working directory; `mosaicd check` validates a
+//! config without opening anything and exits 0 or 1 with messages that name the key.
+//!
+//! Every command here runs from another directory than the config's (`/`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+fn mosaicd(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mosaicd"))
+        .args(args)
+        .current_dir("/")
+        .output()
+        .expect("run mosaicd")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A config directory holding a model file and a recording beside the config, which names both
+/// by relative paths; `extra` is added to the file.
+fn config_dir(extra: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("rec")).unwrap();
+    std::fs::copy(repo("models/mosaic.json"), dir.path().join("mine.json")).unwrap();
+    std::fs::copy(
+        repo("recordings/synthetic_pan.mcap"),
+        dir.path().join("rec/pan.mcap"),
+    )
+    .unwrap();
+    let cfg = dir.path().join("mosaicd.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[publish]\nenabled = false\n[compute]\nmodel = \"mine.json\"\n{extra}\n\
+             [[camera]]\nname = \"pan\"\nsource = \"mcap\"\npath = \"rec/pan.mcap\"\n"
+        ),
+    )
+    .unwrap();
+    (dir, cfg)
+}
+
+#[test]
+fn relative_model_and_recording_resolve_against_the_config_dir_from_any_cwd() {
+    let (dir, cfg) = config_dir("");
+    let c = cfg.to_str().unwrap();
+    let o = mosaicd(&["check", "--config", c]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains(&format!("{}", dir.path().join("mine.json").display())),
+        "{t}"
+    );
+    assert!(
+        t.contains(&format!("{}", dir.path().join("rec/pan.mcap").display())),
+        "{t}"
+    );
+    assert!(t.contains("ok"), "{t}");
+    let o = mosaicd(&["run", "--config", c]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("12 frames processed of 12 captured"), "{t}");
+}
+
+#[test]
+fn check_exits_1_naming_the_key_of_every_problem() {
+    let cases: [(&str, &[&str]); 4] = [
+        ("[daemon]\nthreads = 0\n", &["daemon.threads", "1..=256"]),
+        ("[daemon]\nthreadz = 2\n", &["threadz"]),
+        (
+            "[metrics]\ntextfile = \"/nonexistent-dir/mosaicd.prom\"\n",
+            &["metrics.textfile", "/nonexistent-dir"],
+        ),
+        (
+            "[metrics]\ntextfile = \"/tmp/mosaicd.txt\"\n",
+            &["metrics.textfile", ".prom"],
+        ),
+    ];
+    for (extra, want) in cases {
+        let (_dir, cfg) = config_dir(extra);
+        let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{extra}: {t}");
+        for w in want {
+            assert!(t.contains(w), "{extra}: {w:?} not in {t}");
+        }
+    }
+    // A model found nowhere: the places looked at are named; so is the missing recording.
+    let (dir, cfg) = config_dir("");
+    std::fs::remove_file(dir.path().join("mine.json")).unwrap();
+    std::fs::remove_file(dir.path().join("rec/pan.mcap")).unwrap();
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("2 problem(s)"), "{t}");
+    assert!(t.contains("compute.model"), "{t}");
+    assert!(t.contains("/usr/share/mosaicd/models/mine.json"), "{t}");
+    assert!(t.contains("camera[0].path"), "{t}");
+}
+
+#[test]
+fn check_opens_no_camera_and_no_shared_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("iox");
+    let cfg = dir.path().join("cam.toml");
+    let write = |device: &str| {
+        std::fs::write(
+            &cfg,
+            format!(
+                "[publish]\nroot = {root:?}\n[[camera]]\nname = \"front\"\nsource = \"v4l2\"\ndevice = {device:?}\n"
+            ),
+        )
+        .unwrap()
+    };
+    // A character device that is no camera: check looks at it and does not open it.
+    write("/dev/null");
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!root.exists(), "check created the iceoryx2 root");
+    write("/dev/no-such-video");
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains("camera[0].device") && t.contains("/dev/no-such-video"),
+        "{t}"
+    );
+    write("/tmp");
+    let t = text(&mosaicd(&["check", "--config", cfg.to_str().unwrap()]));
+    assert!(t.contains("not a character device"), "{t}");
+}
+
+#[test]
+fn the_installed_template_checks_once_its_camera_exists() {
+    // config/system.toml is /etc/mosaicd/mosaicd.toml in the Debian package; here its device is
+    // replaced by a character device that exists.
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("mosaicd.toml");
+    let text_in = std::fs::read_to_string(repo("config/system.toml")).unwrap();
+    assert!(text_in.contains("device = \"/dev/video0\""));
+    std::fs::write(&cfg, text_in.replace("/dev/video0", "/dev/null")).unwrap();
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn opencv_default_needs_mosaicd_data_and_no_path_is_compiled_in() {
+    let (_dir, cfg) = config_dir("");
+    let t = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .replace("\"mine.json\"", "\"opencv-default\"");
+    std::fs::write(&cfg, t).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_mosaicd"))
+        .args(["check", "--config", cfg.to_str().unwrap()])
+        .current_dir("/")
+        .env_remove(mosaicd::data::DATA_ENV)
+        .output()
+        .unwrap();
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains("compute.model") && t.contains("MOSAICD_DATA is not set"),
+        "{t}"
+    );
+    // The binary holds no path to a checkout's shared data.
+    let bin = std::fs::read(env!("CARGO_BIN_EXE_mosaicd")).unwrap();
+    let needle = b"shared/data";
+    assert!(
+        !bin.windows(needle.len()).any(|w| w == needle),
+        "the binary contains \"shared/data\""
+    );
+}
