@@ -6,12 +6,12 @@ use std::time::Instant;
 use anyhow::Context;
 use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
 use mosaicd::detect::boost::{BoostOptions, TreeOptions};
+use mosaicd::detect::channels::{ChannelInput, PyramidOptions};
 use mosaicd::detect::train::acf::{evaluate_acf_windows, positive_windows, train_acf, AcfTrainOptions};
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
 use mosaicd::detect::NmsMethod;
-use mosaicd::features::channels::{ChannelInput, PyramidOptions};
 use mosaicd::raw::levels::Gains;
 
 use super::detect::{load_frame, print_boxes, save_preview, DetectArgs, Frame};
@@ -102,7 +102,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         },
         ..AcfTrainOptions::default()
     };
-    let root = mosaicd::data::data_root();
+    let root = mosaicd::data::data_root()?;
     mosaicd::data::data_path("pedestrian/inria_pos_96x160")?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     let t0 = Instant::now();
@@ -242,7 +242,7 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
     let model = AcfModel::load(Path::new(&args.model))?;
     let tone = args.det.mosaic_tone.unwrap_or(model.mosaic_tone);
     let wb = args.det.wb_gains;
-    let frame = load_frame(&args.input, &args.raw, args.as_domain, &|f| {
+    let frame = load_frame(&args.input, args.as_domain, &|f| {
         mosaicd::detect::input::MosaicPrep { tone, gains: wb }
             .mosaic(f)
             .context("--wb-gains")
@@ -252,7 +252,7 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
             "warning: {} was trained on {} input, but {} is read as {} (a transfer case)",
             args.model,
             model.domain.name(),
-            args.input.display(),
+            args.input.input.display(),
             frame.domain().name()
         );
     }
@@ -282,7 +282,7 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
     let per_window = st.trees_evaluated as f64 / st.windows.max(1) as f64;
     if args.json {
         let out = serde_json::json!({
-            "input": args.input.display().to_string(),
+            "input": args.input.input.display().to_string(),
             "detector": "acf",
             "domain": frame.domain(),
             "cfa": frame.cfa().map(|c| c.name()),
@@ -299,7 +299,7 @@ pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "{}: {} detections (acf; {} levels, {} windows, {:.1} trees per window, {} hits, {:.1} ms: channels {:.1}, scoring {:.1})",
-            args.input.display(),
+            args.input.input.display(),
             boxes.len(),
             st.levels,
             st.windows,

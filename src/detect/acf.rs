@@ -1,4 +1,4 @@
-//! The ACF people detector: aggregated channel features ([`crate::features::channels`]) over the
+//! The ACF people detector: aggregated channel features ([`crate::detect::channels`]) over the
 //! fast pyramid, scored by boosted depth-2 trees with a soft cascade ([`super::boost`]), windows
 //! every 4 pixels, non-maximum suppression.
 //!
@@ -36,7 +36,7 @@ use super::boost::{BoostError, BoostOptions, BoostedTrees};
 use super::detector::NmsMethod;
 use super::model::{Domain, ModelError, MAX_MODEL_FILE_BYTES};
 use super::nms::{greedy_nms, group_rectangles};
-use crate::features::channels::{
+use crate::detect::channels::{
     pyramid, ChannelInput, ChannelOptions, ChannelPyramid, ChannelSpec, Channels, ChannelsError,
     PyramidOptions, N_CHANNELS, SHRINK,
 };
@@ -476,7 +476,7 @@ impl AcfDetector {
 mod tests {
     use super::*;
     use crate::detect::boost::Tree;
-    use crate::features::channels::channels;
+    use crate::detect::channels::channels;
     use crate::image::Image;
     use crate::raw::Cfa;
 

@@ -3,6 +3,7 @@
 
 pub mod acf;
 pub mod boost;
+pub mod channels;
 pub mod detector;
 pub mod input;
 mod kernels;

@@ -1,7 +1,6 @@
-//! Feature extraction on mosaics and grey images: gradients, super-pixel scale space, HOG, SIFT,
-//! aggregated channel features (ACF).
+//! Feature extraction on mosaics and grey images: gradients, super-pixel scale space, HOG, SIFT
+//! (ACF's channel features are the detector's own: `detect::channels`).
 
-pub mod channels;
 pub mod gradient;
 pub mod hog;
 pub mod sift;

@@ -38,13 +38,13 @@ use super::split::Split;
 use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
 use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
 use crate::detect::boost::{train_adaboost, BoostOptions};
+use crate::detect::channels::{
+    channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
+};
 use crate::detect::detector::NmsMethod;
 use crate::detect::input::MosaicPrep;
 use crate::detect::model::Domain;
 use crate::detect::nms::greedy_nms;
-use crate::features::channels::{
-    channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
-};
 use crate::geometry::Detection;
 use crate::raw::levels::Gains;
 use crate::raw::tone::MosaicTone;
@@ -498,7 +498,13 @@ mod tests {
         // A small run on the shared INRIA crops and negatives (fails with the data directory
         // named when $MOSAICD_DATA is missing, like every data test).
         crate::data::data_path("pedestrian/inria_pos_96x160").unwrap_or_else(|e| panic!("{e}"));
-        let mut split = super::super::split_data(&crate::data::data_root(), 1, 0.2, 0).unwrap();
+        let mut split = super::super::split_data(
+            &crate::data::data_root().unwrap_or_else(|e| panic!("{e}")),
+            1,
+            0.2,
+            0,
+        )
+        .unwrap();
         split.train_pos.truncate(40);
         split.train_neg.truncate(4);
         let o = AcfTrainOptions {

@@ -11,7 +11,7 @@
 //! power-law approximations in between).
 //!
 //! ```
-//! use mosaicd::features::channels::{channels, ChannelInput, ChannelSpec, N_CHANNELS};
+//! use mosaicd::detect::channels::{channels, ChannelInput, ChannelSpec, N_CHANNELS};
 //! use mosaicd::image::Image;
 //! use mosaicd::raw::Cfa;
 //! // A flat grey mosaic (R = G = B = 128): no gradient, the same colour everywhere.
