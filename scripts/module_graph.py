@@ -393,17 +393,6 @@ KNOWN: dict[tuple[str, ...], str] = {
         "it (left from the ACF work of issue 26)"
     ),
     (
-        "detect/kernels/avx2.rs",
-        "detect/kernels/avx512.rs",
-        "detect/kernels/neon.rs",
-        "detect/pyramid.rs",
-        "detect/score.rs",
-    ): (
-        "the per-ISA kernels take score.rs's and pyramid.rs's weight and tap types, and those files "
-        "dispatch to them; moving the shared types into detect/kernels/mod.rs (or a types file "
-        "below both) removes it (left from the kernel-layer work of issue 28)"
-    ),
-    (
         "features/hog/approx.rs",
         "features/hog/blocks.rs",
         "features/hog/cells.rs",

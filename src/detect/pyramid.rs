@@ -31,7 +31,7 @@
 
 use rayon::prelude::*;
 
-use super::kernels::prefetch_row;
+use super::kernels::{horizontal_row, prefetch_row, vertical_row, Perm16};
 use crate::image::{Image, ImageView};
 use crate::kernels::Isa;
 
@@ -182,26 +182,6 @@ fn resize_planes(
 /// ≲ 7.9 for a plane).
 const MAX_PAIRS: u32 = 4;
 
-/// The column taps of 16 consecutive outputs whose sources all lie in the `32·pairs` values from
-/// `base`: the AVX-512 horizontal pass loads those values (`2·pairs` registers) and picks each
-/// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
-/// tap (no gathers).
-// Read only by the AVX-512 pass: built (and tested) everywhere, used on x86-64.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Perm16 {
-    /// First source value of the window.
-    pub(crate) base: u32,
-    /// Register pairs (of 32 values) the window spans.
-    pub(crate) pairs: u32,
-    /// Offsets of the left taps from `base` (< `32·pairs`).
-    pub(crate) p: [u32; 16],
-    /// Offsets of the right taps from `base`.
-    pub(crate) q: [u32; 16],
-    /// Weights of the right taps.
-    pub(crate) fx: [f32; 16],
-}
-
 /// The [`Perm16`]s of one resize and the source row length they were built for (the AVX-512
 /// horizontal pass checks it against every row, once per call); empty off the AVX-512 path.
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -303,23 +283,6 @@ fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], isa: Isa) {
 /// An operation applied in place to every output row while it is still in cache (e.g. HOG's gamma,
 /// [`crate::features::hog::gamma_in_place`]).
 pub type RowOp = dyn Fn(&mut [f32]) + Sync;
-
-/// The scalar horizontal pass (the reference of every path).
-#[inline(always)]
-pub(crate) fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
-    for (o, &(p, q, fx)) in out.iter_mut().zip(tc) {
-        let (p, q) = (p as usize, q as usize);
-        *o = a[p] + (a[q] - a[p]) * fx;
-    }
-}
-
-/// The scalar vertical pass (the reference of every path).
-#[inline(always)]
-pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
-    for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
-        *o = v0 + (v1 - v0) * fy;
-    }
-}
 
 /// Bilinear resize of one f32 plane to `new_w x new_h` (cv2.resize INTER_LINEAR semantics).
 pub fn resize_bilinear(

@@ -35,15 +35,15 @@
 //!
 //! An optional integer path, fast where the CPU has a u8·i8 dot product (`vpdpbusd`: AVX-512
 //! VNNI on zmm, AVX-VNNI on ymm). Block values `v ∈ [0, 1]` (L2-Hys) become bytes
-//! `q_v = round(255·v)` ([`quantise_block_value`]: clamped to `0..=255`, ties to even), the weights
+//! `q_v = round(180·v)` ([`quantise_block_value`]: clamped to `0..=180`, ties to even), the weights
 //! become `q_w = round(s·w)`, `s = 127 / max|w|`, once per model ([`ScoreWeightsI8`]; an all-zero
 //! model keeps `s = 1` and scores its bias). Then
 //!
 //! `P_r[k][x] = Σ_i q_v(x, r)[i] · q_w[i][k]` and `S(wx, wy) = Σ_{by} Σ_{bx} P_{wy+by}[bx·bh+by][wx+bx]`
 //!
-//! are **exact** i32 sums (`|S| ≤ 255·127·3780 < 2^31`; descriptors longer than
+//! are **exact** i32 sums (`|S| ≤ 180·127·3780 < 2^31`; descriptors longer than
 //! [`ScoreWeightsI8::MAX_DESCRIPTOR_LEN`] are refused), and the score is
-//! `s(wx, wy) = b + S · (1/(255·s))` in f32 (one multiply, one add, the same code after every
+//! `s(wx, wy) = b + S · (1/(180·s))` in f32 (one multiply, one add, the same code after every
 //! kernel; the bias stays f32).
 //!
 //! Layout: each block row is quantised to bytes and transposed as dwords, `btq[g·nbxp + x]` = the
@@ -51,12 +51,13 @@
 //! multiple of 4 is zero-padded), and the weights as dwords `wq[g·nkp + k]`. The VNNI kernels
 //! keep the f32 kernels' tiles, `acc[j] = vpdpbusd(acc[j], btq[g][x..x+16], broadcast(wq[g][k0+j]))`:
 //! a quarter of their instructions (9 instead of 36 per block position). The other kernels:
-//! - **AVX2 without VNNI** reads u16 pairs (`btq[h·nbxp + x]` = values `2h, 2h+1` of block `x`,
-//!   weights as i16 pairs) with `vpmaddwd`: exact, 18 `vpmaddwd` + 18 `vpaddd` + 18 broadcasts
-//!   per block position against 36 FMAs + 36 broadcasts in f32 (measured 1.1–1.6x faster).
-//!   `vpmaddubsw` would halve them but adds u8·i8 pairs in a saturating i16, and
-//!   `2·180·127 > 32 767` is reachable (two values of 1/√2 in one L2-Hys block): see
-//!   `detect/kernels/avx2.rs`.
+//! - **AVX2 without VNNI** runs the same tiles with `vpmaddubsw` (two u8·i8 products in a
+//!   saturating i16) widened by `vpmaddwd` against ones: 9 broadcasts + 27 operations per block
+//!   position against 36 FMAs + 36 broadcasts in f32. Exact because the scale is 180, not 255:
+//!   an L2-Hys block has `‖v‖₂ ≤ 1`, so two of its values sum to at most `√2` and quantise to at
+//!   most 255 together, and `255·127 ≤ 32 767` (`detect/kernels/avx2.rs`). The scale was 255
+//!   with a u16-pair `vpmaddwd` kernel before (18 + 18 + 18 per position); 180 costs 0.5 bit of
+//!   block precision, measured in docs/detection.md ("8-bit SVM").
 //! - **NEON** shifts the bytes to i8 (`v − 128`) and adds `128·Σ_i q_w[i][k]` back per position:
 //!   `sdot` where the CPU has the dot product, else `smull`/`sadalp` (`detect/kernels/neon.rs`).
 //!
@@ -69,16 +70,16 @@
 //! any strip split and any thread count give the same bits (tested), whatever order the sums run
 //! in.
 //!
-//! **Error.** With `q_v = 255·v + e_v` and `q_w = s·w + e_w`, `|e| ≤ ½`, a score differs from the
-//! exact one by `Σ (v·e_w/s + w·e_v/255 + e_v·e_w/(255·s))`, so
-//! `|Δ| ≤ Σ|w|·½/255 + Σv·½/s + n·¼/(255·s)` with `Σv ≤ nk·√bl` for blocks of L2 norm ≤ 1
-//! ([`ScoreWeightsI8::error_bound`]: 1.53 for OpenCV's people detector, `s` = 294.7). The bound is
+//! **Error.** With `q_v = 180·v + e_v` and `q_w = s·w + e_w`, `|e| ≤ ½`, a score differs from the
+//! exact one by `Σ (v·e_w/s + w·e_v/180 + e_v·e_w/(180·s))`, so
+//! `|Δ| ≤ Σ|w|·½/180 + Σv·½/s + n·¼/(180·s)` with `Σv ≤ nk·√bl` for blocks of L2 norm ≤ 1
+//! ([`ScoreWeightsI8::error_bound`]: 1.72 for OpenCV's people detector, `s` = 294.7). The bound is
 //! loose because the rounding errors have both signs and mostly cancel: measured with OpenCV's
-//! weights on the 1080p bench frame (262 135 windows, scores −9…0) max |Δ| 0.038, p99 0.021, mean
-//! 0.0065; on kodim01 max 0.032, mean 0.0066 (test).
+//! weights on kodim01 max |Δ| 0.040, mean 0.0081 (test; at the former scale 255: 0.032 / 0.0066,
+//! and on the 1080p bench frame 0.038 / 0.0065).
 //!
 //! **Against OpenCV.** OpenCV has no 8-bit HOG scoring: the 8-bit scores are OpenCV's within the
-//! error above, so windows within ≈0.04 of the hit threshold may flip. The OpenCV parity tests
+//! error above, so windows within ≈0.05 of the hit threshold may flip. The OpenCV parity tests
 //! and the golden detection hashes use the f32 path, which is unchanged.
 //!
 //! ```
@@ -110,7 +111,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use super::kernels::{TILE_K_AVX512, TILE_K_NARROW};
+use super::kernels::{add_window_row, TILE_K_AVX512, TILE_K_NARROW};
+pub use super::kernels::{quantise_block_value, BLOCK_QUANT_SCALE};
 use crate::features::hog::{BlockGrid, Exec, HogSpec};
 use crate::kernels::{features, Isa};
 
@@ -327,22 +329,13 @@ fn f32_kernel(isa: Isa) -> Isa {
     }
 }
 
-/// Which block layout an 8-bit kernel reads (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Layout {
-    /// Dword `g` of a block = values `4g..4g+4` as bytes; weights as four i8.
-    Bytes,
-    /// Dword `h` of a block = values `2h, 2h+1` as u16; weights as two i16.
-    Pairs,
-}
-
 /// The 8-bit block-product kernels (each with the quantiser of its instruction set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum I8Kernel {
     /// Plain i32 arithmetic: the reference.
     Scalar,
-    /// AVX2 `vpmaddwd` on u16 pairs (no VNNI).
-    Avx2Pairs,
+    /// AVX2 `vpmaddubsw` + `vpmaddwd` (no VNNI).
+    Avx2Maddubs,
     /// AVX-VNNI `vpdpbusd` on ymm.
     AvxVnni,
     /// AVX-512 VNNI `vpdpbusd` on zmm.
@@ -368,7 +361,7 @@ impl I8Kernel {
             Isa::Scalar => Self::Scalar,
             Isa::Avx512 if f.avx512vnni => Self::Avx512Vnni,
             Isa::Avx2 | Isa::Avx512 if f.avxvnni => Self::AvxVnni,
-            Isa::Avx2 | Isa::Avx512 => Self::Avx2Pairs,
+            Isa::Avx2 | Isa::Avx512 => Self::Avx2Maddubs,
             Isa::Neon if f.dotprod => Self::NeonSdot,
             Isa::Neon => Self::NeonSmull,
         }
@@ -379,7 +372,7 @@ impl I8Kernel {
     fn all_for(isa: Isa) -> Vec<Self> {
         let all = [
             Self::Scalar,
-            Self::Avx2Pairs,
+            Self::Avx2Maddubs,
             Self::AvxVnni,
             Self::Avx512Vnni,
             Self::Vnni256,
@@ -396,7 +389,7 @@ impl I8Kernel {
     fn isa(self) -> Isa {
         match self {
             Self::Scalar => Isa::Scalar,
-            Self::Avx2Pairs | Self::AvxVnni => Isa::Avx2,
+            Self::Avx2Maddubs | Self::AvxVnni => Isa::Avx2,
             Self::Avx512Vnni | Self::Vnni256 => Isa::Avx512,
             Self::NeonSmull | Self::NeonSdot => Isa::Neon,
         }
@@ -407,7 +400,7 @@ impl I8Kernel {
         let f = features();
         match self {
             Self::Scalar => true,
-            Self::Avx2Pairs => Isa::Avx2.is_available(),
+            Self::Avx2Maddubs => Isa::Avx2.is_available(),
             Self::AvxVnni => Isa::Avx2.is_available() && f.avxvnni,
             Self::Avx512Vnni => Isa::Avx512.is_available() && f.avx512vnni,
             #[cfg(test)]
@@ -422,17 +415,10 @@ impl I8Kernel {
     fn faster_than_f32(self) -> bool {
         match self {
             Self::Scalar => cfg!(target_arch = "x86_64"),
-            Self::Avx2Pairs | Self::AvxVnni | Self::Avx512Vnni => true,
+            Self::Avx2Maddubs | Self::AvxVnni | Self::Avx512Vnni => true,
             #[cfg(test)]
             Self::Vnni256 => true,
             Self::NeonSmull | Self::NeonSdot => false,
-        }
-    }
-
-    fn layout(self) -> Layout {
-        match self {
-            Self::Avx2Pairs => Layout::Pairs,
-            _ => Layout::Bytes,
         }
     }
 
@@ -456,44 +442,27 @@ impl I8Kernel {
     }
 }
 
-/// Scale of block values on the 8-bit path: `q = round(v·255)` (L2-Hys values lie in [0, 1]).
-pub const BLOCK_QUANT_SCALE: f32 = 255.0;
 /// Largest quantised weight magnitude: `q = round(w·s)`, `s = 127 / max|w|`.
 pub const WEIGHT_QUANT_MAX: f32 = 127.0;
-/// Adding then subtracting 2^23 rounds a non-negative f32 below 2^23 to an integer, ties to even
-/// (the default rounding mode, as `cvtps2dq`): plain arithmetic that vectorises, where
-/// [`f32::round`] is a libm call on baseline x86-64.
-const ROUND_MAGIC: f32 = 8_388_608.0;
-
-/// One block value on the 8-bit path: `round(v·255)` clamped to `0..=255` (ties to even; NaN → 0).
-#[inline]
-pub fn quantise_block_value(v: f32) -> u8 {
-    let x = (v * BLOCK_QUANT_SCALE).clamp(0.0, BLOCK_QUANT_SCALE);
-    ((x + ROUND_MAGIC) - ROUND_MAGIC) as u8
-}
-
 /// The model quantised for the 8-bit path ([`ScorePrecision::I8`]): `wq[g·nkp + k]` packs the i8
 /// weights of values `4g..4g+4` of block position `k` into one dword (little-endian, zero past
-/// the block length), the layout `vpdpbusd` broadcasts; `wq16` the same weights as i16 pairs for
-/// `vpmaddwd`, and `corr` the per-position constant of the NEON kernels.
+/// the block length), the layout `vpdpbusd` and `vpmaddubsw` broadcast, and `corr` the
+/// per-position constant of the NEON kernels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoreWeightsI8 {
     wq: Vec<u32>,
-    /// `wq16[h·nkp + k]` = the i16 weights of values `2h, 2h+1` of position `k`.
-    wq16: Vec<u32>,
     /// `corr[k] = 128·Σ_i q_w[i][k]`: what shifting the block values by −128 takes off a product.
     corr: Vec<i32>,
     bias: f32,
     /// `s = 127 / max|w|` (1 for an all-zero model).
     weight_scale: f32,
-    /// `1 / (255·s)`: one unit of an i32 window sum in score units.
+    /// `1 / (180·s)`: one unit of an i32 window sum in score units.
     unit: f32,
     /// Worst-case |score − exact score| (see [`Self::error_bound`]).
     error_bound: f32,
-    /// Block length (36), its dwords (`⌈bl/4⌉`) and its u16 pairs (`⌈bl/2⌉`).
+    /// Block length (36) and its dwords (`⌈bl/4⌉`).
     bl: usize,
     ng: usize,
-    nh: usize,
     bw: usize,
     bh: usize,
     nk: usize,
@@ -501,9 +470,9 @@ pub struct ScoreWeightsI8 {
 }
 
 impl ScoreWeightsI8 {
-    /// Longest descriptor whose window sums cannot overflow i32: `255 · 127 · n ≤ 2^31 − 1`
-    /// (66 311; OpenCV's people detector has 3 780).
-    pub const MAX_DESCRIPTOR_LEN: usize = i32::MAX as usize / (255 * 127);
+    /// Longest descriptor whose window sums cannot overflow i32: `180 · 127 · n ≤ 2^31 − 1`
+    /// (93 940; OpenCV's people detector has 3 780).
+    pub const MAX_DESCRIPTOR_LEN: usize = i32::MAX as usize / (BLOCK_QUANT_SCALE as usize * 127);
 
     /// Quantise `w` (once per model): `q = round(w·s)`, `s = 127 / max|w|`; the bias stays f32.
     pub fn new(w: &ScoreWeights) -> Result<Self, ScoreError> {
@@ -515,7 +484,7 @@ impl ScoreWeightsI8 {
                 max: Self::MAX_DESCRIPTOR_LEN,
             });
         }
-        let (ng, nh) = (bl.div_ceil(4), bl.div_ceil(2));
+        let ng = bl.div_ceil(4);
         let weight = |i: usize, k: usize| w.wt[i * nkp + k];
         let all = || (0..nk).flat_map(move |k| (0..bl).map(move |i| weight(i, k)));
         let max = all().fold(0.0f32, |m, v| m.max(v.abs()));
@@ -532,19 +501,15 @@ impl ScoreWeightsI8 {
                 0
             }
         };
-        let (mut wq, mut wq16, mut corr) = (vec![0u32; ng * nkp], vec![0u32; nh * nkp], vec![0i32; nkp]);
+        let (mut wq, mut corr) = (vec![0u32; ng * nkp], vec![0i32; nkp]);
         for k in 0..nk {
             for g in 0..ng {
                 let b: [u8; 4] = std::array::from_fn(|t| q(4 * g + t, k) as u8);
                 wq[g * nkp + k] = u32::from_le_bytes(b);
             }
-            for h in 0..nh {
-                let (lo, hi) = (q(2 * h, k) as i16 as u16, q(2 * h + 1, k) as i16 as u16);
-                wq16[h * nkp + k] = lo as u32 | (hi as u32) << 16;
-            }
             corr[k] = 128 * (0..bl).map(|i| q(i, k) as i32).sum::<i32>();
         }
-        // |Δ| ≤ Σ|w|·½/255 (values) + Σv·½/s (weights) + n·¼/(255·s) (both), with Σv ≤ nk·√bl
+        // |Δ| ≤ Σ|w|·½/180 (values) + Σv·½/s (weights) + n·¼/(180·s) (both), with Σv ≤ nk·√bl
         // for blocks of L2 norm ≤ 1.
         let abs_sum: f64 = all().map(|v| v.abs() as f64).sum();
         let sum_v = nk as f64 * (bl as f64).sqrt();
@@ -552,7 +517,6 @@ impl ScoreWeightsI8 {
         let bound = abs_sum * 0.5 / qb + sum_v * 0.5 / s + (nk * bl) as f64 * 0.25 / (qb * s);
         Ok(Self {
             wq,
-            wq16,
             corr,
             bias: w.bias,
             weight_scale: s as f32,
@@ -560,7 +524,6 @@ impl ScoreWeightsI8 {
             error_bound: bound as f32,
             bl,
             ng,
-            nh,
             bw: w.bw,
             bh: w.bh,
             nk,
@@ -574,8 +537,8 @@ impl ScoreWeightsI8 {
     }
 
     /// Worst-case difference between an 8-bit score and the exact score of the same blocks, for
-    /// blocks of L2 norm ≤ 1 with values in [0, 1] (L2-Hys): `Σ|w|·½/255 + nk·√bl·½/s +
-    /// n·¼/(255·s)` (the f32 conversion of the sum adds ≤ 1e-5 for realistic sums).
+    /// blocks of L2 norm ≤ 1 with values in [0, 1] (L2-Hys): `Σ|w|·½/180 + nk·√bl·½/s +
+    /// n·¼/(180·s)` (the f32 conversion of the sum adds ≤ 1e-5 for realistic sums).
     pub fn error_bound(&self) -> f32 {
         self.error_bound
     }
@@ -585,15 +548,7 @@ impl ScoreWeightsI8 {
         self.wq[(i / 4) * self.nkp + k].to_le_bytes()[i % 4] as i8
     }
 
-    /// Dwords per block in `layout`, and the weights in it.
-    fn layout(&self, layout: Layout) -> (usize, &[u32]) {
-        match layout {
-            Layout::Bytes => (self.ng, &self.wq),
-            Layout::Pairs => (self.nh, &self.wq16),
-        }
-    }
-
-    /// An exact i32 window sum to a score: `bias + sum·(1/(255·s))`, the same in every kernel.
+    /// An exact i32 window sum to a score: `bias + sum·(1/(180·s))`, the same in every kernel.
     #[inline]
     fn score_from_sum(&self, sum: i32) -> f32 {
         self.bias + sum as f32 * self.unit
@@ -665,6 +620,8 @@ trait RowProducts: Sync {
     fn products(&self, row: &[f32], nbx: usize, nbxp: usize, s: &mut Self::Scratch, out: &mut [Self::Acc]);
     /// Window sums to scores.
     fn finish(&self, sums: &[Self::Acc], scores: &mut [f32]);
+    /// [`add_window_row`] with this path's instruction set.
+    fn add_row(&self, row: &mut [Self::Acc], pr: &[Self::Acc], by: usize, bh: usize, bw: usize, nbxp: usize);
 }
 
 /// The f32 path: transposed block rows, f32 products, window sums from the bias.
@@ -692,6 +649,16 @@ impl RowProducts for F32Rows<'_> {
     fn finish(&self, sums: &[f32], scores: &mut [f32]) {
         scores.copy_from_slice(sums);
     }
+    fn add_row(&self, row: &mut [f32], pr: &[f32], by: usize, bh: usize, bw: usize, nbxp: usize) {
+        match self.kernel {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `kernel` is a path this CPU runs (`f32_kernel`), so it has AVX2.
+            Isa::Avx2 | Isa::Avx512 => unsafe {
+                super::kernels::avx2::add_window_row_f32(row, pr, by, bh, bw, nbxp)
+            },
+            _ => add_window_row(row, pr, by, bh, bw, nbxp),
+        }
+    }
 }
 
 /// The 8-bit path: quantised, dword-transposed block rows, exact i32 products and window sums.
@@ -711,8 +678,7 @@ impl RowProducts for I8Rows<'_> {
         0
     }
     fn scratch(&self, nbxp: usize) -> (Vec<u8>, Vec<u32>) {
-        let (nd, _) = self.w.layout(self.kernel.layout());
-        (vec![0; 4 * self.w.ng * nbxp], vec![0; nd * nbxp])
+        (vec![0; 4 * self.w.ng * nbxp], vec![0; self.w.ng * nbxp])
     }
     fn products(&self, row: &[f32], nbx: usize, nbxp: usize, s: &mut (Vec<u8>, Vec<u32>), out: &mut [i32]) {
         let (q, btq) = s;
@@ -722,6 +688,17 @@ impl RowProducts for I8Rows<'_> {
     fn finish(&self, sums: &[i32], scores: &mut [f32]) {
         for (s, &v) in scores.iter_mut().zip(sums) {
             *s = self.w.score_from_sum(v);
+        }
+    }
+    fn add_row(&self, row: &mut [i32], pr: &[i32], by: usize, bh: usize, bw: usize, nbxp: usize) {
+        match self.kernel {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: every non-scalar x86-64 kernel runs only with AVX2 (`is_runnable`), and
+            // `scores_i8_kernel` replaced a kernel this CPU cannot run by the scalar one.
+            I8Kernel::Avx2Maddubs | I8Kernel::AvxVnni | I8Kernel::Avx512Vnni => unsafe {
+                super::kernels::avx2::add_window_row_i32(row, pr, by, bh, bw, nbxp)
+            },
+            _ => add_window_row(row, pr, by, bh, bw, nbxp),
         }
     }
 }
@@ -758,13 +735,7 @@ fn scores_by_strips<R: RowProducts>(r: &R, grid: &BlockGrid, exec: Exec, scores:
                 if wy < first || wy >= first + rows {
                     continue;
                 }
-                let row = &mut sums[(wy - first) * nwx..][..nwx];
-                for bx in 0..bw {
-                    let src = &pr[(bx * bh + by) * nbxp + bx..][..nwx];
-                    for (v, &p) in row.iter_mut().zip(src) {
-                        *v += p;
-                    }
-                }
+                r.add_row(&mut sums[(wy - first) * nwx..][..nwx], &pr, by, bh, bw, nbxp);
             }
         }
         r.finish(&sums, chunk);
@@ -867,8 +838,7 @@ fn block_products_scalar(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, 
 
 /// Quantise block row `row` (`nbx` blocks of `bl` values) on the 8-bit path: `q[x·4ng + i]` =
 /// [`quantise_block_value`] of value `i` of block `x` (zero for `bl ≤ i < 4ng`), then the dword
-/// transpose of the kernel's layout: `btq[g·nbxp + x]` = bytes `4g..4g+4` of block `x`
-/// ([`Layout::Bytes`]) or u16 values `2g, 2g+1` ([`Layout::Pairs`]); padding columns stay zero.
+/// transpose: `btq[g·nbxp + x]` = bytes `4g..4g+4` of block `x`; padding columns stay zero.
 /// For blocks of a multiple of 4 values (every HOG block) the kernel's instruction set
 /// quantises; the bytes are the scalar ones.
 fn quantise_row(
@@ -881,16 +851,12 @@ fn quantise_row(
     btq: &mut [u32],
 ) {
     let ng = bl.div_ceil(4);
-    let nd = match kernel.layout() {
-        Layout::Bytes => ng,
-        Layout::Pairs => bl.div_ceil(2),
-    };
     let n = nbx * 4 * ng;
     // The bounds the SIMD quantisers rely on, once per call.
     assert!(
         row.len() >= nbx * bl
             && q.len() >= n
-            && btq.len() >= nd * nbxp
+            && btq.len() >= ng * nbxp
             && nbxp.is_multiple_of(PAD_COLUMNS)
             && nbx <= nbxp,
         "quantise_row out of bounds: {nbx}/{nbxp} blocks of {bl}, row {}, q {}, btq {}",
@@ -908,7 +874,7 @@ fn quantise_row(
             }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: these kernels run only with AVX2 (`is_runnable`); n ≤ row.len(), q.len().
-            I8Kernel::Avx2Pairs | I8Kernel::AvxVnni => unsafe {
+            I8Kernel::Avx2Maddubs | I8Kernel::AvxVnni => unsafe {
                 super::kernels::avx2::quantise_values(row, n, q)
             },
             #[cfg(all(test, target_arch = "x86_64"))]
@@ -933,20 +899,9 @@ fn quantise_row(
             dst[bl..].fill(0);
         }
     }
-    match kernel.layout() {
-        Layout::Bytes => {
-            for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
-                for (g, b) in blk.chunks_exact(4).enumerate() {
-                    btq[g * nbxp + x] = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                }
-            }
-        }
-        Layout::Pairs => {
-            for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
-                for (h, b) in blk.chunks_exact(2).take(nd).enumerate() {
-                    btq[h * nbxp + x] = b[0] as u32 | (b[1] as u32) << 16;
-                }
-            }
+    for (x, blk) in q.chunks_exact(4 * ng).take(nbx).enumerate() {
+        for (g, b) in blk.chunks_exact(4).enumerate() {
+            btq[g * nbxp + x] = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
     }
 }
@@ -961,7 +916,7 @@ fn quant_products(
     kernel: I8Kernel,
     out: &mut [i32],
 ) {
-    let (nd, wq) = w.layout(kernel.layout());
+    let (nd, wq) = (w.ng, &w.wq[..]);
     check_product_bounds(
         nbx,
         nbxp,
@@ -993,9 +948,10 @@ fn quant_products(
             super::kernels::avx2::products_bytes_vnni256(btq, wq, nd, nk, nkp, nbxp, out)
         },
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: runnable: AVX2; lengths (of the u16-pair layout) checked above.
-        I8Kernel::Avx2Pairs => unsafe {
-            super::kernels::avx2::products_pairs_madd(btq, wq, nd, nk, nkp, nbxp, out)
+        // SAFETY: runnable: AVX2; lengths checked above. Exact for the L2-normalised blocks of
+        // every BlockGrid (the kernel's module docs).
+        I8Kernel::Avx2Maddubs => unsafe {
+            super::kernels::avx2::products_bytes_maddubs(btq, wq, nd, nk, nkp, nbxp, out)
         },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: runnable: the dot-product extension; lengths checked above, corr holds nkp ≥ nk.
@@ -1119,27 +1075,34 @@ mod tests {
 
     #[test]
     fn kernel_paths_i8_products_are_exact_at_the_extremes() {
-        // Values 255 and weights ±127 side by side: the pair sums a saturating vpmaddubsw would
-        // clip (2·255·127 = 64 770), and −128 shifts at the NEON kernels' edge. Every kernel's
-        // products equal the i32 reference exactly.
+        // The largest pair sums an L2-normalised block can give, against weights ±127: two values
+        // of 1/√2 side by side (q = 127 + 127: 254·127 = 32 258, the edge of AVX2's saturating
+        // vpmaddubsw), a lone 1 (q = 180), and zeros (the −128 shift at the NEON kernels' edge).
+        // Every kernel's products equal the i32 reference exactly.
         let spec = HogSpec::new(&HogOptions::default()).unwrap();
         let n = spec.descriptor_len();
-        for (wsign, vals) in [
-            (1.0f32, 1.0f32),
-            (-1.0, 1.0),
-            (1.0, 0.0),
-            (-1.0, std::f32::consts::FRAC_1_SQRT_2),
-        ] {
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        for wsign in [1.0f32, -1.0] {
             let w: Vec<f32> = (0..n).map(|i| if i % 3 == 2 { -wsign } else { wsign }).collect();
             let sq = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0).unwrap()).unwrap();
-            // 20 blocks of one row (padded to 32 columns).
+            // 20 blocks of one row (padded to 32 columns): block x holds the pair at values
+            // (2p, 2p+1), p = x mod 18, or (every 4th block) a lone 1 at value x mod 36.
             let row: Vec<f32> = (0..20 * 36)
-                .map(|i| if i % 5 == 4 { 0.0 } else { vals })
+                .map(|i| {
+                    let (x, v) = (i / 36, i % 36);
+                    match x % 4 {
+                        3 => f32::from(u8::from(v == x % 36)),
+                        _ if v / 2 == x % 18 => h,
+                        _ => 0.0,
+                    }
+                })
                 .collect();
+            for blk in row.chunks_exact(36) {
+                assert!(blk.iter().map(|v| v * v).sum::<f32>() <= 1.0 + 1e-6);
+            }
             let run = |k: I8Kernel| {
-                let nd = sq.layout(k.layout()).0;
                 let (mut q, mut btq, mut out) =
-                    (vec![0u8; 20 * 36], vec![0u32; nd * 32], vec![0i32; sq.nk * 32]);
+                    (vec![0u8; 20 * 36], vec![0u32; sq.ng * 32], vec![0i32; sq.nk * 32]);
                 quantise_row(&row, 36, 20, 32, k, &mut q, &mut btq);
                 quant_products(&sq, &btq, 20, 32, k, &mut out);
                 (0..sq.nk)
@@ -1147,15 +1110,12 @@ mod tests {
                     .collect::<Vec<i32>>()
             };
             let want = run(I8Kernel::Scalar);
-            let q = quantise_block_value(vals) as i32;
-            // Block position 0 of block 0: Σ over 36 values of q·(±127) with every 5th value 0.
-            let direct: i32 = (0..36)
-                .filter(|i| i % 5 != 4)
-                .map(|i| q * sq.weight(i, 0) as i32)
-                .sum();
-            assert_eq!(want[0], direct);
+            // Block position 0 of block 0: the pair at values 0 and 1, both +wsign weights.
+            assert_eq!(quantise_block_value(h), 127);
+            assert_eq!(want[0], 127 * (sq.weight(0, 0) as i32 + sq.weight(1, 0) as i32));
+            assert_eq!(want[0].abs(), 127 * 254);
             for k in every_i8_kernel() {
-                assert_eq!(run(k), want, "{k:?} weights {wsign} values {vals}");
+                assert_eq!(run(k), want, "{k:?} weights {wsign}");
             }
         }
     }
@@ -1206,25 +1166,30 @@ mod tests {
             "max |Δ| {max} > bound {}",
             sq.error_bound()
         );
-        // Measured: max 0.032, mean 0.0066 (rounding errors mostly cancel; the 1080p bench frame
-        // gives 0.038 / 0.0065); a wrong scale or layout gives errors of the order of the scores.
-        eprintln!("kodim01: {} windows, max |Δ| {max}, mean {mean}", d.len());
+        // Measured: max 0.040, mean 0.0081 at block scale 180 (0.032 / 0.0066 at 255; rounding
+        // errors mostly cancel); a wrong scale or layout gives errors of the order of the scores.
+        eprintln!(
+            "kodim01: {} windows, max |Δ| {max}, mean {mean}, bound {}",
+            d.len(),
+            sq.error_bound()
+        );
         assert!(max < 0.05 && mean < 0.01, "max {max} mean {mean}");
     }
 
     #[test]
     fn quantisation_edge_cases() {
         assert_eq!(quantise_block_value(0.0), 0);
-        assert_eq!(quantise_block_value(1.0), 255);
+        assert_eq!(quantise_block_value(1.0), 180);
         assert_eq!(quantise_block_value(-0.25), 0);
-        assert_eq!(quantise_block_value(1.5), 255);
+        assert_eq!(quantise_block_value(1.5), 180);
         assert_eq!(quantise_block_value(f32::NAN), 0);
-        assert_eq!(quantise_block_value(1.0 / 255.0), 1);
-        assert_eq!(quantise_block_value(0.4 / 255.0), 0);
-        assert_eq!(quantise_block_value(0.6 / 255.0), 1);
-        // 127.5 and 128.5: ties to even.
-        assert_eq!(quantise_block_value(0.5), 128);
-        assert_eq!(quantise_block_value(128.5 / 255.0), 128);
+        assert_eq!(quantise_block_value(1.0 / 180.0), 1);
+        assert_eq!(quantise_block_value(0.4 / 180.0), 0);
+        assert_eq!(quantise_block_value(0.6 / 180.0), 1);
+        // 22.5 and 67.5: ties to even.
+        assert_eq!(quantise_block_value(0.125), 22);
+        assert_eq!(quantise_block_value(0.375), 68);
+        assert_eq!(quantise_block_value(0.5), 90);
         let spec = HogSpec::new(&HogOptions::default()).unwrap();
         // All-zero weights: every window scores the bias.
         let zero = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &[], 1.5).unwrap()).unwrap();
@@ -1243,7 +1208,7 @@ mod tests {
             [q.weight(0, 0), q.weight(1, 0), q.weight(2, 0), q.weight(1, 1)],
             [-127, 32, -1, 2]
         );
-        // One block of ones against those weights: (−127 + 32 − 1)·255 / (255·128).
+        // One block of ones against those weights: (−127 + 32 − 1)·180 / (180·128).
         let mut d = vec![0.0f32; spec.descriptor_len()];
         d[..36].fill(1.0);
         assert!((q.score_descriptor(&d) + 0.75).abs() < 1e-6);
@@ -1262,7 +1227,7 @@ mod tests {
             f32::NAN,
             f32::INFINITY,
             0.5,
-            128.5 / 255.0,
+            0.375,
             1e-9,
         ];
         let row: Vec<f32> = (0..21 * 36)
@@ -1274,31 +1239,18 @@ mod tests {
             (q, btq)
         };
         let want = run(I8Kernel::Scalar);
-        assert_eq!(want.0[..10], [0, 255, 0, 0, 255, 0, 255, 128, 128, 0]);
+        assert_eq!(want.0[..10], [0, 180, 0, 0, 180, 0, 180, 90, 68, 0]);
         for k in every_i8_kernel() {
             let got = run(k);
             assert_eq!(got.0, want.0, "{k:?}");
             for x in 0..21 {
                 let block = &want.0[x * 36..][..36];
-                match k.layout() {
-                    Layout::Bytes => {
-                        for g in 0..9 {
-                            assert_eq!(
-                                got.1[g * 32 + x].to_le_bytes(),
-                                block[4 * g..][..4],
-                                "{k:?} {x} dword {g}"
-                            );
-                        }
-                    }
-                    Layout::Pairs => {
-                        for h in 0..18 {
-                            let d = got.1[h * 32 + x];
-                            assert_eq!(
-                                [d as u16, (d >> 16) as u16],
-                                [block[2 * h] as u16, block[2 * h + 1] as u16]
-                            );
-                        }
-                    }
+                for g in 0..9 {
+                    assert_eq!(
+                        got.1[g * 32 + x].to_le_bytes(),
+                        block[4 * g..][..4],
+                        "{k:?} {x} dword {g}"
+                    );
                 }
             }
         }
@@ -1310,18 +1262,11 @@ mod tests {
         let row = [1.0, 0.0, 0.5, 1.0, 0.2, 0.4, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0];
         let (mut q, mut btq) = (vec![9u8; 2 * 8], vec![7u32; 2 * 16]);
         quantise_row(&row, 6, 2, 16, I8Kernel::Scalar, &mut q, &mut btq);
-        assert_eq!(btq[0], u32::from_le_bytes([255, 0, 128, 255]));
-        assert_eq!(btq[16], u32::from_le_bytes([51, 102, 0, 0]));
-        assert_eq!(btq[1], u32::from_le_bytes([0, 255, 255, 0]));
-        assert_eq!(btq[17], u32::from_le_bytes([255, 255, 0, 0]));
+        assert_eq!(btq[0], u32::from_le_bytes([180, 0, 90, 180]));
+        assert_eq!(btq[16], u32::from_le_bytes([36, 72, 0, 0]));
+        assert_eq!(btq[1], u32::from_le_bytes([0, 180, 180, 0]));
+        assert_eq!(btq[17], u32::from_le_bytes([180, 180, 0, 0]));
         assert_eq!(btq[2], 7, "columns past nbx are not written");
-        // The u16-pair layout of the same blocks: 3 dwords each.
-        let mut bt16 = vec![7u32; 3 * 16];
-        quantise_row(&row, 6, 2, 16, I8Kernel::Avx2Pairs, &mut q, &mut bt16);
-        assert_eq!(bt16[0], 255);
-        assert_eq!(bt16[16], 128 | 255 << 16);
-        assert_eq!(bt16[32], 51 | 102 << 16);
-        assert_eq!(bt16[1], 255 << 16);
     }
 
     #[test]
@@ -1345,7 +1290,7 @@ mod tests {
             e,
             ScoreError::DescriptorTooLong {
                 len: 107_100,
-                max: 66_311
+                max: 93_940
             }
         );
     }
@@ -1480,10 +1425,9 @@ mod tests {
             eprintln!("f32 {isa}: {us:.1} us per block row");
         }
         for k in every_i8_kernel() {
-            let nd = sq.layout(k.layout()).0;
             let (mut q, mut btq, mut out) = (
                 vec![0u8; 36 * nbxp],
-                vec![0u32; nd * nbxp],
+                vec![0u32; sq.ng * nbxp],
                 vec![0i32; sq.nk * nbxp],
             );
             let us = time(&mut || {

@@ -2,22 +2,23 @@
 //! 8-bit products (AVX-VNNI, VEX-encoded; and its EVEX twin of AVX-512 VNNI + VL, used by the
 //! tests to run the same code on CPUs that have only the latter).
 //!
-//! # The 8-bit products without VNNI: why `vpmaddwd` on u16 pairs, not `vpmaddubsw`
-//! `vpmaddubsw` adds two u8·i8 products in a *saturating* i16. Block values reach 255 and
-//! weights ±127, and an L2-Hys block may hold two values of 1/√2 (q = 180) side by side, so a pair
-//! can sum to 2·180·127 = 45 720 > 32 767: it saturates, and no ordering of the values inside a
-//! block avoids it for every model. Splitting the weights in halves of magnitude ≤ 64 (2·255·64 =
-//! 32 640 cannot saturate) costs two `vpmaddubsw` and two `vpmaddwd` per four values, more than
-//! the 2 `vpmaddwd` + 2 `vpaddd` of the exact alternative used here: values zero-extended to u16
-//! and weights sign-extended to i16 in dword pairs, `vpmaddwd` adding two products
-//! (|2·255·127| < 2^31: exact) into i32 lanes. Per block position that is 18 `vpmaddwd` + 18
-//! `vpaddd` + 18 broadcasts against the f32 kernel's 36 FMAs + 36 broadcasts: measured
-//! 1.1–1.6x faster than it (docs/detection.md, "8-bit SVM").
+//! # The 8-bit products without VNNI: `vpmaddubsw`, exact because blocks are L2-normalised
+//! `vpmaddubsw` adds two u8·i8 products in a *saturating* i16. Block values are quantised as
+//! `q = round(180·v)` ([`super::BLOCK_QUANT_SCALE`]) and weights as `|q_w| ≤ 127`.
+//! Every block the detector scores is L2-Hys normalised (`‖v‖₂ ≤ 1`), so two values of one block
+//! satisfy `v_a + v_b ≤ √2` and `q_a + q_b ≤ 180·√2 + 1 < 256`: a pair sums to at most
+//! `255·127 = 32 385 ≤ 32 767` and never saturates (the bound holds up to `‖v‖₂ ≤ 1.01`). The
+//! i16 pair sums are then widened and added by `vpmaddwd` against ones (two pairs per i32 lane)
+//! and `vpaddd`: per block position 9 broadcasts + 9 `vpmaddubsw` + 9 `vpmaddwd` + 9 `vpaddd`,
+//! against 18 + 18 + 18 for the u16-pair `vpmaddwd` kernel this replaced and 36 FMAs + 36
+//! broadcasts in f32 (docs/detection.md, "8-bit SVM"). Blocks that are not normalised (only
+//! the unit tests make them) may saturate: the scalar reference, VNNI and NEON kernels stay
+//! exact for any bytes.
 
 use std::arch::x86_64::*;
 
+use super::quantise_block_value;
 use super::TILE_K_NARROW;
-use crate::detect::score::quantise_block_value;
 
 /// f32 block products `out[k·nbxp + x] = Σ_{i<bl} bt[i·nbxp + x] · wt[i·nkp + k]` (fused, `i`
 /// ascending from 0: the scalar reference's bits) for `k < nk` and every column `x < nbxp`.
@@ -101,11 +102,13 @@ macro_rules! dword_products {
     };
 }
 
-/// `a + vpmaddwd(b, w)`: two u16·i16 products per i32 lane, exact.
+/// `a + vpmaddwd(vpmaddubsw(b, w), 1)`: four u8·i8 products per i32 lane, exact while each
+/// pair's sum fits an i16 (L2-normalised blocks: see the module docs).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn madd_acc(a: __m256i, b: __m256i, w: __m256i) -> __m256i {
-    _mm256_add_epi32(a, _mm256_madd_epi16(b, w))
+fn maddubs_acc(a: __m256i, b: __m256i, w: __m256i) -> __m256i {
+    let pairs = _mm256_maddubs_epi16(b, w);
+    _mm256_add_epi32(a, _mm256_madd_epi16(pairs, _mm256_set1_epi16(1)))
 }
 
 /// `vpdpbusd` (VEX, AVX-VNNI): four u8·i8 products per i32 lane, exact.
@@ -124,12 +127,12 @@ fn dpbusd_evex(a: __m256i, b: __m256i, w: __m256i) -> __m256i {
 }
 
 dword_products!(
-    /// 8-bit products on AVX2 without VNNI, over the u16-pair layout: `btq` dword `h` of a block
-    /// holds values `2h, 2h+1` zero-extended to u16, `wq` the two weights sign-extended to i16;
-    /// `ng` is the number of pairs. `vpmaddwd` + `vpaddd` per pair and block position.
-    products_pairs_madd,
+    /// 8-bit products on AVX2 without VNNI over the byte layout (`btq` dword `g` of a block holds
+    /// values `4g..4g+4` as u8, `wq` the four i8 weights): `vpmaddubsw` + `vpmaddwd` + `vpaddd`
+    /// per dword and block position. Exact for L2-normalised blocks (module docs).
+    products_bytes_maddubs,
     "avx2",
-    madd_acc
+    maddubs_acc
 );
 
 dword_products!(
@@ -157,7 +160,7 @@ dword_products!(
 #[target_feature(enable = "avx2")]
 pub(crate) unsafe fn quantise_values(row: &[f32], n: usize, q: &mut [u8]) {
     const L: usize = 8;
-    let scale = _mm256_set1_ps(crate::detect::score::BLOCK_QUANT_SCALE);
+    let scale = _mm256_set1_ps(super::BLOCK_QUANT_SCALE);
     let zero = _mm256_setzero_ps();
     let whole = n / L * L;
     for i in (0..whole).step_by(L) {
@@ -174,6 +177,39 @@ pub(crate) unsafe fn quantise_values(row: &[f32], n: usize, q: &mut [u8]) {
     }
 }
 
+/// The SVM's window sums ([`super::add_window_row`]) compiled for AVX2, on
+/// f32 products (the same additions in the same order: the same bits).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn add_window_row_f32(
+    row: &mut [f32],
+    pr: &[f32],
+    by: usize,
+    bh: usize,
+    bw: usize,
+    nbxp: usize,
+) {
+    super::add_window_row(row, pr, by, bh, bw, nbxp)
+}
+
+/// [`add_window_row_f32`] on the 8-bit path's exact i32 products.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn add_window_row_i32(
+    row: &mut [i32],
+    pr: &[i32],
+    by: usize,
+    bh: usize,
+    bw: usize,
+    nbxp: usize,
+) {
+    super::add_window_row(row, pr, by, bh, bw, nbxp)
+}
+
 /// The pyramid's horizontal pass ([`crate::detect::pyramid`]) compiled for AVX2 + FMA: the same
 /// operations (Rust never contracts them into FMAs), so the same bits.
 ///
@@ -181,7 +217,7 @@ pub(crate) unsafe fn quantise_values(row: &[f32], n: usize, q: &mut [u8]) {
 /// The CPU must have AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
-    crate::detect::pyramid::horizontal_row(a, tc, out)
+    super::horizontal_row(a, tc, out)
 }
 
 /// The pyramid's vertical pass compiled for AVX2 + FMA (8 lanes wide; the same bits).
@@ -190,5 +226,5 @@ pub(crate) unsafe fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f3
 /// The CPU must have AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
-    crate::detect::pyramid::vertical_row(r0, r1, fy, out)
+    super::vertical_row(r0, r1, fy, out)
 }

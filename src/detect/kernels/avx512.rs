@@ -2,9 +2,9 @@
 
 use std::arch::x86_64::*;
 
+use super::BLOCK_QUANT_SCALE;
 use super::TILE_K_AVX512;
-use crate::detect::pyramid::{horizontal_row, Perm16};
-use crate::detect::score::BLOCK_QUANT_SCALE;
+use super::{horizontal_row, Perm16};
 
 /// f32 block products as [`super::avx2::products_f32`], 16 columns per vector and 21 block
 /// positions per tile.

@@ -1,5 +1,7 @@
 //! Per-instruction-set kernels of the detector's SVM stage ([`super::score`]) and pyramid resize
-//! ([`super::pyramid`]): every intrinsic of those two modules lives here, one file per ISA.
+//! ([`super::pyramid`]): every intrinsic of those two modules lives here, one file per ISA, with
+//! the scalar pieces the kernels share with those modules (the 8-bit quantiser, the window-sum
+//! and resize row loops), so that nothing here imports from above.
 //!
 //! The algorithm files choose a kernel from [`crate::kernels::isa`] (and, inside a path, the
 //! sub-features of [`crate::kernels::features`]), check every length a kernel relies on once
@@ -9,9 +11,12 @@
 //! | kernel | scalar (oracle) | AVX2 (+FMA) | AVX-512 | NEON |
 //! |---|---|---|---|---|
 //! | f32 block products | `mul_add` chain | 8 lanes, 12-position tiles | 16 lanes, 21-position tiles | 2×4 lanes, `fmla` by lane, 12-position tiles |
-//! | 8-bit block products | i32 arithmetic | `vpmaddwd` on u16 pairs, or `vpdpbusd` ymm (AVX-VNNI) | `vpdpbusd` zmm (AVX-512 VNNI) | `sdot` (dotprod), else `smull`/`sadalp` |
-//! | 8-bit quantiser | `round(255·v)` | 8 lanes | 16 lanes + gathers | 4 lanes |
+//! | 8-bit block products | i32 arithmetic | `vpmaddubsw` + `vpmaddwd`, or `vpdpbusd` ymm (AVX-VNNI) | `vpdpbusd` zmm (AVX-512 VNNI) | `sdot` (dotprod), else `smull`/`sadalp` |
+//! | 8-bit quantiser | `round(180·v)` | 8 lanes | 16 lanes + gathers | 4 lanes |
 //! | pyramid rows | plain loops | the loops compiled for AVX2 | `vpermt2ps` taps | vertical pass 4 lanes |
+//! | SVM window sums | plain loops | the loops compiled for AVX2 | (AVX2's) | plain loops |
+
+use std::ops::AddAssign;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx2;
@@ -40,4 +45,80 @@ pub(crate) fn prefetch_row(row: &[f32]) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = row;
+}
+
+// The scalar pieces the per-ISA files share with the algorithm files (score.rs and pyramid.rs
+// use them too): kept here, below both, so the kernel files import nothing from above.
+
+/// Scale of block values on the 8-bit path: `q = round(180·v)`. L2-Hys values lie in [0, 1] with
+/// `‖v‖₂ ≤ 1`, so two values of a block quantise to a sum of at most 255: the bound that keeps
+/// AVX2's saturating `vpmaddubsw` exact (`255·127 ≤ 32 767`; see `detect/kernels/avx2.rs`).
+pub const BLOCK_QUANT_SCALE: f32 = 180.0;
+/// Adding then subtracting 2^23 rounds a non-negative f32 below 2^23 to an integer, ties to even
+/// (the default rounding mode, as `cvtps2dq`): plain arithmetic that vectorises, where
+/// [`f32::round`] is a libm call on baseline x86-64.
+const ROUND_MAGIC: f32 = 8_388_608.0;
+
+/// One block value on the 8-bit path: `round(180·v)` clamped to `0..=180` (ties to even; NaN → 0).
+#[inline]
+pub fn quantise_block_value(v: f32) -> u8 {
+    let x = (v * BLOCK_QUANT_SCALE).clamp(0.0, BLOCK_QUANT_SCALE);
+    ((x + ROUND_MAGIC) - ROUND_MAGIC) as u8
+}
+
+/// `row[x] += pr[(bx·bh + by)·nbxp + bx + x]` for `bx = 0..bw` in that order and every `x`: the
+/// block products of block row `by` of the windows of one window row (the same order for every
+/// element, so f32 sums have the same bits whichever instruction set compiles it).
+#[inline(always)]
+pub(crate) fn add_window_row<T: Copy + AddAssign>(
+    row: &mut [T],
+    pr: &[T],
+    by: usize,
+    bh: usize,
+    bw: usize,
+    nbxp: usize,
+) {
+    for bx in 0..bw {
+        let src = &pr[(bx * bh + by) * nbxp + bx..][..row.len()];
+        for (v, &p) in row.iter_mut().zip(src) {
+            *v += p;
+        }
+    }
+}
+
+/// The column taps of 16 consecutive outputs whose sources all lie in the `32·pairs` values from
+/// `base`: the AVX-512 horizontal pass loads those values (`2·pairs` registers) and picks each
+/// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
+/// tap (no gathers).
+// Read only by the AVX-512 pass: built (and tested) everywhere, used on x86-64.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Perm16 {
+    /// First source value of the window.
+    pub(crate) base: u32,
+    /// Register pairs (of 32 values) the window spans.
+    pub(crate) pairs: u32,
+    /// Offsets of the left taps from `base` (< `32·pairs`).
+    pub(crate) p: [u32; 16],
+    /// Offsets of the right taps from `base`.
+    pub(crate) q: [u32; 16],
+    /// Weights of the right taps.
+    pub(crate) fx: [f32; 16],
+}
+
+/// The scalar horizontal pass (the reference of every path).
+#[inline(always)]
+pub(crate) fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
+    for (o, &(p, q, fx)) in out.iter_mut().zip(tc) {
+        let (p, q) = (p as usize, q as usize);
+        *o = a[p] + (a[q] - a[p]) * fx;
+    }
+}
+
+/// The scalar vertical pass (the reference of every path).
+#[inline(always)]
+pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+    for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
+        *o = v0 + (v1 - v0) * fy;
+    }
 }

@@ -16,8 +16,8 @@
 use std::arch::aarch64::*;
 use std::arch::asm;
 
+use super::quantise_block_value;
 use super::TILE_K_NARROW;
-use crate::detect::score::quantise_block_value;
 
 /// f32 block products `out[k·nbxp + x] = Σ_{i<bl} bt[i·nbxp + x] · wt[i·nkp + k]` (`fmla` by lane:
 /// fused, `i` ascending from 0, the scalar reference's bits), 8 columns and 12 block positions
@@ -209,7 +209,7 @@ pub(crate) unsafe fn products_bytes_smull(
 /// `row.len() ≥ n` and `q.len() ≥ n`.
 #[target_feature(enable = "neon")]
 pub(crate) unsafe fn quantise_values(row: &[f32], n: usize, q: &mut [u8]) {
-    let scale = vdupq_n_f32(crate::detect::score::BLOCK_QUANT_SCALE);
+    let scale = vdupq_n_f32(super::BLOCK_QUANT_SCALE);
     let zero = vdupq_n_f32(0.0);
     let whole = n / 8 * 8;
     for i in (0..whole).step_by(8) {
@@ -248,5 +248,5 @@ pub(crate) unsafe fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) 
             );
         }
     }
-    crate::detect::pyramid::vertical_row(&r0[whole..n], &r1[whole..n], fy, &mut out[whole..n]);
+    super::vertical_row(&r0[whole..n], &r1[whole..n], fy, &mut out[whole..n]);
 }
