@@ -1,6 +1,9 @@
 //! `mosaicd bench pipeline`: replay throughput (frames/s) and capture→publish latency p50/p99 of
 //! the daemon pipeline on a synthetic stream (default 1920x1080 12-bit RGGB, 2 threads), with the
-//! iceoryx2 publishers on; then the same run with a subscriber that never reads, and the ratio (a
+//! iceoryx2 publishers on. The stream cycles [`PRERENDERED`] frames rendered before the run and
+//! copied into pooled buffers per frame, as a camera's frames are copied out of its DMA buffers
+//! (rendering one costs ≈ 10 ms of CPU, which a camera does not spend; `--render-each-frame`
+//! counts it as before); then the same run with a subscriber that never reads, and the ratio (a
 //! stalled subscriber must not slow the daemon). Not a test: numbers for docs/daemon.md. The
 //! output names the kernel path and the CPU's features ([`mosaicd::kernels::describe`];
 //! `MOSAICD_KERNELS` forces a path), as does the JSON line (`kernels`).
@@ -67,12 +70,19 @@ pub struct BenchPipelineArgs {
     /// Skip the stalled-subscriber run.
     #[arg(long)]
     no_stalled: bool,
+    /// Render every frame in the capture thread during the run (≈ 10 ms of CPU per 1080p frame,
+    /// competing with the pipeline) instead of cycling frames rendered before it.
+    #[arg(long)]
+    render_each_frame: bool,
 }
+
+/// Distinct frames the stream cycles through (each rendered once, before the timed run).
+const PRERENDERED: u64 = 8;
 
 fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result<(f64, f64, f64)> {
     let pool = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?);
     let frames = BufferPool::new(16);
-    let src = SyntheticSource::with_pool(
+    let mut src = SyntheticSource::with_pool(
         SyntheticSpec {
             width: a.width,
             height: a.height,
@@ -82,6 +92,9 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
         },
         frames.clone(),
     );
+    if !a.render_each_frame {
+        src.prerender(PRERENDERED.min(a.frames))?;
+    }
     let publish = PublishConfig {
         service_prefix: "mosaicd-bench".into(),
         ..PublishConfig::default()
@@ -148,8 +161,9 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
-        "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames: {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames, fps, p50, p99
+        "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames ({}): {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
+        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames,
+        if a.render_each_frame { "each rendered during the run".to_string() } else { format!("{PRERENDERED} rendered before the run, cycled") }, fps, p50, p99
     );
     println!("{}", mosaicd::kernels::describe());
     let mut stalled = None;
@@ -183,7 +197,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         "{}",
         json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints,
                "descriptors": a.descriptors, "keypoints_double": a.keypoints_double, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
-               "frames": a.frames, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
+               "frames": a.frames, "rendered_each_frame": a.render_each_frame, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit, "kernels": super::bench_gradients::kernels_json()})
     );
     Ok(())
