@@ -4,8 +4,8 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
+use super::common::{bits_for, format_err, meta_for, read_at_most, too_large};
 use super::tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
-use super::{bits_for, format_err, meta_for, read_at_most, too_large};
 use crate::raw::kodak_radc;
 use crate::raw::{Cfa, FrameLimits, Levels, RawError, RawFrame, RawPixels};
 
