@@ -151,6 +151,18 @@ pub enum RawError {
         /// The limit, [`load::MAX_TIFF_IFD_VISITS`].
         limit: u64,
     },
+    /// A Minolta MRW whose header or block length wraps the raw decoder's 32-bit offset
+    /// arithmetic (in release builds rawloader would loop forever on it), refused before
+    /// rawloader reads it ([`load::mrw_length_wrap`]).
+    #[error("{path}: Minolta MRW length {len:#010x} at byte {offset} wraps the raw decoder's 32-bit offsets (a corrupt or hostile file)")]
+    MrwLength {
+        /// File.
+        path: PathBuf,
+        /// Byte offset of the length field.
+        offset: usize,
+        /// The length it holds.
+        len: u32,
+    },
     /// A value in a file exceeds the declared bit depth.
     #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]
     ValueOutOfRange {

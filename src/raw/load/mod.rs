@@ -40,7 +40,10 @@
 //! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
 //! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
 //! Refused with rawloader's or our message: cameras rawloader 0.37 does not know, floating-point
-//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
+//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs. Refused before rawloader sees
+//! them: Sigma X3F ([`is_x3f`]), MRW lengths that wrap rawloader's arithmetic
+//! ([`mrw_length_wrap`]), and TIFF structures (the file's, an MRW's, a Sony file's private and SR2
+//! IFDs) whose walk would exceed [`MAX_TIFF_IFD_VISITS`] IFDs ([`rawloader_ifd_visits`]).
 //!
 //! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
 //! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.
@@ -66,7 +69,7 @@ pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFo
 pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
 pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
 pub use rgb::{decode_image, load_rgb8};
-pub use tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
+pub use tiff_walk::{is_x3f, mrw_length_wrap, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 
 use common::need_cfa;
 use png::png_header;
