@@ -9,7 +9,7 @@
 //! than 9 bytes left for its header, or `9 + n` more than what is left) makes that subtraction
 //! overflow: a panic in debug builds, and in release builds a wrapped count that reads the rest of
 //! the file as records and ends in a misleading "truncated" error. The fuzzer found such a file
-//! (`fuzz/seeds/mcap_source/chunk-records-overrun.mcap`).
+//! (`fuzz/seeds/mcap_source/chunk-records-overrun.mcap`, tested in `tests/hostile_inputs.rs`).
 //!
 //! [`ChunkGuard`] wraps the file's reader and follows the file's record structure as its bytes
 //! pass: top-level records are skipped by their lengths, and inside each uncompressed chunk every
@@ -385,115 +385,6 @@ mod tests {
         let f = file(&[chunk("", &inner, inner.len() as u64), record(0x0F, &[0; 4])]);
         for n in 0..f.len() {
             assert_eq!(drain(&f[..n], 3), (f[..n].to_vec(), None), "{n}");
-        }
-    }
-
-    /// Replay `path` with [`crate::capture::McapSource`]: frames delivered, then the error.
-    fn replay(path: &std::path::Path) -> (usize, Option<crate::capture::CaptureError>) {
-        use crate::capture::{McapSource, McapSourceOptions, Source};
-        let mut src = McapSource::open(path, McapSourceOptions::default()).unwrap();
-        let mut n = 0;
-        loop {
-            match src.next_frame() {
-                Ok(Some(_)) => n += 1,
-                Ok(None) => return (n, None),
-                Err(e) => return (n, Some(e)),
-            }
-        }
-    }
-
-    #[test]
-    fn the_fuzzers_overrun_is_a_clear_error_not_an_overflow() {
-        // Before the guard: "attempt to subtract with overflow" in mcap with overflow checks on
-        // (debug builds, the fuzzer), a misleading truncation error without.
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("fuzz/seeds/mcap_source/chunk-records-overrun.mcap");
-        let (n, e) = replay(&p);
-        assert_eq!(n, 0);
-        let e = e.unwrap();
-        match &e {
-            crate::capture::CaptureError::Corrupt {
-                frames: 0,
-                source: crate::capture::Damage::ChunkOverrun(o),
-                ..
-            } => assert_eq!(
-                (o.chunk, o.records_len, o.record, o.need, o.left),
-                (38, 1, 87, 9, 1)
-            ),
-            e => panic!("want a ChunkOverrun, got {e:?}"),
-        }
-        assert!(
-            e.to_string()
-                .contains("chunk at byte 38 holds 1 bytes of records"),
-            "{e}"
-        );
-    }
-
-    #[test]
-    fn recordings_replay_through_the_guard_and_a_bad_chunk_stops_after_the_good_ones() {
-        use crate::raw::{Cfa, FrameMeta, Levels, RawFrame};
-        use crate::record::{Compression, McapRecorder, RecorderOptions};
-        let dir = tempfile::tempdir().unwrap();
-        for compression in [Compression::None, Compression::Zstd, Compression::Lz4] {
-            let path = dir.path().join(format!("{compression:?}.mcap"));
-            let opts = RecorderOptions {
-                compression,
-                ..RecorderOptions::default()
-            };
-            let mut rec = McapRecorder::create(&path, opts).unwrap();
-            for i in 0..5u64 {
-                let f = RawFrame::from_u8(4, 4, vec![i as u8; 16], Cfa::Rggb, Levels::uniform(0, 255))
-                    .unwrap()
-                    .with_meta(FrameMeta {
-                        sequence: i,
-                        timestamp_ns: 1000 * i,
-                        ..Default::default()
-                    });
-                rec.write_frame(&f).unwrap();
-            }
-            rec.finish().unwrap();
-            let (n, e) = replay(&path);
-            assert_eq!((n, e.map(|e| e.to_string())), (5, None), "{compression:?}");
-        }
-        // An uncompressed recording, cut after its first chunk and followed by a chunk whose one
-        // record claims more than the chunk holds: the first chunk's frames, then the overrun.
-        let good = std::fs::read(dir.path().join("None.mcap")).unwrap();
-        let mut bytes = Vec::new();
-        let mut r = ChunkGuard::new(&good[..]);
-        // The first chunk ends where the guard's walk is back at the top level after a chunk.
-        let first_end = {
-            let mut pos = 8usize;
-            loop {
-                let op = good[pos];
-                let len = u64::from_le_bytes(good[pos + 1..pos + 9].try_into().unwrap()) as usize;
-                pos += 9 + len;
-                if op == OP_CHUNK {
-                    break pos;
-                }
-            }
-        };
-        r.read_to_end(&mut bytes).unwrap();
-        assert_eq!(bytes, good);
-        let mut bad = good[..first_end].to_vec();
-        let inner = record(0x05, &[0u8; 30]);
-        bad.extend(chunk("", &inner, 20));
-        let path = dir.path().join("bad.mcap");
-        std::fs::write(&path, &bad).unwrap();
-        let (n, e) = replay(&path);
-        assert!(n >= 1, "{n}");
-        match e {
-            Some(crate::capture::CaptureError::Corrupt {
-                frames,
-                source: crate::capture::Damage::ChunkOverrun(o),
-                ..
-            }) => {
-                assert_eq!(frames as usize, n);
-                assert_eq!(
-                    (o.chunk, o.record, o.need, o.left),
-                    (first_end as u64, first_end as u64 + 49, 39, 20)
-                );
-            }
-            e => panic!("want a ChunkOverrun, got {e:?}"),
         }
     }
 }

@@ -147,7 +147,8 @@ pub(super) fn mosaic_frame(
     Ok(f.with_meta(meta_for(origin)))
 }
 
-/// How [`load_input`](super::load_input) should read a file. Fields that do not apply to a file type are ignored.
+/// How [`load_input`](super::load_input) should read a file. Fields that do not apply to a file
+/// type are ignored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct InputOptions {
     /// Width of a headerless file (giving width and height selects the headerless loader).
@@ -171,8 +172,8 @@ pub struct InputOptions {
     pub container: Option<Container>,
 }
 
-/// What [`load_input`](super::load_input) read: the mosaic, and the RGB image it was resampled from when the input
-/// was an RGB image.
+/// What [`load_input`](super::load_input) read: the mosaic, and the RGB image it was resampled
+/// from when the input was an RGB image.
 #[derive(Debug, Clone)]
 pub struct LoadedInput {
     /// The mosaic.
