@@ -157,6 +157,12 @@ def hostile_camera_raw() -> dict[str, bytes]:
         return ifd + struct.pack("<I", 0) + sony_crypt(plain, key)
 
     out["arw-sr2-explosion.bin"] = sony(private)
+    # Canon CIFF: the root heap's directory has 8 sub-heap entries (type 0x2800), each the root
+    # heap itself; rawloader follows them to depth 10, 8^9 + ... heaps.
+    start, n = 14, 8
+    size = 2 + 10 * n + 4
+    heap = struct.pack("<H", n) + struct.pack("<HII", 0x2800 | 0x000A, size, 0) * n + struct.pack("<I", 0)
+    out["ciff-heap-explosion.bin"] = b"II" + struct.pack("<I", start) + b"HEAPCCDR" + heap
     return out
 
 

@@ -65,7 +65,8 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// [`RawError::TooLarge`] (rawloader allocates the frame its header describes while decoding:
 /// that allocation is bounded by rawloader, not by us). Before rawloader is called, three
 /// structures it cannot bound are refused: a TIFF structure whose IFD walks inside rawloader
-/// (the file's TIFF tree, an MRW's TIFF block, a Sony file's private and SR2 IFDs) would exceed
+/// (the file's TIFF tree, an MRW's TIFF block, a Sony file's private and SR2 IFDs, a Canon
+/// CIFF's heaps) would exceed
 /// [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is [`RawError::TiffWalk`];
 /// an MRW length that wraps rawloader's 32-bit arithmetic ([`mrw_length_wrap`]) is
 /// [`RawError::MrwLength`]; a Sigma X3F ([`is_x3f`]: rawloader walks its TIFF and then decodes

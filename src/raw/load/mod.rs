@@ -42,8 +42,9 @@
 //! Refused with rawloader's or our message: cameras rawloader 0.37 does not know, floating-point
 //! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs. Refused before rawloader sees
 //! them: Sigma X3F ([`is_x3f`]), MRW lengths that wrap rawloader's arithmetic
-//! ([`mrw_length_wrap`]), and TIFF structures (the file's, an MRW's, a Sony file's private and SR2
-//! IFDs) whose walk would exceed [`MAX_TIFF_IFD_VISITS`] IFDs ([`rawloader_ifd_visits`]).
+//! ([`mrw_length_wrap`]), and directory structures (the file's TIFF, an MRW's, a Sony file's
+//! private and SR2 IFDs, a Canon CIFF's heaps) whose walk would exceed [`MAX_TIFF_IFD_VISITS`]
+//! directories ([`rawloader_ifd_visits`]).
 //!
 //! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
 //! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.

@@ -36,6 +36,11 @@
 //! - **Sigma X3F**: the TIFF root inside the camera-information block is not counted; X3F files
 //!   are refused before rawloader instead ([`is_x3f`]), since rawloader decodes none.
 //!
+//! Canon's CIFF (CRW) is not TIFF but is walked the same way: a heap's directory entries of
+//! the two sub-heap types are followed to depth 10 with no memory of heaps visited, and up to
+//! 65535 entries per heap. It is counted by the same memoised recurrence, on (heap start, heap
+//! end, depth).
+//!
 //! A hand-made input for each path is in `fuzz/seeds/camera_raw/` (written by
 //! `fuzz/make_seeds.py`); given to rawloader 0.37 directly, each of them runs for more than 8 s and
 //! grows past 5 GB (the MRW length wrap: spins forever).
@@ -211,6 +216,8 @@ struct Walker<'a> {
     buf: Padded<'a>,
     limit: u64,
     memo: HashMap<Key, Ifd>,
+    /// Canon CIFF heaps: (start, end, depth) -> visits.
+    ciff_memo: HashMap<(usize, usize, u32), u64>,
 }
 
 impl<'a> Walker<'a> {
@@ -219,11 +226,13 @@ impl<'a> Walker<'a> {
             buf: Padded { bytes, pad },
             limit,
             memo: HashMap::new(),
+            ciff_memo: HashMap::new(),
         }
     }
 
-    /// `RawLoader::get_decoder`'s order: an MRW holds one TIFF IFD; CIFF, ARRI and X3F are not
-    /// walked here (X3F is refused before rawloader: see [`is_x3f`]); a RAF has two TIFF roots;
+    /// `RawLoader::get_decoder`'s order: an MRW holds one TIFF IFD; a Canon CIFF is a tree of
+    /// heaps ([`Walker::ciff`]); ARRI and X3F are not walked here (X3F is refused before
+    /// rawloader: see [`is_x3f`]); a RAF has two TIFF roots;
     /// anything else is a TIFF root at 0 when it starts with `II` or `MM`. A TIFF tree with a
     /// DNGPrivateArea entry adds the walks of rawloader's Sony white-balance reader.
     fn file(&mut self) -> Result<u64, Exceeded> {
@@ -231,9 +240,14 @@ impl<'a> Walker<'a> {
         if b.u32(0, true) == Some(MRW_MAGIC) {
             return self.mrw();
         }
-        let not_tiff = b.has(6, b"HEAPCCDR") == Some(true)
-            || b.has(0, b"ARRI") == Some(true)
-            || b.has(0, b"FOVb") == Some(true);
+        if b.has(6, b"HEAPCCDR") == Some(true) {
+            // `CiffIFD::new_file`: the root heap from the header's length to the end of the file.
+            return match b.u32(2, false) {
+                Some(start) => self.ciff(start as usize, b.bytes.len(), 1),
+                None => Ok(0),
+            };
+        }
+        let not_tiff = b.has(0, b"ARRI") == Some(true) || b.has(0, b"FOVb") == Some(true);
         if not_tiff {
             return Ok(0);
         }
@@ -295,6 +309,49 @@ impl<'a> Walker<'a> {
             Err(Exceeded(v)) => return Err(Exceeded(total.saturating_add(v))),
         }
         Ok(total - visits)
+    }
+
+    /// `CiffIFD::new(buf, start, end, depth)`, Canon's CIFF (CRW) heap: its directory (at the
+    /// offset in the heap's last 4 bytes) has up to 65535 entries of 10 bytes; an entry of type
+    /// 0x2800 or 0x3000 is a sub-heap, followed below depth 10 with no memory of heaps already
+    /// visited (the same recurrence as the TIFF walk's, counted the same way). An entry whose
+    /// data location is neither in the heap nor in the entry ends the heap (rawloader: `Err`).
+    fn ciff(&mut self, start: usize, end: usize, depth: u32) -> Result<u64, Exceeded> {
+        let key = (start, end, depth);
+        if let Some(&v) = self.ciff_memo.get(&key) {
+            return Ok(v);
+        }
+        let mut visits = 1;
+        let dir = end
+            .checked_sub(4)
+            .and_then(|p| self.buf.u32(p, false))
+            .and_then(|v| start.checked_add(v as usize));
+        let count = dir.and_then(|d| self.buf.u16(d, false)).unwrap_or(0);
+        for i in 0..count as usize {
+            let Some(eo) = dir.and_then(|d| d.checked_add(2 + 10 * i)) else {
+                break;
+            };
+            let Some(p) = self.buf.u16(eo, false) else { break };
+            let (size, off) = match p & 0xC000 {
+                0x0000 => match (self.buf.u32(eo + 2, false), self.buf.u32(eo + 6, false)) {
+                    (Some(size), Some(off)) => (size as usize, off as usize + start),
+                    _ => break,
+                },
+                0x4000 => (8, eo + 2),
+                _ => break,
+            };
+            // rawloader slices the entry's data: out of bounds, it panics.
+            if off + size > self.buf.len() {
+                break;
+            }
+            let typ = p & 0x3800;
+            if (typ == 0x2800 || typ == 0x3000) && depth < MAX_DEPTH {
+                let sub = self.ciff(off, off + size, depth + 1)?;
+                visits = self.add(visits, sub)?;
+            }
+        }
+        self.ciff_memo.insert(key, visits);
+        Ok(visits)
     }
 
     /// `a + b`, an error once above the limit.
@@ -789,12 +846,14 @@ mod tests {
 
     #[test]
     fn every_embedded_tiff_walk_is_counted_and_refused_quickly() {
-        // Each seed holds one IFD listing itself 8 times, reached through a different path of
-        // rawloader: 8^10 + ... visits in rawloader, a few dozen distinct (IFD, depth) pairs here.
+        // Each seed holds one IFD (or CIFF heap) listing itself 8 times, reached through a
+        // different path of rawloader: 8^10 + ... visits in rawloader (the CIFF: 8^9 + ...), a few
+        // dozen distinct (IFD, depth) pairs here.
         for (name, least) in [
             ("mrw-tiff-explosion.bin", 1_000_000_000),
             ("arw-private-explosion.bin", 1_000_000_000),
             ("arw-sr2-explosion.bin", 1_000_000_000),
+            ("ciff-heap-explosion.bin", 150_000_000),
         ] {
             let bytes = seed(name);
             let all = rawloader_ifd_visits(&bytes, u64::MAX);
