@@ -73,6 +73,99 @@ def dng(w: int, h: int, px: list[int], cfa: bytes, black: int, white: int, activ
     return out + longs([0]) + extra + shorts(px)
 
 
+def ifd_loop(big: bool, at: int, n: int) -> bytes:
+    """A TIFF IFD (placed at offset ``at`` of its slice) whose SubIFDs entry lists itself ``n`` times:
+    rawloader 0.37 follows each pointer to depth 10, n^10 visits."""
+    e = ">" if big else "<"
+    data = at + 2 + 12 + 4
+    return struct.pack(e + "HHHII", 1, 0x014A, 4, n, data) + struct.pack(e + "I", 0) + struct.pack(e + f"{n}I", *[at] * n)
+
+
+def sony_crypt(block: bytes, key: int) -> bytes:
+    """rawloader's ``ArwDecoder::sony_decrypt`` (an XOR with a key stream: it also encrypts)."""
+    m32 = 0xFFFFFFFF
+    pad = [0] * 128
+    for p in range(4):
+        key = (key * 48828125 + 1) & m32
+        pad[p] = key
+    pad[3] = ((pad[3] << 1) | ((pad[0] ^ pad[2]) >> 31)) & m32
+    for p in range(4, 127):
+        pad[p] = (((pad[p - 4] ^ pad[p - 2]) << 1) | ((pad[p - 3] ^ pad[p - 1]) >> 31)) & m32
+    for p in range(127):
+        pad[p] = int.from_bytes(pad[p].to_bytes(4, "little"), "big")
+    block = block + b"\0" * (-len(block) % 4)
+    out = b""
+    for i in range(len(block) // 4):
+        p = i + 127
+        pad[p & 127] = pad[(p + 1) & 127] ^ pad[(p + 65) & 127]
+        out += struct.pack("<I", struct.unpack_from("<I", block, 4 * i)[0] ^ pad[p & 127])
+    return out
+
+
+def hostile_camera_raw() -> dict[str, bytes]:
+    """Camera raw files whose structure rawloader 0.37 cannot bound, one per path it walks outside
+    the file's own TIFF tree (tested by src/raw/load/tiff_walk.rs; docs/fuzzing.md)."""
+    out = {}
+    # MRW: a TTW block whose TIFF (big-endian, IFD at 8 of the block) lists itself 8 times.
+    tiff = b"MM\0*" + struct.pack(">I", 8) + ifd_loop(True, 8, 8)
+    out["mrw-tiff-explosion.bin"] = b"\0MRM" + struct.pack(">I", 8 + len(tiff)) + b"\0TTW" + struct.pack(">I", len(tiff)) + tiff
+    # MRW: a block length of 2^32 - 8: rawloader steps by (len + 8) mod 2^32 = 0, forever (release).
+    out["mrw-length-wrap.bin"] = b"\0MRM" + struct.pack(">I", 100) + b"\0WBG" + struct.pack(">II", 0xFFFFFFF8, 0) + bytes(32)
+    # X3F: one IMA2 directory entry, camera info (type 2, format 0x12) holding "Exif" and a TIFF
+    # root whose IFD lists itself 8 times; the directory's offset in the last 4 bytes.
+    img = 16
+    root = img + 28 + 12
+    body = b"FOVb" + bytes(img - 4)
+    body += struct.pack("<IIIIIII", 0, 0, 2, 0x12, 0, 0, 0) + b"\0" * 6 + b"Exif" + b"\0\0"
+    assert len(body) == root
+    body += b"II*\0" + struct.pack("<I", 8) + ifd_loop(False, 8, 8)
+    d = len(body)
+    body += b"SECd" + struct.pack("<II", 0x00020000, 1) + struct.pack("<II", img, 28) + b"IMA2"
+    out["x3f-tiff-explosion.bin"] = body + struct.pack("<I", d)
+
+    def sony(private: bytes, tail: bytes = b"") -> bytes:
+        """A little-endian Sony DSLR-A700 TIFF with a 16x2 16-bit uncompressed image (so that
+        rawloader decodes it and then reads the white balance), its DNGPrivateArea pointing at
+        ``private`` (placed at the returned offset), then ``tail``."""
+        n = 9
+        first = 8 + 2 + 12 * n + 4
+        make, model = first, first + 6
+        pix = model + 10
+        prv = pix + 64
+        entries = [
+            (0x0100, 4, 1, 16), (0x0101, 4, 1, 2), (0x0102, 3, 1, 16), (0x0103, 3, 1, 1),
+            (0x010F, 2, 5, make), (0x0110, 2, 10, model), (0x0111, 4, 1, pix), (0x0117, 4, 1, 64),
+            (0xC634, 4, 1, prv),
+        ]
+        out = b"II*\0" + struct.pack("<IH", 8, n) + b"".join(struct.pack("<HHII", *e) for e in entries) + struct.pack("<I", 0)
+        out += b"SONY\0\0" + b"DSLR-A700\0" + bytes(64)
+        assert len(out) == prv
+        return out + private(prv) + tail
+
+    # Sony: the private IFD itself lists itself 8 times.
+    out["arw-private-explosion.bin"] = sony(lambda at: ifd_loop(False, at, 8))
+    # Sony: the private IFD names an encrypted block (offset, length, key) whose decrypted IFD
+    # (data pointers relative to the block) lists itself 8 times.
+    key = 0x1234_5678
+
+    def private(at: int) -> bytes:
+        block_at = at + 2 + 12 * 3 + 4
+        plain = struct.pack("<HHHII", 1, 0x014A, 4, 8, block_at + 18) + struct.pack("<I", 0) + struct.pack("<8I", *[0] * 8)
+        ifd = struct.pack("<H", 3) + b"".join(
+            struct.pack("<HHII", t, 4, 1, v) for t, v in ((0x7200, block_at), (0x7201, len(plain)), (0x7221, key))
+        )
+        return ifd + struct.pack("<I", 0) + sony_crypt(plain, key)
+
+    out["arw-sr2-explosion.bin"] = sony(private)
+    # Canon CIFF: the root heap's directory has 8 sub-heap entries (type 0x2800), each the root
+    # heap itself; rawloader follows them to depth 10, 8^9 + ... heaps.
+    start, n = 14, 8
+    size = 2 + 10 * n + 4
+    heap = struct.pack("<H", n) + struct.pack("<HII", 0x2800 | 0x000A, size, 0) * n + struct.pack("<I", 0)
+    out["ciff-heap-explosion.bin"] = b"II" + struct.pack("<I", start) + b"HEAPCCDR" + heap
+    return out
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--mosaicd", help="the mosaicd binary, to make the recording seeds")
@@ -118,6 +211,8 @@ def main() -> int:
     put("camera_raw", "tiff_le.bin", b"II*\x00\x08\x00\x00\x00\x00\x00\x00\x00\x00\x00")
     put("camera_raw", "tiff_be.bin", b"MM\x00*\x00\x00\x00\x08\x00\x00\x00\x00\x00\x00")
     put("camera_raw", "synth.dng", dng(10, 8, [64 + (i * 37) % 3900 for i in range(80)], bytes([1, 0, 2, 1]), 64, 4000, [1, 1, 7, 9]))
+    for name, data in hostile_camera_raw().items():
+        put("camera_raw", name, data)
     if a.mosaicd:
         with tempfile.TemporaryDirectory() as d:
             for i in range(2):

@@ -408,15 +408,6 @@ KNOWN: dict[tuple[str, ...], str] = {
         "through kernels/mod.rs; moving those types into a hog/types.rs below both removes it "
         "(left from the split of hog.rs and the kernel layer, issues 25 and 28)"
     ),
-    ("raw/load/mod.rs", "raw/load/png.rs", "raw/load/rgb.rs"): (
-        "the per-format loaders read the shared error helpers, InputOptions and MosaicFormat from "
-        "the facade raw/load/mod.rs, which dispatches to them; moving those into a "
-        "raw/load/common.rs removes it (left from the split of raw/load.rs by format)"
-    ),
-    ("features/sift/descriptor.rs", "features/sift/detect.rs", "features/sift/mod.rs"): (
-        "detect.rs reads SiftSpec and Keypoint from the facade's mod.rs; moving the spec types "
-        "into a sift/spec.rs removes it (left for the kernel-layer work on features/sift)"
-    ),
 }
 # Upward imports between top-level modules not yet removed, (from, to), each with why; they are
 # left out of the top-level check (which would otherwise find the circle they close).

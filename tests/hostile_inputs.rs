@@ -1,7 +1,7 @@
 //! Hostile inputs from the review of issue 24, each refused with a clear error instead of a panic,
 //! a wrapped size, an allocation of gigabytes or a late report: a crafted model, a zstd chunk and
 //! a frame header claiming a 16000x15625 frame, a 16000x15000 PNG, a damaged MCAP summary, an empty
-//! recording, and rawloader's caught panics. (Peak memory is measured in `hostile_memory.rs`.)
+//! recording, records that overrun an uncompressed MCAP chunk, and rawloader's caught panics. (Peak memory is measured in `hostile_memory.rs`.)
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -13,13 +13,18 @@ use mosaicd::raw::{Cfa, FrameMeta, Levels, RawError, RawFrame};
 use mosaicd::record::schema::{
     encode_raw_frame, RAW_FRAME_ENCODING, RAW_FRAME_SCHEMA, RAW_FRAME_SCHEMA_ENCODING,
 };
-use mosaicd::record::{McapRecorder, RecorderOptions};
+use mosaicd::record::{Compression, McapRecorder, RecorderOptions};
 
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 
 /// A finished recording of `n` small frames.
 fn small_recording(path: &Path, n: u64) {
-    let mut rec = McapRecorder::create(path, RecorderOptions::default()).unwrap();
+    small_recording_with(path, n, RecorderOptions::default());
+}
+
+/// A finished recording of `n` small frames, written with `opts`.
+fn small_recording_with(path: &Path, n: u64, opts: RecorderOptions) {
+    let mut rec = McapRecorder::create(path, opts).unwrap();
     for i in 0..n {
         let f = RawFrame::from_u8(4, 4, vec![i as u8; 16], Cfa::Rggb, Levels::uniform(0, 255))
             .unwrap()
@@ -70,6 +75,97 @@ fn a_chunk_claiming_a_250_mb_frame_is_refused_before_decompression() {
             ..
         }) => assert_eq!(n, 16_000 * 15_625 + 400),
         other => panic!("expected ChunkTooLarge, got {other:?}"),
+    }
+}
+
+/// Replay `path`: frames delivered, then the error.
+fn replay(path: &Path) -> (u64, Option<CaptureError>) {
+    let mut src = McapSource::open(path, McapSourceOptions::default()).unwrap();
+    let mut n = 0;
+    loop {
+        match src.next_frame() {
+            Ok(Some(_)) => n += 1,
+            Ok(None) => return (n, None),
+            Err(e) => return (n, Some(e)),
+        }
+    }
+}
+
+/// The fuzzer's MCAP: an uncompressed chunk of 1 byte of records, holding a 9-byte record. mcap
+/// 0.26 subtracts the record's size from what is left without a check: "attempt to subtract with
+/// overflow" with overflow checks on (debug builds, the fuzzer), a misleading truncation error
+/// without. A guard under the reader (`capture::mcap_guard`) stops it first, in both builds.
+#[test]
+fn records_that_overrun_an_uncompressed_chunk_are_a_clear_error_not_an_overflow() {
+    let seed =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/mcap_source/chunk-records-overrun.mcap");
+    let (n, e) = replay(&seed);
+    assert_eq!(n, 0);
+    let e = e.unwrap();
+    match &e {
+        CaptureError::Corrupt {
+            frames: 0,
+            source: Damage::ChunkOverrun(o),
+            ..
+        } => assert_eq!(
+            (o.chunk, o.records_len, o.record, o.need, o.left),
+            (38, 1, 87, 9, 1)
+        ),
+        e => panic!("want a ChunkOverrun, got {e:?}"),
+    }
+    assert!(
+        e.to_string()
+            .contains("chunk at byte 38 holds 1 bytes of records"),
+        "{e}"
+    );
+
+    // Recordings of every compression replay in full through the guard.
+    let dir = tempfile::tempdir().unwrap();
+    for compression in [Compression::None, Compression::Zstd, Compression::Lz4] {
+        let path = dir.path().join(format!("{compression:?}.mcap"));
+        let opts = RecorderOptions {
+            compression,
+            ..RecorderOptions::default()
+        };
+        small_recording_with(&path, 5, opts);
+        let (n, e) = replay(&path);
+        assert_eq!((n, e.map(|e| e.to_string())), (5, None), "{compression:?}");
+    }
+    // An uncompressed recording cut after its first chunk, then a chunk whose one record (39
+    // bytes) claims more than the 20 bytes of records the chunk declares: the first chunk's
+    // frames, then the overrun.
+    let good = std::fs::read(dir.path().join("None.mcap")).unwrap();
+    let (chunk, _) = *records(&good)
+        .iter()
+        .find(|(_, op)| *op == 0x06)
+        .expect("a chunk");
+    let len = u64::from_le_bytes(good[chunk + 1..chunk + 9].try_into().unwrap()) as usize;
+    let end = chunk + 9 + len;
+    let mut body = vec![0u8; 28]; // start and end time, uncompressed size and CRC
+    body.extend(0u32.to_le_bytes()); // no compression
+    body.extend(20u64.to_le_bytes()); // records_len
+    body.push(0x05);
+    body.extend(30u64.to_le_bytes());
+    body.extend([0u8; 30]);
+    let mut bad = good[..end].to_vec();
+    bad.push(0x06);
+    bad.extend((body.len() as u64).to_le_bytes());
+    bad.extend(body);
+    let path = dir.path().join("bad.mcap");
+    std::fs::write(&path, &bad).unwrap();
+    let (n, e) = replay(&path);
+    assert!(n >= 1, "{n}");
+    match e {
+        Some(CaptureError::Corrupt {
+            frames,
+            source: Damage::ChunkOverrun(o),
+            ..
+        }) => {
+            assert_eq!(frames, n);
+            let end = end as u64;
+            assert_eq!((o.chunk, o.record, o.need, o.left), (end, end + 49, 39, 20));
+        }
+        e => panic!("want a ChunkOverrun, got {e:?}"),
     }
 }
 

@@ -26,7 +26,9 @@
 //!   [`CaptureError::Truncated`].
 //! * A **corrupt** file is refused: a bad magic, footer or summary fails [`McapSource::open`]; damage
 //!   inside the data yields [`CaptureError::Corrupt`] when reached and no frame from the damaged
-//!   chunk. Nothing panics.
+//!   chunk. Nothing panics. Records that overrun an uncompressed chunk, which the `mcap` reader
+//!   does not check (it would overflow), are stopped under it by a guard
+//!   ([`crate::capture::ChunkOverrun`], `capture/mcap_guard.rs`).
 //!
 //! ```
 //! use mosaicd::capture::{McapSource, McapSourceOptions, Source};
@@ -55,6 +57,7 @@ use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::mcap_guard::{ChunkGuard, ChunkOverrun};
 use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind, Stop};
 use crate::raw::{FrameLimits, RawError, RawFrame};
 use crate::wire::read::{read_summary, strict_reader_options};
@@ -107,7 +110,7 @@ impl Default for McapSourceOptions {
     }
 }
 
-type Reader = mcap::io::MessageReader<BufReader<File>>;
+type Reader = mcap::io::MessageReader<ChunkGuard<BufReader<File>>>;
 
 /// Replays the raw frames of a recording (see the [module overview](self)).
 pub struct McapSource {
@@ -158,7 +161,7 @@ fn open_reader(path: &Path) -> Result<Reader, CaptureError> {
     };
     let file = File::open(path).map_err(io)?;
     Ok(mcap::io::MessageReader::new_with_options(
-        BufReader::with_capacity(READ_BUFFER, file),
+        ChunkGuard::new(BufReader::with_capacity(READ_BUFFER, file)),
         strict_reader_options(),
     ))
 }
@@ -266,6 +269,16 @@ impl McapSource {
     }
 
     fn classify(&self, e: mcap::McapError) -> CaptureError {
+        // A record that overruns its uncompressed chunk, stopped by the guard under the reader.
+        if let mcap::McapError::Io(io) = &e {
+            if let Some(overrun) = io.get_ref().and_then(|e| e.downcast_ref::<ChunkOverrun>()) {
+                return CaptureError::Corrupt {
+                    path: self.path.clone(),
+                    frames: self.delivered,
+                    source: Damage::ChunkOverrun(overrun.clone()),
+                };
+            }
+        }
         // UnexpectedEoc: the last chunk's header was never completed (the writer was killed
         // mid-chunk; its placeholder header has no CRC): also an interrupted recording.
         let truncated = match &e {

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use crate::raw::RawFrame;
 
 pub mod files;
+mod mcap_guard;
 pub mod mcap_source;
 pub mod synthetic;
 pub mod v4l2;
@@ -17,6 +18,7 @@ pub mod v4l2_formats;
 
 pub use crate::clock::{Clock, FakeClock, MonotonicClock, Stop};
 pub use files::{FileSource, FileSourceOptions};
+pub use mcap_guard::ChunkOverrun;
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 
 /// How frames from a source may be treated when compute falls behind.
@@ -196,6 +198,10 @@ pub enum Damage {
     /// A raw-frame message that does not decode.
     #[error(transparent)]
     Message(#[from] crate::wire::schema::SchemaError),
+    /// A record that overruns its uncompressed chunk, stopped before the `mcap` reader reads it
+    /// (which would overflow: see [`ChunkOverrun`]).
+    #[error(transparent)]
+    ChunkOverrun(#[from] ChunkOverrun),
 }
 
 /// A producer of raw frames.

@@ -139,17 +139,29 @@ pub enum RawError {
         /// What kind of file ("a camera raw file", ...).
         what: &'static str,
     },
-    /// A TIFF-structured camera raw file whose directories (IFDs) point at each other so that
-    /// rawloader's walk of them would build more IFDs than the limit (an exponential walk: a
-    /// hostile or corrupt file), refused before rawloader reads it.
-    #[error("{path}: its TIFF directories would make the raw decoder visit at least {visits} IFDs, more than the limit of {limit} (sub-IFD pointers that loop back: a corrupt or hostile file)")]
+    /// A camera raw file whose directories (TIFF IFDs, or Canon CIFF heaps) point at each other
+    /// so that rawloader's walk of them would build more directories than the limit (an
+    /// exponential walk: a hostile or corrupt file), refused before rawloader reads it.
+    #[error("{path}: its TIFF/CIFF directories would make the raw decoder visit at least {visits} of them, more than the limit of {limit} (sub-directory pointers that loop back: a corrupt or hostile file)")]
     TiffWalk {
         /// File.
         path: PathBuf,
-        /// IFD visits counted when the walk stopped (a lower bound).
+        /// Directory visits counted when the walk stopped (a lower bound).
         visits: u64,
         /// The limit, [`load::MAX_TIFF_IFD_VISITS`].
         limit: u64,
+    },
+    /// A Minolta MRW whose header or block length wraps the raw decoder's 32-bit offset
+    /// arithmetic (in release builds rawloader would loop forever on it), refused before
+    /// rawloader reads it ([`load::mrw_length_wrap`]).
+    #[error("{path}: Minolta MRW length {len:#010x} at byte {offset} wraps the raw decoder's 32-bit offsets (a corrupt or hostile file)")]
+    MrwLength {
+        /// File.
+        path: PathBuf,
+        /// Byte offset of the length field.
+        offset: usize,
+        /// The length it holds.
+        len: u32,
     },
     /// A value in a file exceeds the declared bit depth.
     #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::buffers;
 use super::kernels;
 use super::scale_space::{blur_step_with, downsample2_step_into, upsample2_step};
-use super::{Keypoint, SiftSpec};
+use super::spec::{Keypoint, SiftSpec};
 use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
 use crate::kernels::Isa;

@@ -4,8 +4,8 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use super::tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
-use super::{bits_for, format_err, meta_for, read_at_most, too_large};
+use super::common::{bits_for, format_err, meta_for, read_at_most, too_large};
+use super::tiff_walk::{is_x3f, mrw_length_wrap, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 use crate::raw::kodak_radc;
 use crate::raw::{Cfa, FrameLimits, Levels, RawError, RawFrame, RawPixels};
 
@@ -63,14 +63,34 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// The file is `stat`ed first: one larger than [`max_camera_raw_bytes`] is
 /// [`RawError::FileTooLarge`] before it is read; a decoded frame beyond the frame-size limit is
 /// [`RawError::TooLarge`] (rawloader allocates the frame its header describes while decoding:
-/// that allocation is bounded by rawloader, not by us). A TIFF structure whose IFD walk inside
-/// rawloader would exceed [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is
-/// [`RawError::TiffWalk`], before rawloader is called.
+/// that allocation is bounded by rawloader, not by us). Before rawloader is called, three
+/// structures it cannot bound are refused: a TIFF structure whose IFD walks inside rawloader
+/// (the file's TIFF tree, an MRW's TIFF block, a Sony file's private and SR2 IFDs, a Canon
+/// CIFF's heaps) would exceed
+/// [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is [`RawError::TiffWalk`];
+/// an MRW length that wraps rawloader's 32-bit arithmetic ([`mrw_length_wrap`]) is
+/// [`RawError::MrwLength`]; a Sigma X3F ([`is_x3f`]: rawloader walks its TIFF and then decodes
+/// none) is [`RawError::Format`].
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     let bytes = read_at_most(path, max_camera_raw_bytes(limits), "a camera raw file")?;
     if let Some(info) = kodak_radc::identify(&bytes) {
         return load_kodak_radc(path, &bytes, &info);
+    }
+    if is_x3f(&bytes) {
+        return Err(format_err(
+            path,
+            "Sigma X3F is not supported: rawloader 0.37 decodes no X3F image, and X3F holds three \
+             colours per pixel, not a Bayer mosaic"
+                .into(),
+        ));
+    }
+    if let Some((offset, len)) = mrw_length_wrap(&bytes) {
+        return Err(RawError::MrwLength {
+            path: path.to_path_buf(),
+            offset,
+            len,
+        });
     }
     let visits = rawloader_ifd_visits(&bytes, MAX_TIFF_IFD_VISITS);
     if visits > MAX_TIFF_IFD_VISITS {

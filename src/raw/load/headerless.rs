@@ -4,39 +4,11 @@
 
 use std::path::Path;
 
-use super::{
-    check_range, format_err, io_err, levels_from, meta_for, need_cfa, read_at_most, too_large, InputOptions,
+use super::common::{
+    check_range, format_err, io_err, levels_from, meta_for, need_cfa, read_at_most, too_large, Container,
+    Endian, InputOptions,
 };
 use crate::raw::{Cfa, FrameLimits, Levels, RawError, RawFrame, RawPixels};
-
-/// Pixel container of a headerless file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Container {
-    /// One byte per pixel (bit depth 8).
-    U8,
-    /// Two bytes per pixel (bit depth 8..=16, LSB-aligned).
-    U16,
-}
-
-impl Container {
-    /// Bytes per pixel.
-    pub fn bytes(self) -> usize {
-        match self {
-            Container::U8 => 1,
-            Container::U16 => 2,
-        }
-    }
-}
-
-/// Byte order of 16-bit samples.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum Endian {
-    /// Least significant byte first (most sensors and dumps).
-    #[default]
-    Little,
-    /// Most significant byte first (PGM, PNG, some cameras).
-    Big,
-}
 
 /// Description of a headerless raw file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -40,7 +40,11 @@
 //! (and every value), and `wb_coeffs` become gains normalised to G = 1 (absent when NaN or zero).
 //! rawloader decodes on the global rayon pool; the daemon never calls it on its compute pool.
 //! Refused with rawloader's or our message: cameras rawloader 0.37 does not know, floating-point
-//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs.
+//! data, non-2x2 patterns (X-Trans) and linear (demosaiced) DNGs. Refused before rawloader sees
+//! them: Sigma X3F ([`is_x3f`]), MRW lengths that wrap rawloader's arithmetic
+//! ([`mrw_length_wrap`]), and directory structures (the file's TIFF, an MRW's, a Sony file's
+//! private and SR2 IFDs, a Canon CIFF's heaps) whose walk would exceed [`MAX_TIFF_IFD_VISITS`]
+//! directories ([`rawloader_ifd_visits`]).
 //!
 //! Grey PNGs written by [`write_png16`] describe themselves (pattern, bit depth, levels) in a
 //! `tEXt` chunk, so [`load_input`] needs no flags for them; flags override the description.
@@ -49,12 +53,11 @@
 //! (16-bit samples are big-endian, the `png`/`image` crates return native values).
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
-use super::{Cfa, FrameMeta, Levels, RawError, RawFrame, RawPixels};
-use crate::image::Image;
+use super::RawError;
 
 mod camera;
+mod common;
 mod headerless;
 mod pgm;
 mod png;
@@ -62,182 +65,22 @@ mod rgb;
 mod tiff_walk;
 
 pub use camera::{load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
-pub use headerless::{frame_from_bytes, headerless_format, load_headerless, Container, Endian, RawFormat};
+pub use common::{Container, Endian, InputOptions, LoadedInput, MosaicFormat};
+pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFormat};
 pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
 pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
 pub use rgb::{decode_image, load_rgb8};
-pub use tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
+pub use tiff_walk::{is_x3f, mrw_length_wrap, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 
+use common::need_cfa;
 use png::png_header;
 use rgb::rgb_input;
-
-fn io_err(path: &Path, source: std::io::Error) -> RawError {
-    RawError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
-fn format_err(path: &Path, what: String) -> RawError {
-    RawError::Format {
-        path: path.to_path_buf(),
-        what,
-    }
-}
-
-fn too_large(path: &Path, limit: super::FrameTooLarge) -> RawError {
-    RawError::TooLarge {
-        path: path.to_path_buf(),
-        limit,
-    }
-}
-
-/// Read a whole file whose size is checked first: `stat`, refuse a file above `max` bytes
-/// ([`RawError::FileTooLarge`], naming `what`), then read at most `max` bytes (a file that grows
-/// between the two is refused the same way).
-fn read_at_most(path: &Path, max: u64, what: &'static str) -> Result<Vec<u8>, RawError> {
-    use crate::bounded_read::ReadAtMostError;
-    crate::bounded_read::read_at_most(path, max).map_err(|e| match e {
-        ReadAtMostError::Io(e) => io_err(path, e),
-        ReadAtMostError::TooLarge { size } => RawError::FileTooLarge {
-            path: path.to_path_buf(),
-            size,
-            max,
-            what,
-        },
-    })
-}
-
-fn meta_for(origin: &Path) -> FrameMeta {
-    FrameMeta {
-        source: Arc::from(origin.display().to_string()),
-        ..FrameMeta::default()
-    }
-}
-
-/// Check every pixel against the bit depth; the first offender is the error.
-fn check_range(data: &[u16], width: usize, bit_depth: u8, origin: &Path) -> Result<(), RawError> {
-    let max = ((1u32 << bit_depth) - 1) as u16;
-    if let Some(i) = data.iter().position(|&v| v > max) {
-        return Err(RawError::ValueOutOfRange {
-            path: origin.to_path_buf(),
-            value: data[i] as u32,
-            x: i % width,
-            y: i / width,
-            bit_depth,
-        });
-    }
-    Ok(())
-}
-
-/// How to interpret a 1-channel image file (PNG or PGM) as a mosaic.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MosaicFormat {
-    /// Pattern at (0, 0).
-    pub cfa: Cfa,
-    /// Significant bits; `None` means the file's sample depth (8 or 16, or PGM's maxval bits).
-    pub bit_depth: Option<u8>,
-    /// Black level per tile position.
-    pub black: [u16; 4],
-    /// White level; `None` means `2^bit_depth - 1`.
-    pub white: Option<u16>,
-}
-
-fn bits_for(max: u32) -> u8 {
-    (32 - max.leading_zeros()).max(8) as u8
-}
-
-fn mosaic_frame(
-    width: usize,
-    height: usize,
-    pixels: RawPixels,
-    file_bits: u8,
-    fmt: &MosaicFormat,
-    origin: &Path,
-) -> Result<RawFrame, RawError> {
-    let bit_depth = fmt.bit_depth.unwrap_or(file_bits);
-    if !(8..=16).contains(&bit_depth) {
-        return Err(RawError::BitDepth {
-            bit_depth,
-            container_bits: 16,
-        });
-    }
-    let pixels = match pixels {
-        RawPixels::U8(v) if bit_depth > 8 => RawPixels::U16(v.into_iter().map(u16::from).collect()),
-        RawPixels::U16(v) => {
-            check_range(&v, width, bit_depth, origin)?;
-            RawPixels::U16(v)
-        }
-        p => p,
-    };
-    let max = ((1u32 << bit_depth.min(16)) - 1) as u16;
-    let levels = Levels {
-        black: fmt.black,
-        white: fmt.white.unwrap_or(max),
-    };
-    let f = RawFrame::new(width, height, width, pixels, fmt.cfa, bit_depth, levels)?;
-    Ok(f.with_meta(meta_for(origin)))
-}
-
-/// How [`load_input`] should read a file. Fields that do not apply to a file type are ignored.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct InputOptions {
-    /// Width of a headerless file (giving width and height selects the headerless loader).
-    pub width: Option<usize>,
-    /// Height of a headerless file.
-    pub height: Option<usize>,
-    /// Bit depth of a headerless file or mosaic PNG/PGM.
-    pub bit_depth: Option<u8>,
-    /// Pattern of a headerless file or mosaic PNG/PGM (required for those), and the pattern RGB
-    /// images are resampled into (default RGGB).
-    pub cfa: Option<Cfa>,
-    /// Black level (per tile position; one value for all is `[b; 4]`). Default 0.
-    pub black: Option<[u16; 4]>,
-    /// White level. Default `2^bit_depth - 1`.
-    pub white: Option<u16>,
-    /// Byte order of a 16-bit headerless file.
-    pub endian: Endian,
-    /// Row stride of a headerless file, in bytes.
-    pub stride_bytes: Option<usize>,
-    /// Container of a headerless file; default from the bit depth (8 → u8, more → u16).
-    pub container: Option<Container>,
-}
-
-/// What [`load_input`] read: the mosaic, and the RGB image it was resampled from when the input
-/// was an RGB image.
-#[derive(Debug, Clone)]
-pub struct LoadedInput {
-    /// The mosaic.
-    pub frame: RawFrame,
-    /// The RGB image the mosaic was sampled from (RGB inputs only).
-    pub rgb: Option<Image<[u8; 3]>>,
-}
 
 fn ext_of(path: &Path) -> String {
     path.extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default()
-}
-
-fn need_cfa(opts: &InputOptions, path: &Path, kind: &str) -> Result<Cfa, RawError> {
-    opts.cfa.ok_or_else(|| {
-        format_err(
-            path,
-            format!("{kind} needs its CFA pattern (--cfa RGGB|BGGR|GRBG|GBRG)"),
-        )
-    })
-}
-
-fn levels_from(opts: &InputOptions, bit_depth: u8) -> Option<Levels> {
-    if opts.black.is_none() && opts.white.is_none() {
-        return None;
-    }
-    let max = ((1u32 << bit_depth.min(16)) - 1) as u16;
-    Some(Levels {
-        black: opts.black.unwrap_or([0; 4]),
-        white: opts.white.unwrap_or(max),
-    })
 }
 
 /// Load any supported input, choosing the loader by options, extension and content:
@@ -307,6 +150,7 @@ pub fn memory_origin() -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raw::Cfa;
 
     #[test]
     fn dispatcher_headerless_needs_its_format() {

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::{bits_for, format_err, io_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
+use super::common::{bits_for, format_err, io_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
 use crate::raw::{FrameLimits, RawError, RawFrame, RawPixels};
 
 /// Room for a PGM's header and comments on top of its samples, bytes.

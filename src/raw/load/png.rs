@@ -3,12 +3,13 @@
 
 use std::path::Path;
 
-use super::{format_err, io_err, mosaic_frame, MosaicFormat};
+use super::common::{format_err, io_err, mosaic_frame, MosaicFormat};
+use super::rgb::decode_image;
 use crate::raw::{Cfa, Levels, RawError, RawFrame, RawPixels};
 
 /// Load a 1-channel 8- or 16-bit PNG as a mosaic.
 pub fn load_png_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawError> {
-    let img = super::decode_image(path)?;
+    let img = decode_image(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     match img {
         image::DynamicImage::ImageLuma8(g) => mosaic_frame(w, h, RawPixels::U8(g.into_raw()), 8, fmt, path),

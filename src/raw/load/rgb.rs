@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::{format_err, io_err, meta_for, too_large, InputOptions, LoadedInput};
+use super::common::{format_err, io_err, meta_for, too_large, InputOptions, LoadedInput};
 use crate::image::Image;
 use crate::raw::sample::frame_from_rgb8;
 use crate::raw::{Cfa, FrameLimits, RawError};

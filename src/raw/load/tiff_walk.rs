@@ -23,8 +23,27 @@
 //! read out of bounds, an unreadable pointer type) the walk of that branch ends, so the count is
 //! never below rawloader's (a panic ends rawloader's whole walk).
 //!
-//! Not pre-walked: the TIFF block inside a Minolta MRW, Sigma X3F's embedded root and Sony ARW's
-//! private IFD (each read by rawloader after the container's own parsing).
+//! The same walk runs on every other TIFF structure rawloader 0.37 builds, each a new tree at
+//! depth 0 with the same unbounded recurrence:
+//! - **Minolta MRW**: one big-endian IFD at offset 8 of the TTW block (of the file when there is
+//!   none), found by rawloader's block loop, which is replayed here ([`mrw_length_wrap`] is that
+//!   loop's other hazard: a length that wraps its 32-bit arithmetic);
+//! - **Sony** (`ArwDecoder::get_wb`, after the image is decoded): the little-endian IFD at the first
+//!   DNGPrivateArea value, and the IFD at the start of the block that IFD's SonyOffset,
+//!   SonyLength and SonyKey name, once decrypted (rawloader's key stream, replayed here; data
+//!   pointers relative to the block). Counted for any TIFF tree with a DNGPrivateArea, Sony or
+//!   not: an upper bound (for a DNG, whose private data starts "Adobe", one visit);
+//! - **Sigma X3F**: the TIFF root inside the camera-information block is not counted; X3F files
+//!   are refused before rawloader instead ([`is_x3f`]), since rawloader decodes none.
+//!
+//! Canon's CIFF (CRW) is not TIFF but is walked the same way: a heap's directory entries of
+//! the two sub-heap types are followed to depth 10 with no memory of heaps visited, and up to
+//! 65535 entries per heap. It is counted by the same memoised recurrence, on (heap start, heap
+//! end, depth).
+//!
+//! A hand-made input for each path is in `fuzz/seeds/camera_raw/` (written by
+//! `fuzz/make_seeds.py`); given to rawloader 0.37 directly, each of them runs for more than 8 s and
+//! grows past 5 GB (the MRW length wrap: spins forever).
 
 use std::collections::HashMap;
 
@@ -47,7 +66,6 @@ const MAX_CHAIN: usize = 100;
 /// Tags whose every value is an IFD offset that rawloader follows.
 const SUB_IFD_TAGS: [u16; 5] = [0x014A, 0x8769, 0xF000, 0x8290, 0xFE00];
 const MAKERNOTE: u16 = 0x927C;
-const OLYMPUS_IMG_PROC: u16 = 0x2040;
 /// log2 of the size of a TIFF type, as rawloader reads them (types 0 and > 13 read as bytes).
 const SHIFTS: [u8; 14] = [0, 0, 0, 1, 2, 3, 0, 0, 1, 2, 3, 2, 3, 2];
 
@@ -57,27 +75,26 @@ const SHIFTS: [u8; 14] = [0, 0, 0, 1, 2, 3, 0, 0, 1, 2, 3, 2, 3, 2];
 /// The walk stops as soon as the count exceeds `limit`: a result above `limit` is a lower bound
 /// (the file asks for at least that many). Never panics, whatever the bytes.
 pub fn rawloader_ifd_visits(bytes: &[u8], limit: u64) -> u64 {
-    let mut w = Walker {
-        buf: Padded(bytes),
-        limit,
-        memo: HashMap::new(),
-    };
-    match w.file() {
+    match Walker::new(bytes, PAD, limit).file() {
         Ok(v) | Err(Exceeded(v)) => v,
     }
 }
 
-/// The file's bytes followed by [`PAD`] zeros, read with bounds checks.
-struct Padded<'a>(&'a [u8]);
+/// Bytes followed by `pad` zeros (the file: [`PAD`]; a decrypted Sony block: none), read with
+/// bounds checks.
+struct Padded<'a> {
+    bytes: &'a [u8],
+    pad: usize,
+}
 
 impl Padded<'_> {
     fn len(&self) -> usize {
-        self.0.len() + PAD
+        self.bytes.len() + self.pad
     }
 
     fn byte(&self, pos: usize) -> Option<u8> {
-        if pos < self.0.len() {
-            Some(self.0[pos])
+        if pos < self.bytes.len() {
+            Some(self.bytes[pos])
         } else if pos < self.len() {
             Some(0)
         } else {
@@ -125,6 +142,38 @@ impl Padded<'_> {
 /// The walk passed the limit, after counting this many visits.
 struct Exceeded(u64);
 
+/// The values of [`FOUND_TAGS`] that rawloader's `find_entry` returns for one IFD's subtree (the
+/// IFD's own last entry of the tag, else the first found in its sub-IFDs in order), read as
+/// rawloader reads them (`None`: absent, or a read where rawloader panics).
+type Found = [Option<u32>; 5];
+
+/// Tags whose value decides a further walk: Olympus ImgProc (an IFD of the makernote),
+/// DNGPrivateArea (Sony's private IFD) and, in that IFD, the offset, length and key of the
+/// encrypted block holding Sony's SR2 sub-IFD.
+const FOUND_TAGS: [u16; 5] = [
+    OLYMPUS_IMG_PROC,
+    DNG_PRIVATE_AREA,
+    SONY_OFFSET,
+    SONY_LENGTH,
+    SONY_KEY,
+];
+const OLYMPUS_IMG_PROC: u16 = 0x2040;
+const DNG_PRIVATE_AREA: u16 = 0xC634;
+const SONY_OFFSET: u16 = 0x7200;
+const SONY_LENGTH: u16 = 0x7201;
+const SONY_KEY: u16 = 0x7221;
+/// Indices into [`Found`].
+const F_IMG_PROC: usize = 0;
+const F_PRIVATE: usize = 1;
+const F_SONY_OFFSET: usize = 2;
+const F_SONY_LENGTH: usize = 3;
+const F_SONY_KEY: usize = 4;
+
+/// `a` where it is set, else `b`, tag by tag.
+fn or_found(a: Found, b: Found) -> Found {
+    std::array::from_fn(|i| a[i].or(b[i]))
+}
+
 /// What rawloader's `TiffIFD::new` returns for one IFD, as far as the walk needs it.
 #[derive(Clone, Copy)]
 struct Ifd {
@@ -134,8 +183,8 @@ struct Ifd {
     parsed: bool,
     /// The next-IFD link (`None`: out of bounds).
     next: Option<u32>,
-    /// The first Olympus ImgProc offset `find_entry` finds in this subtree.
-    img_proc: Option<u32>,
+    /// The values of [`FOUND_TAGS`] in this subtree.
+    found: Found,
 }
 
 impl Ifd {
@@ -144,7 +193,7 @@ impl Ifd {
         visits: 0,
         parsed: false,
         next: None,
-        img_proc: None,
+        found: [None; 5],
     };
 }
 
@@ -167,34 +216,142 @@ struct Walker<'a> {
     buf: Padded<'a>,
     limit: u64,
     memo: HashMap<Key, Ifd>,
+    /// Canon CIFF heaps: (start, end, depth) -> visits.
+    ciff_memo: HashMap<(usize, usize, u32), u64>,
 }
 
-impl Walker<'_> {
-    /// `RawLoader::get_decoder`'s order: MRW, CIFF, ARRI and X3F are not TIFF files; a RAF has two
-    /// TIFF roots; anything else is a TIFF root at 0 when it starts with `II` or `MM`.
+impl<'a> Walker<'a> {
+    fn new(bytes: &'a [u8], pad: usize, limit: u64) -> Self {
+        Walker {
+            buf: Padded { bytes, pad },
+            limit,
+            memo: HashMap::new(),
+            ciff_memo: HashMap::new(),
+        }
+    }
+
+    /// `RawLoader::get_decoder`'s order: an MRW holds one TIFF IFD; a Canon CIFF is a tree of
+    /// heaps ([`Walker::ciff`]); ARRI and X3F are not walked here (X3F is refused before
+    /// rawloader: see [`is_x3f`]); a RAF has two TIFF roots;
+    /// anything else is a TIFF root at 0 when it starts with `II` or `MM`. A TIFF tree with a
+    /// DNGPrivateArea entry adds the walks of rawloader's Sony white-balance reader.
     fn file(&mut self) -> Result<u64, Exceeded> {
         let b = &self.buf;
-        let not_tiff = b.u32(0, true) == Some(0x004D_524D)
-            || b.has(6, b"HEAPCCDR") == Some(true)
-            || b.has(0, b"ARRI") == Some(true)
-            || b.has(0, b"FOVb") == Some(true);
+        if b.u32(0, true) == Some(MRW_MAGIC) {
+            return self.mrw();
+        }
+        if b.has(6, b"HEAPCCDR") == Some(true) {
+            // `CiffIFD::new_file`: the root heap from the header's length to the end of the file.
+            return match b.u32(2, false) {
+                Some(start) => self.ciff(start as usize, b.bytes.len(), 1),
+                None => Ok(0),
+            };
+        }
+        let not_tiff = b.has(0, b"ARRI") == Some(true) || b.has(0, b"FOVb") == Some(true);
         if not_tiff {
             return Ok(0);
         }
-        if b.has(0, b"FUJIFILM") == Some(true) {
-            let Some(first) = b.u32(84, true).and_then(|o| o.checked_add(12)) else {
+        let (visits, found) = if b.has(0, b"FUJIFILM") == Some(true) {
+            // rawloader adds 12 to the offset in 32 bits: it wraps in release builds.
+            let Some(first) = b.u32(84, true).map(|o| o.wrapping_add(12)) else {
                 return Ok(0);
             };
-            let Some(v1) = self.root(first as usize)? else {
+            let Some((v1, f1)) = self.root(first as usize)? else {
                 return Ok(0);
             };
-            let v2 = match self.buf.u32(100, true) {
-                Some(o) => self.root(o as usize)?.unwrap_or(0),
-                None => 0,
+            let (v2, f2) = match self.buf.u32(100, true) {
+                Some(o) => self.root(o as usize)?.unwrap_or((0, [None; 5])),
+                None => (0, [None; 5]),
             };
-            return self.add(v1, v2);
+            (self.add(v1, v2)?, or_found(f1, f2))
+        } else {
+            match self.root(0)? {
+                Some(r) => r,
+                None => return Ok(0),
+            }
+        };
+        let sony = self.sony_private(&found, visits)?;
+        self.add(visits, sony)
+    }
+
+    /// `MrwDecoder::new`: the blocks up to the data offset, then one big-endian IFD at offset 8
+    /// of the TTW block (of the file when there is none), not followed by its next-IFD link.
+    /// Block lengths that wrap rawloader's arithmetic ([`mrw_length_wrap`]) end the count: such a
+    /// file is refused before rawloader.
+    fn mrw(&mut self) -> Result<u64, Exceeded> {
+        match mrw_blocks(self.buf.bytes) {
+            Mrw::Tiff(pos) => Ok(self.ifd(pos, 8, 0, 0, true)?.visits),
+            Mrw::Wraps { .. } | Mrw::Panics => Ok(0),
         }
-        Ok(self.root(0)?.unwrap_or(0))
+    }
+
+    /// `ArwDecoder::get_wb`: the IFD at the first DNGPrivateArea value (little-endian, depth 0,
+    /// in the whole file) and, when that IFD's subtree has the Sony offset, length and key, the
+    /// IFD at the start of the decrypted block (its data pointers relative to the offset).
+    /// Counted for every TIFF tree with a DNGPrivateArea, whatever its make (an upper bound:
+    /// rawloader reads it for Sony files only). `visits` is the count so far.
+    fn sony_private(&mut self, found: &Found, visits: u64) -> Result<u64, Exceeded> {
+        let Some(p) = found[F_PRIVATE] else {
+            return Ok(0);
+        };
+        let private = self.ifd(0, p as usize, 0, 0, false)?;
+        let mut total = self.add(visits, private.visits)?;
+        let f = private.found;
+        let (Some(off), Some(len), Some(key)) = (f[F_SONY_OFFSET], f[F_SONY_LENGTH], f[F_SONY_KEY]) else {
+            return Ok(total - visits);
+        };
+        let Some(block) = sony_decrypt(&self.buf, off as usize, len as usize, key) else {
+            return Ok(total - visits);
+        };
+        let mut inner = Walker::new(&block, 0, self.limit - total);
+        match inner.ifd(0, 0, off as usize, 0, false) {
+            Ok(ifd) => total = self.add(total, ifd.visits)?,
+            Err(Exceeded(v)) => return Err(Exceeded(total.saturating_add(v))),
+        }
+        Ok(total - visits)
+    }
+
+    /// `CiffIFD::new(buf, start, end, depth)`, Canon's CIFF (CRW) heap: its directory (at the
+    /// offset in the heap's last 4 bytes) has up to 65535 entries of 10 bytes; an entry of type
+    /// 0x2800 or 0x3000 is a sub-heap, followed below depth 10 with no memory of heaps already
+    /// visited (the same recurrence as the TIFF walk's, counted the same way). An entry whose
+    /// data location is neither in the heap nor in the entry ends the heap (rawloader: `Err`).
+    fn ciff(&mut self, start: usize, end: usize, depth: u32) -> Result<u64, Exceeded> {
+        let key = (start, end, depth);
+        if let Some(&v) = self.ciff_memo.get(&key) {
+            return Ok(v);
+        }
+        let mut visits = 1;
+        let dir = end
+            .checked_sub(4)
+            .and_then(|p| self.buf.u32(p, false))
+            .and_then(|v| start.checked_add(v as usize));
+        let count = dir.and_then(|d| self.buf.u16(d, false)).unwrap_or(0);
+        for i in 0..count as usize {
+            let Some(eo) = dir.and_then(|d| d.checked_add(2 + 10 * i)) else {
+                break;
+            };
+            let Some(p) = self.buf.u16(eo, false) else { break };
+            let (size, off) = match p & 0xC000 {
+                0x0000 => match (self.buf.u32(eo + 2, false), self.buf.u32(eo + 6, false)) {
+                    (Some(size), Some(off)) => (size as usize, off as usize + start),
+                    _ => break,
+                },
+                0x4000 => (8, eo + 2),
+                _ => break,
+            };
+            // rawloader slices the entry's data: out of bounds, it panics.
+            if off + size > self.buf.len() {
+                break;
+            }
+            let typ = p & 0x3800;
+            if (typ == 0x2800 || typ == 0x3000) && depth < MAX_DEPTH {
+                let sub = self.ciff(off, off + size, depth + 1)?;
+                visits = self.add(visits, sub)?;
+            }
+        }
+        self.ciff_memo.insert(key, visits);
+        Ok(visits)
     }
 
     /// `a + b`, an error once above the limit.
@@ -207,26 +364,31 @@ impl Walker<'_> {
         }
     }
 
-    /// `TiffIFD::new_root`: the visits of the chain at `r`, `None` when `r` holds no byte-order mark.
-    fn root(&mut self, r: usize) -> Result<Option<u64>, Exceeded> {
+    /// `TiffIFD::new_root`: the visits of the chain at `r` and what it holds of [`FOUND_TAGS`]
+    /// (in chain order), `None` when `r` holds no byte-order mark.
+    fn root(&mut self, r: usize) -> Result<Option<(u64, Found)>, Exceeded> {
         let big = match self.buf.u16(r, false) {
             Some(0x4949) => false,
             Some(0x4d4d) => true,
             _ => return Ok(None),
         };
+        let mut found = [None; 5];
         let Some(mut next) = r.checked_add(4).and_then(|p| self.buf.u32(p, big)) else {
-            return Ok(Some(0));
+            return Ok(Some((0, found)));
         };
         let mut total = 0;
         for _ in 0..MAX_CHAIN {
             let ifd = self.ifd(r, next as usize, 0, 0, big)?;
             total = self.add(total, ifd.visits)?;
+            if ifd.parsed {
+                found = or_found(found, ifd.found);
+            }
             match ifd.next {
                 Some(n) if ifd.parsed && n != 0 => next = n,
                 _ => break,
             }
         }
-        Ok(Some(total))
+        Ok(Some((total, found)))
     }
 
     /// `TiffIFD::new(&buf[s..], o, b, _, depth, big)`.
@@ -248,7 +410,7 @@ impl Walker<'_> {
             }
         };
         out.parsed = true;
-        let (mut own_img_proc, mut sub_img_proc) = (None, None);
+        let (mut own, mut sub): (Found, Found) = ([None; 5], [None; 5]);
         for i in 0..num as usize {
             let Some(eo) = o.checked_add(2 + 12 * i) else {
                 break;
@@ -256,16 +418,22 @@ impl Walker<'_> {
             let Some(tag) = at(eo).and_then(|p| self.buf.u16(p, big)) else {
                 break;
             };
-            let special = SUB_IFD_TAGS.contains(&tag) || tag == MAKERNOTE || tag == OLYMPUS_IMG_PROC;
+            let found_at = FOUND_TAGS.iter().position(|&t| t == tag);
+            let special = SUB_IFD_TAGS.contains(&tag) || tag == MAKERNOTE || found_at.is_some();
             if !special {
                 continue;
             }
             let Some(entry) = self.entry(s, eo, b, big) else {
                 break;
             };
-            if tag == OLYMPUS_IMG_PROC {
-                // The map of entries keeps the last one.
-                own_img_proc = self.value(&entry, 0);
+            if let Some(f) = found_at {
+                // The map of entries keeps the last one. DNGPrivateArea is read as a LONG
+                // whatever its type (`get_force_u32`), the others as `get_u32`.
+                own[f] = if f == F_PRIVATE {
+                    (entry.len >= 4).then(|| self.buf.u32(entry.data, big)).flatten()
+                } else {
+                    self.value(&entry, 0)
+                };
                 continue;
             }
             if depth >= MAX_DEPTH {
@@ -280,12 +448,12 @@ impl Walker<'_> {
                     self.ifd(s, p as usize, b, depth + 1, big)?
                 };
                 out.visits = self.add(out.visits, child.visits)?;
-                if child.parsed && sub_img_proc.is_none() {
-                    sub_img_proc = child.img_proc;
+                if child.parsed {
+                    sub = or_found(sub, child.found);
                 }
             }
         }
-        out.img_proc = own_img_proc.or(sub_img_proc);
+        out.found = or_found(own, sub);
         out.next = o
             .checked_add(2 + 12 * num as usize)
             .and_then(at)
@@ -361,7 +529,7 @@ impl Walker<'_> {
                 return Ok(Ifd::DEAD);
             };
             let mut main = self.ifd(s, mo, b, depth, big)?;
-            let ioff = main.img_proc.filter(|&v| v != 0);
+            let ioff = main.found[F_IMG_PROC].filter(|&v| v != 0);
             if main.parsed && olympus {
                 if let Some(ioff) = ioff {
                     let Some(is) = d.checked_add(ioff as usize) else {
@@ -370,7 +538,7 @@ impl Walker<'_> {
                     let ip = self.ifd(is, 0, ioff as usize, depth, big)?;
                     main.visits = self.add(main.visits, ip.visits)?;
                     main.parsed = ip.parsed;
-                    main.img_proc = main.img_proc.or(ip.img_proc);
+                    main.found = or_found(main.found, ip.found);
                 }
             }
             return Ok(main);
@@ -421,6 +589,109 @@ impl Walker<'_> {
         }
         self.ifd(s, o + off, b, depth, big)
     }
+}
+
+/// The first four bytes of a Minolta MRW (`\0MRM`), big-endian.
+const MRW_MAGIC: u32 = 0x004D_524D;
+
+/// What `MrwDecoder::new` does with a file's blocks.
+enum Mrw {
+    /// It reads the TIFF IFD at offset 8 of the slice starting here.
+    Tiff(usize),
+    /// It adds 8 to a 32-bit length at byte `offset` in 32 bits, which wraps.
+    Wraps { offset: usize, len: u32 },
+    /// It reads out of bounds (a caught panic: the file is refused by rawloader).
+    Panics,
+}
+
+/// `MrwDecoder::new`'s block loop over the file as rawloader sees it (the bytes and [`PAD`]
+/// zeros), in checked arithmetic: the data offset is the header's length + 8, blocks of (tag,
+/// length) follow from byte 8 while `pos + 20 < data offset`, each advancing by length + 8, and
+/// the TTW block gives the TIFF's position. Both additions are 32-bit in rawloader.
+fn mrw_blocks(bytes: &[u8]) -> Mrw {
+    let buf = Padded { bytes, pad: PAD };
+    let Some(head) = buf.u32(4, true) else {
+        return Mrw::Panics;
+    };
+    let Some(data_offset) = head.checked_add(8) else {
+        return Mrw::Wraps { offset: 4, len: head };
+    };
+    let data_offset = data_offset as usize;
+    let (mut pos, mut tiff) = (8usize, 0usize);
+    while pos + 20 < data_offset {
+        let (Some(tag), Some(len)) = (buf.u32(pos, true), buf.u32(pos + 4, true)) else {
+            return Mrw::Panics;
+        };
+        match tag {
+            // PRD reads a byte at pos + 24, WBG up to pos + 20.
+            0x50_5244 if buf.byte(pos + 24).is_none() => return Mrw::Panics,
+            0x57_4247 if buf.len() < pos + 20 => return Mrw::Panics,
+            0x54_5457 => tiff = pos + 8,
+            _ => {}
+        }
+        let Some(step) = len.checked_add(8) else {
+            return Mrw::Wraps { offset: pos + 4, len };
+        };
+        pos += step as usize;
+    }
+    Mrw::Tiff(tiff)
+}
+
+/// A Minolta MRW length field that wraps rawloader 0.37's 32-bit offset arithmetic: `Some((byte
+/// offset of the field, its value))`, the first one rawloader's block loop meets.
+///
+/// `MrwDecoder::new` computes the data offset as the header's length + 8 and steps from block to
+/// block by each block's length + 8, in `u32`. A length above `u32::MAX - 8` panics with overflow
+/// checks on (debug builds: rawloader catches it) and wraps without (release builds): a block
+/// length of `0xFFFF_FFF8` then steps by 0 and the loop never ends (a 52-byte file keeps
+/// `mosaicd gradients` busy forever). `None` for any other file, MRW or not.
+pub fn mrw_length_wrap(bytes: &[u8]) -> Option<(usize, u32)> {
+    let buf = Padded { bytes, pad: PAD };
+    if buf.u32(0, true) != Some(MRW_MAGIC) {
+        return None;
+    }
+    match mrw_blocks(bytes) {
+        Mrw::Wraps { offset, len } => Some((offset, len)),
+        Mrw::Tiff(_) | Mrw::Panics => None,
+    }
+}
+
+/// A Sigma X3F (`FOVb`): rawloader 0.37 walks its embedded TIFF root (unbounded like any other)
+/// and then decodes no X3F image (its one compressed format returns "not implemented"; X3F
+/// holds three colours per pixel, not a mosaic), so such files are refused before rawloader.
+pub fn is_x3f(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"FOVb")
+}
+
+/// `ArwDecoder::sony_decrypt(buf, off, len, key)`: `len / 4 + 1` little-endian words from `off`,
+/// each XORed with the next word of a pad generated from `key`; `None` where rawloader reads out
+/// of bounds (it panics). The block is at most the file's size.
+fn sony_decrypt(buf: &Padded<'_>, off: usize, len: usize, key: u32) -> Option<Vec<u8>> {
+    let words = len / 4 + 1;
+    if off.checked_add(words.checked_mul(4)?)? > buf.len() {
+        return None;
+    }
+    let mut pad = [0u32; 128];
+    let mut k = key;
+    for p in pad.iter_mut().take(4) {
+        k = k.wrapping_mul(48_828_125).wrapping_add(1);
+        *p = k;
+    }
+    pad[3] = (pad[3] << 1) | ((pad[0] ^ pad[2]) >> 31);
+    for p in 4..127 {
+        pad[p] = ((pad[p - 4] ^ pad[p - 2]) << 1) | ((pad[p - 3] ^ pad[p - 1]) >> 31);
+    }
+    for p in pad.iter_mut().take(127) {
+        *p = u32::from_be(*p);
+    }
+    let mut out = Vec::with_capacity(words * 4);
+    for i in 0..words {
+        let p = i + 127;
+        pad[p & 127] = pad[(p + 1) & 127] ^ pad[(p + 1 + 64) & 127];
+        let w = buf.u32(off + i * 4, false)? ^ pad[p & 127];
+        out.extend(w.to_le_bytes());
+    }
+    Some(out)
 }
 
 #[cfg(test)]
@@ -556,5 +827,157 @@ mod tests {
                 assert!(load(&b[..n]).is_err(), "{n}");
             }
         }
+    }
+
+    /// A committed hand-made seed of `fuzz/seeds/camera_raw/`.
+    fn seed(name: &str) -> Vec<u8> {
+        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fuzz/seeds/camera_raw")
+            .join(name);
+        std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+    }
+
+    /// Load `bytes` as a camera raw file; the error and how long it took.
+    fn refused(bytes: &[u8]) -> (crate::raw::RawError, std::time::Duration) {
+        let t = std::time::Instant::now();
+        let e = load(bytes).unwrap_err();
+        (e, t.elapsed())
+    }
+
+    #[test]
+    fn every_embedded_tiff_walk_is_counted_and_refused_quickly() {
+        // Each seed holds one IFD (or CIFF heap) listing itself 8 times, reached through a
+        // different path of rawloader: 8^10 + ... visits in rawloader (the CIFF: 8^9 + ...), a few
+        // dozen distinct (IFD, depth) pairs here.
+        for (name, least) in [
+            ("mrw-tiff-explosion.bin", 1_000_000_000),
+            ("arw-private-explosion.bin", 1_000_000_000),
+            ("arw-sr2-explosion.bin", 1_000_000_000),
+            ("ciff-heap-explosion.bin", 150_000_000),
+        ] {
+            let bytes = seed(name);
+            let all = rawloader_ifd_visits(&bytes, u64::MAX);
+            assert!(all > least, "{name}: {all}");
+            let (e, took) = refused(&bytes);
+            match e {
+                crate::raw::RawError::TiffWalk { visits, limit, .. } => {
+                    assert_eq!(limit, MAX_TIFF_IFD_VISITS);
+                    assert!(visits > limit, "{name}: {visits}");
+                }
+                e => panic!("{name}: want TiffWalk, got {e}"),
+            }
+            assert!(took < std::time::Duration::from_millis(200), "{name}: {took:?}");
+            eprintln!("{name}: refused in {took:?}; the whole walk is {all} IFD visits");
+        }
+    }
+
+    #[test]
+    fn sony_private_walks_need_their_tags_and_a_readable_block() {
+        let sr2 = seed("arw-sr2-explosion.bin");
+        // The same file with the key changed decrypts to noise: only the root (1) and the private
+        // IFD (1) are walked, the decrypted block's first IFD refused or small.
+        let key_at = sr2
+            .windows(4)
+            .position(|w| w == 0x1234_5678u32.to_le_bytes())
+            .unwrap();
+        let mut wrong_key = sr2.clone();
+        wrong_key[key_at] ^= 1;
+        assert!(rawloader_ifd_visits(&wrong_key, u64::MAX) < 100);
+        // Cut inside the encrypted block: rawloader reads past the end (a caught panic), no walk.
+        let cut = &sr2[..sr2.len() - 30];
+        assert_eq!(rawloader_ifd_visits(cut, u64::MAX), 2);
+        // Without DNGPrivateArea (tag renamed to an unknown one): the root alone.
+        let mut no_private = sr2.clone();
+        let tag_at = no_private
+            .windows(4)
+            .position(|w| w == [0x34, 0xC6, 4, 0])
+            .unwrap();
+        no_private[tag_at] = 0x35;
+        assert_eq!(rawloader_ifd_visits(&no_private, u64::MAX), 1);
+        // The key stream is an XOR: decrypting twice gives the bytes back (that it matches the seed
+        // writer's encryption is shown by the explosion the seed decrypts to, above).
+        let buf = Padded {
+            bytes: &sr2,
+            pad: PAD,
+        };
+        let block = sony_decrypt(&buf, 0, 40, 7).unwrap();
+        let again = sony_decrypt(
+            &Padded {
+                bytes: &block,
+                pad: 0,
+            },
+            0,
+            40,
+            7,
+        )
+        .unwrap();
+        assert_eq!(&again[..40], &sr2[..40]);
+    }
+
+    #[test]
+    fn an_mrw_length_that_wraps_is_refused_before_rawloader() {
+        let bytes = seed("mrw-length-wrap.bin");
+        assert_eq!(mrw_length_wrap(&bytes), Some((12, 0xFFFF_FFF8)));
+        let (e, took) = refused(&bytes);
+        assert!(
+            matches!(
+                e,
+                crate::raw::RawError::MrwLength {
+                    offset: 12,
+                    len: 0xFFFF_FFF8,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("0xfffffff8 at byte 12"), "{e}");
+        assert!(took < std::time::Duration::from_millis(200), "{took:?}");
+        // Every length that wraps, in the header or a block; none that does not.
+        let mrw = |head: u32, len: u32| {
+            let mut b = b"\0MRM".to_vec();
+            b.extend(head.to_be_bytes());
+            b.extend(b"\0PRD");
+            b.extend(len.to_be_bytes());
+            b.extend([0u8; 32]);
+            b
+        };
+        for len in 0xFFFF_FFF8..=u32::MAX {
+            assert_eq!(mrw_length_wrap(&mrw(100, len)), Some((12, len)));
+            assert_eq!(mrw_length_wrap(&mrw(len, 8)), Some((4, len)));
+        }
+        assert_eq!(mrw_length_wrap(&mrw(100, 0xFFFF_FFF7)), None);
+        assert_eq!(mrw_length_wrap(&mrw(100, 16)), None);
+        // Not an MRW, and every truncation: no answer, no panic.
+        assert_eq!(mrw_length_wrap(b"II*\0"), None);
+        for n in 0..bytes.len() {
+            let _ = mrw_length_wrap(&bytes[..n]);
+            let _ = rawloader_ifd_visits(&bytes[..n], u64::MAX);
+        }
+    }
+
+    #[test]
+    fn an_mrw_tiff_block_is_found_where_rawloader_finds_it() {
+        let bytes = seed("mrw-tiff-explosion.bin");
+        assert!(matches!(mrw_blocks(&bytes), Mrw::Tiff(16)));
+        // A benign MRW: a TTW block with one IFD of no entries, one visit.
+        let mut ok = b"\0MRM".to_vec();
+        let tiff = b"MM\0*\0\0\0\x08\0\0\0\0\0\0";
+        ok.extend((8 + tiff.len() as u32).to_be_bytes());
+        ok.extend(b"\0TTW");
+        ok.extend((tiff.len() as u32).to_be_bytes());
+        ok.extend(tiff);
+        assert_eq!(rawloader_ifd_visits(&ok, MAX_TIFF_IFD_VISITS), 1);
+        let e = load(&ok).unwrap_err();
+        assert!(matches!(e, crate::raw::RawError::Format { .. }), "{e}");
+    }
+
+    #[test]
+    fn x3f_is_refused_before_rawloader_walks_it() {
+        let bytes = seed("x3f-tiff-explosion.bin");
+        assert!(is_x3f(&bytes));
+        let (e, took) = refused(&bytes);
+        assert!(matches!(e, crate::raw::RawError::Format { .. }), "{e}");
+        assert!(e.to_string().contains("Sigma X3F is not supported"), "{e}");
+        assert!(took < std::time::Duration::from_millis(200), "{took:?}");
     }
 }
