@@ -163,7 +163,23 @@ def hostile_camera_raw() -> dict[str, bytes]:
     size = 2 + 10 * n + 4
     heap = struct.pack("<H", n) + struct.pack("<HII", 0x2800 | 0x000A, size, 0) * n + struct.pack("<I", 0)
     out["ciff-heap-explosion.bin"] = b"II" + struct.pack("<I", start) + b"HEAPCCDR" + heap
+    out["srf-huge-dimensions.bin"] = srf(1_000_000, 1_000_000, 200_960)
     return out
+
+
+def srf(w: int, h: int, size: int) -> bytes:
+    """A little-endian Sony DSC-F828 TIFF with no StripOffsets (rawloader 0.37's SRF path) declaring
+    a ``w`` x ``h`` image, zero-filled to ``size`` bytes. rawloader reads a key at byte 200896
+    (so the file must reach it) and then reserves ``w * h * 2`` bytes for the samples it would
+    read from byte 862144 (src/raw/load/tiff_walk.rs, ``sony_srf_size``)."""
+    n = 4
+    make = 8 + 2 + 12 * n + 4
+    model = make + 6
+    entries = [(0x0100, 4, 1, w), (0x0101, 4, 1, h), (0x010F, 2, 5, make), (0x0110, 2, 9, model)]
+    out = b"II*\0" + struct.pack("<IH", 8, n) + b"".join(struct.pack("<HHII", *e) for e in entries) + struct.pack("<I", 0)
+    out += b"SONY\0\0" + b"DSC-F828\0"
+    assert len(out) <= size
+    return out + bytes(size - len(out))
 
 
 def main() -> int:

@@ -163,6 +163,28 @@ pub enum RawError {
         /// The length it holds.
         len: u32,
     },
+    /// A Sony SRF whose declared image exceeds the frame-size limit or does not fit in the file
+    /// (rawloader would reserve its bytes before reading any: a failed reservation aborts the
+    /// process), refused before rawloader reads it ([`load::sony_srf_size`]).
+    #[error("{path}: Sony SRF declares a {width}x{height} image, whose 16-bit samples from byte {data_offset} need the file to hold {needed} bytes: it holds {file_len}, and the frame-size limit is {max_pixels} pixels and {max_side} a side (a corrupt or hostile file)")]
+    SrfSize {
+        /// File.
+        path: PathBuf,
+        /// Declared width.
+        width: u64,
+        /// Declared height.
+        height: u64,
+        /// Where the samples start, [`load::SRF_DATA_OFFSET`].
+        data_offset: u64,
+        /// `data_offset + width * height * 2` (saturating).
+        needed: u64,
+        /// The file's size.
+        file_len: u64,
+        /// The frame-size limit's pixels.
+        max_pixels: u64,
+        /// The frame-size limit's side.
+        max_side: u64,
+    },
     /// A value in a file exceeds the declared bit depth.
     #[error("{path}: pixel value {value} at ({x}, {y}) exceeds the declared {bit_depth}-bit range")]
     ValueOutOfRange {

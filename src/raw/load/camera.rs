@@ -5,7 +5,9 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use super::common::{bits_for, format_err, meta_for, read_at_most, too_large};
-use super::tiff_walk::{is_x3f, mrw_length_wrap, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
+use super::tiff_walk::{
+    is_x3f, mrw_length_wrap, rawloader_ifd_visits, sony_srf_size, MAX_TIFF_IFD_VISITS, SRF_DATA_OFFSET,
+};
 use crate::raw::kodak_radc;
 use crate::raw::{Cfa, FrameLimits, Levels, RawError, RawFrame, RawPixels};
 
@@ -70,7 +72,10 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is [`RawError::TiffWalk`];
 /// an MRW length that wraps rawloader's 32-bit arithmetic ([`mrw_length_wrap`]) is
 /// [`RawError::MrwLength`]; a Sigma X3F ([`is_x3f`]: rawloader walks its TIFF and then decodes
-/// none) is [`RawError::Format`].
+/// none) is [`RawError::Format`]; a Sony SRF ([`sony_srf_size`]) whose declared image exceeds the
+/// frame-size limit or does not fit in the file after [`SRF_DATA_OFFSET`] is
+/// [`RawError::SrfSize`] (rawloader reserves `width * height * 2` bytes for it before reading
+/// any: a failed reservation aborts the process).
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     let bytes = read_at_most(path, max_camera_raw_bytes(limits), "a camera raw file")?;
@@ -99,6 +104,26 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
             visits,
             limit: MAX_TIFF_IFD_VISITS,
         });
+    }
+    if let Some((w, h)) = sony_srf_size(&bytes) {
+        let (width, height) = (u64::from(w), u64::from(h));
+        let needed = width
+            .saturating_mul(height)
+            .saturating_mul(2)
+            .saturating_add(SRF_DATA_OFFSET);
+        let file_len = bytes.len() as u64;
+        if limits.check(width, height).is_err() || needed > file_len {
+            return Err(RawError::SrfSize {
+                path: path.to_path_buf(),
+                width,
+                height,
+                data_offset: SRF_DATA_OFFSET,
+                needed,
+                file_len,
+                max_pixels: limits.max_pixels(),
+                max_side: crate::raw::limits::MAX_SIDE as u64,
+            });
+        }
     }
     let raw = decode_quietly(&bytes).map_err(|e| {
         let e = e.to_string();

@@ -70,7 +70,9 @@ pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFo
 pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
 pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
 pub use rgb::{decode_image, load_rgb8};
-pub use tiff_walk::{is_x3f, mrw_length_wrap, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
+pub use tiff_walk::{
+    is_x3f, mrw_length_wrap, rawloader_ifd_visits, sony_srf_size, MAX_TIFF_IFD_VISITS, SRF_DATA_OFFSET,
+};
 
 use common::need_cfa;
 use png::png_header;

@@ -41,9 +41,15 @@
 //! 65535 entries per heap. It is counted by the same memoised recurrence, on (heap start, heap
 //! end, depth).
 //!
+//! The same tree tells which decoder rawloader will pick, and one of them allocates from the
+//! header before it reads anything: the Sony SRF path reserves `width * height * 2` bytes (no
+//! bound; a failed reservation aborts the process). [`sony_srf_size`] reports the size such a
+//! file declares, so that it can be checked against the file and the frame-size limit first.
+//!
 //! A hand-made input for each path is in `fuzz/seeds/camera_raw/` (written by
 //! `fuzz/make_seeds.py`); given to rawloader 0.37 directly, each of them runs for more than 8 s and
-//! grows past 5 GB (the MRW length wrap: spins forever).
+//! grows past 5 GB (the MRW length wrap: spins forever; the SRF seed: the process aborts on a
+//! 2 TB reservation).
 
 use std::collections::HashMap;
 
@@ -78,6 +84,37 @@ pub fn rawloader_ifd_visits(bytes: &[u8], limit: u64) -> u64 {
     match Walker::new(bytes, PAD, limit).file() {
         Ok(v) | Err(Exceeded(v)) => v,
     }
+}
+
+/// Where rawloader 0.37's Sony SRF decoder (`ArwDecoder::image_srf`) reads the samples: 16-bit,
+/// `width * height * 2` bytes (encrypted) from this byte of the file (a constant from dcraw).
+pub const SRF_DATA_OFFSET: u64 = 862_144;
+
+/// The image size a Sony SRF declares, `Some((width, height))`, when `rawloader::decode` would
+/// take its SRF path for `bytes`; `None` otherwise (and when the TIFF walk exceeds
+/// [`MAX_TIFF_IFD_VISITS`]: such a file is refused before this matters).
+///
+/// rawloader 0.37 picks that path for a TIFF tree without DNGVersion whose Make reads "SONY"
+/// (and whose Model is not "DCS560C") when no IFD has StripOffsets and the Model is not
+/// "DSLR-A100" (it also needs the model in its camera list, which is not checked here: an upper
+/// bound). It then takes `width` and `height` from the first IFD with ImageWidth and, before
+/// reading a sample, reserves `width * height * 2` bytes (`ArwDecoder::sony_decrypt`'s
+/// `Vec::with_capacity`): up to 2^65 bytes from a header of two 32-bit values, and a failed
+/// reservation aborts the process (rawloader's `catch_unwind` cannot catch it). The samples
+/// are read from [`SRF_DATA_OFFSET`], so a real file holds `SRF_DATA_OFFSET + width * height *
+/// 2` bytes at least.
+pub fn sony_srf_size(bytes: &[u8]) -> Option<(u32, u32)> {
+    let mut w = Walker::new(bytes, PAD, MAX_TIFF_IFD_VISITS);
+    let (_, f) = w.tiff_tree().ok()??;
+    let srf = f[F_DNG].is_none()
+        && f[F_MAKE] == Some(1)
+        && f[F_MODEL] != Some(2)
+        && f[F_STRIPS].is_none()
+        && f[F_MODEL] != Some(1);
+    if !srf {
+        return None;
+    }
+    Some((f[F_WIDTH]?, f[F_SRF_HEIGHT]?))
 }
 
 /// Bytes followed by `pad` zeros (the file: [`PAD`]; a decrypted Sony block: none), read with
@@ -145,29 +182,62 @@ struct Exceeded(u64);
 /// The values of [`FOUND_TAGS`] that rawloader's `find_entry` returns for one IFD's subtree (the
 /// IFD's own last entry of the tag, else the first found in its sub-IFDs in order), read as
 /// rawloader reads them (`None`: absent, or a read where rawloader panics).
-type Found = [Option<u32>; 5];
+type Found = [Option<u32>; N_FOUND];
+
+/// Slots of [`Found`]: one per tag of [`FOUND_TAGS`], then [`F_SRF_HEIGHT`].
+const N_FOUND: usize = FOUND_TAGS.len() + 1;
+/// Nothing found.
+const NONE: Found = [None; N_FOUND];
 
 /// Tags whose value decides a further walk: Olympus ImgProc (an IFD of the makernote),
 /// DNGPrivateArea (Sony's private IFD) and, in that IFD, the offset, length and key of the
-/// encrypted block holding Sony's SR2 sub-IFD.
-const FOUND_TAGS: [u16; 5] = [
+/// encrypted block holding Sony's SR2 sub-IFD; then the tags that decide whether rawloader takes
+/// its Sony SRF path and the size it declares there ([`sony_srf_size`]).
+const FOUND_TAGS: [u16; 11] = [
     OLYMPUS_IMG_PROC,
     DNG_PRIVATE_AREA,
     SONY_OFFSET,
     SONY_LENGTH,
     SONY_KEY,
+    IMAGE_WIDTH,
+    IMAGE_LENGTH,
+    STRIP_OFFSETS,
+    DNG_VERSION,
+    MAKE,
+    MODEL,
 ];
 const OLYMPUS_IMG_PROC: u16 = 0x2040;
 const DNG_PRIVATE_AREA: u16 = 0xC634;
 const SONY_OFFSET: u16 = 0x7200;
 const SONY_LENGTH: u16 = 0x7201;
 const SONY_KEY: u16 = 0x7221;
+const IMAGE_WIDTH: u16 = 0x0100;
+const IMAGE_LENGTH: u16 = 0x0101;
+const STRIP_OFFSETS: u16 = 0x0111;
+const DNG_VERSION: u16 = 0xC612;
+const MAKE: u16 = 0x010F;
+const MODEL: u16 = 0x0110;
 /// Indices into [`Found`].
 const F_IMG_PROC: usize = 0;
 const F_PRIVATE: usize = 1;
 const F_SONY_OFFSET: usize = 2;
 const F_SONY_LENGTH: usize = 3;
 const F_SONY_KEY: usize = 4;
+/// `ImageWidth`, as rawloader's `find_entry` finds it.
+const F_WIDTH: usize = 5;
+/// `ImageLength`, as `find_entry` finds it.
+const F_LENGTH: usize = 6;
+/// `Some(0)` when `StripOffsets` is present.
+const F_STRIPS: usize = 7;
+/// `Some(0)` when `DNGVersion` is present.
+const F_DNG: usize = 8;
+/// `Make`: `Some(1)` when it reads "SONY" (rawloader's `get_str`), else `Some(0)`.
+const F_MAKE: usize = 9;
+/// `Model`: `Some(1)` "DSLR-A100", `Some(2)` "DCS560C", else `Some(0)`.
+const F_MODEL: usize = 10;
+/// The `ImageLength` rawloader pairs with [`F_WIDTH`]: found from the IFD that holds that width
+/// (its own, else the first in its sub-IFDs), as `fetch_tag!(raw, ImageLength)` reads it.
+const F_SRF_HEIGHT: usize = 11;
 
 /// `a` where it is set, else `b`, tag by tag.
 fn or_found(a: Found, b: Found) -> Found {
@@ -193,7 +263,7 @@ impl Ifd {
         visits: 0,
         parsed: false,
         next: None,
-        found: [None; 5],
+        found: NONE,
     };
 }
 
@@ -247,31 +317,44 @@ impl<'a> Walker<'a> {
                 None => Ok(0),
             };
         }
-        let not_tiff = b.has(0, b"ARRI") == Some(true) || b.has(0, b"FOVb") == Some(true);
-        if not_tiff {
+        let Some((visits, found)) = self.tiff_tree()? else {
             return Ok(0);
+        };
+        let sony = self.sony_private(&found, visits)?;
+        self.add(visits, sony)
+    }
+
+    /// `TiffIFD::new_file`: the visits of the file's own TIFF tree and what it holds of
+    /// [`FOUND_TAGS`]; `None` for a file rawloader does not read as TIFF (MRW, CIFF, ARRI and X3F
+    /// are decided before, in [`Walker::file`]'s order).
+    fn tiff_tree(&mut self) -> Result<Option<(u64, Found)>, Exceeded> {
+        let b = &self.buf;
+        let not_tiff = b.u32(0, true) == Some(MRW_MAGIC)
+            || b.has(6, b"HEAPCCDR") == Some(true)
+            || b.has(0, b"ARRI") == Some(true)
+            || b.has(0, b"FOVb") == Some(true);
+        if not_tiff {
+            return Ok(None);
         }
-        let (visits, found) = if b.has(0, b"FUJIFILM") == Some(true) {
+        Ok(Some(if b.has(0, b"FUJIFILM") == Some(true) {
             // rawloader adds 12 to the offset in 32 bits: it wraps in release builds.
             let Some(first) = b.u32(84, true).map(|o| o.wrapping_add(12)) else {
-                return Ok(0);
+                return Ok(None);
             };
             let Some((v1, f1)) = self.root(first as usize)? else {
-                return Ok(0);
+                return Ok(None);
             };
             let (v2, f2) = match self.buf.u32(100, true) {
-                Some(o) => self.root(o as usize)?.unwrap_or((0, [None; 5])),
-                None => (0, [None; 5]),
+                Some(o) => self.root(o as usize)?.unwrap_or((0, NONE)),
+                None => (0, NONE),
             };
             (self.add(v1, v2)?, or_found(f1, f2))
         } else {
             match self.root(0)? {
                 Some(r) => r,
-                None => return Ok(0),
+                None => return Ok(None),
             }
-        };
-        let sony = self.sony_private(&found, visits)?;
-        self.add(visits, sony)
+        }))
     }
 
     /// `MrwDecoder::new`: the blocks up to the data offset, then one big-endian IFD at offset 8
@@ -372,7 +455,7 @@ impl<'a> Walker<'a> {
             Some(0x4d4d) => true,
             _ => return Ok(None),
         };
-        let mut found = [None; 5];
+        let mut found = NONE;
         let Some(mut next) = r.checked_add(4).and_then(|p| self.buf.u32(p, big)) else {
             return Ok(Some((0, found)));
         };
@@ -410,7 +493,7 @@ impl<'a> Walker<'a> {
             }
         };
         out.parsed = true;
-        let (mut own, mut sub): (Found, Found) = ([None; 5], [None; 5]);
+        let (mut own, mut sub): (Found, Found) = (NONE, NONE);
         for i in 0..num as usize {
             let Some(eo) = o.checked_add(2 + 12 * i) else {
                 break;
@@ -428,11 +511,18 @@ impl<'a> Walker<'a> {
             };
             if let Some(f) = found_at {
                 // The map of entries keeps the last one. DNGPrivateArea is read as a LONG
-                // whatever its type (`get_force_u32`), the others as `get_u32`.
-                own[f] = if f == F_PRIVATE {
-                    (entry.len >= 4).then(|| self.buf.u32(entry.data, big)).flatten()
-                } else {
-                    self.value(&entry, 0)
+                // whatever its type (`get_force_u32`), Make and Model as strings (`get_str`),
+                // StripOffsets and DNGVersion only tested for presence, the others as `get_u32`.
+                own[f] = match f {
+                    F_PRIVATE => (entry.len >= 4).then(|| self.buf.u32(entry.data, big)).flatten(),
+                    F_STRIPS | F_DNG => Some(0),
+                    F_MAKE => Some(u32::from(self.text(&entry).as_deref() == Some("SONY"))),
+                    F_MODEL => Some(match self.text(&entry).as_deref() {
+                        Some("DSLR-A100") => 1,
+                        Some("DCS560C") => 2,
+                        _ => 0,
+                    }),
+                    _ => self.value(&entry, 0),
                 };
                 continue;
             }
@@ -454,6 +544,10 @@ impl<'a> Walker<'a> {
             }
         }
         out.found = or_found(own, sub);
+        if own[F_WIDTH].is_some() {
+            // `fetch_tag!(raw, ImageLength)` on the IFD that holds the width.
+            out.found[F_SRF_HEIGHT] = out.found[F_LENGTH];
+        }
         out.next = o
             .checked_add(2 + 12 * num as usize)
             .and_then(at)
@@ -488,6 +582,16 @@ impl<'a> Walker<'a> {
             len,
             big,
         })
+    }
+
+    /// `TiffEntry::get_str`: the data up to its first NUL, trimmed; `None` where rawloader
+    /// panics (not UTF-8).
+    fn text(&self, e: &Entry) -> Option<String> {
+        let bytes: Vec<u8> = (e.data..e.data + e.len)
+            .map_while(|p| self.buf.byte(p))
+            .take_while(|&c| c != 0)
+            .collect();
+        String::from_utf8(bytes).ok().map(|t| t.trim().to_string())
     }
 
     /// `TiffEntry::get_u32(k)`; `None` where rawloader panics.
@@ -969,6 +1073,139 @@ mod tests {
         assert_eq!(rawloader_ifd_visits(&ok, MAX_TIFF_IFD_VISITS), 1);
         let e = load(&ok).unwrap_err();
         assert!(matches!(e, crate::raw::RawError::Format { .. }), "{e}");
+    }
+
+    /// A little-endian Sony TIFF as `fuzz/make_seeds.py`'s `srf` writes it (ImageWidth, ImageLength,
+    /// Make "SONY", Model `model`), `extra` entries after those, zero-filled to `size` bytes.
+    fn srf(w: u32, h: u32, model: &str, extra: &[TestEntry], size: usize) -> Vec<u8> {
+        let n = 4 + extra.len() as u32;
+        let make = 8 + 2 + 12 * n + 4;
+        let model_at = make + 6;
+        let mut entries: Vec<TestEntry> = vec![
+            (0x0100, 4, 1, w),
+            (0x0101, 4, 1, h),
+            (0x010F, 2, 5, make),
+            (0x0110, 2, model.len() as u32 + 1, model_at),
+        ];
+        entries.extend_from_slice(extra);
+        let mut out = tiff(&[(entries, 0)]);
+        out.extend(b"SONY\0\0");
+        out.extend(model.as_bytes());
+        out.push(0);
+        out.resize(size, 0);
+        out
+    }
+
+    #[test]
+    fn an_srf_declaring_more_than_its_bytes_is_refused_before_rawloader() {
+        // 1,000,000 x 1,000,000 in a 200,960-byte file: rawloader 0.37 reserves 2 TB for it and
+        // the process aborts ("memory allocation of 2000000000004 bytes failed").
+        let bytes = seed("srf-huge-dimensions.bin");
+        assert_eq!(sony_srf_size(&bytes), Some((1_000_000, 1_000_000)));
+        let (e, took) = refused(&bytes);
+        match &e {
+            crate::raw::RawError::SrfSize {
+                width,
+                height,
+                data_offset,
+                needed,
+                file_len,
+                ..
+            } => {
+                assert_eq!((*width, *height), (1_000_000, 1_000_000));
+                assert_eq!(*data_offset, SRF_DATA_OFFSET);
+                assert_eq!(*needed, SRF_DATA_OFFSET + 2_000_000_000_000);
+                assert_eq!(*file_len, bytes.len() as u64);
+            }
+            e => panic!("want SrfSize, got {e}"),
+        }
+        let msg = e.to_string();
+        assert!(
+            msg.contains("1000000x1000000") && msg.contains("2000000862144"),
+            "{msg}"
+        );
+        assert!(took < std::time::Duration::from_millis(200), "{took:?}");
+        eprintln!("srf-huge-dimensions.bin: refused in {took:?}: {e}");
+        // Dimensions whose product wraps 64 bits: saturated, still refused.
+        let (e, _) = refused(&srf(u32::MAX, u32::MAX, "DSC-F828", &[], 1000));
+        assert!(
+            matches!(e, crate::raw::RawError::SrfSize { needed: u64::MAX, .. }),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_srf_whose_samples_fit_reaches_rawloader() {
+        // 16x2 samples end exactly at the file's end: past the check, decoded by rawloader, then
+        // refused by us for the F828's four-colour "ERBG" pattern (not a Bayer mosaic).
+        let fits = (SRF_DATA_OFFSET + 16 * 2 * 2) as usize;
+        let ok = srf(16, 2, "DSC-F828", &[], fits);
+        assert_eq!(sony_srf_size(&ok), Some((16, 2)));
+        let (e, _) = refused(&ok);
+        assert!(e.to_string().contains("\"ERBG\""), "{e}");
+        // One byte short: refused before rawloader.
+        let (e, _) = refused(&ok[..fits - 1]);
+        assert!(
+            matches!(e, crate::raw::RawError::SrfSize { needed, file_len, .. } if needed == file_len + 1),
+            "{e}"
+        );
+        // Within the file but a side above the frame-size limit's: refused.
+        let side = crate::raw::limits::MAX_SIDE as u32 + 1;
+        let wide = srf(
+            side,
+            1,
+            "DSC-F828",
+            &[],
+            SRF_DATA_OFFSET as usize + 2 * side as usize,
+        );
+        let (e, _) = refused(&wide);
+        assert!(
+            matches!(e, crate::raw::RawError::SrfSize { width, .. } if width == u64::from(side)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn only_rawloaders_srf_path_is_checked() {
+        let size = 1000;
+        let huge = |model: &str, extra: &[TestEntry]| srf(1_000_000, 1_000_000, model, extra, size);
+        assert_eq!(
+            sony_srf_size(&huge("DSC-F828", &[])),
+            Some((1_000_000, 1_000_000))
+        );
+        // StripOffsets anywhere: the ARW path (whose allocations rawloader bounds at 500 MP).
+        assert_eq!(sony_srf_size(&huge("DSC-F828", &[(0x0111, 4, 1, 8)])), None);
+        // DNGVersion: the DNG decoder.
+        assert_eq!(sony_srf_size(&huge("DSC-F828", &[(0xC612, 1, 4, 0x0104)])), None);
+        // The A100 (fixed 3881x2608) and the DCS560C (CR2) take other paths.
+        assert_eq!(sony_srf_size(&huge("DSLR-A100", &[])), None);
+        assert_eq!(sony_srf_size(&huge("DCS560C", &[])), None);
+        // Another make.
+        let mut other = huge("DSC-F828", &[]);
+        let at = other.windows(5).position(|w| w == b"SONY\0").unwrap();
+        other[at + 1] = b'o';
+        assert_eq!(sony_srf_size(&other), None);
+        // The height is the one of the IFD holding the width (its own, else its sub-IFD's), not
+        // an ImageLength found earlier: root IFD with ImageLength 7 and a SubIFD holding width
+        // 3 and its own SubIFD with ImageLength 5 (IFDs of 3, 2 and 1 entries: at 8, 50, 80).
+        let t = tiff(&[
+            (
+                vec![
+                    (0x0101, 4, 1, 7),
+                    (0x010F, 2, 4, u32::from_le_bytes(*b"SONY")),
+                    (0x014A, 4, 1, 50),
+                ],
+                0,
+            ),
+            (vec![(0x0100, 4, 1, 3), (0x014A, 4, 1, 80)], 0),
+            (vec![(0x0101, 4, 1, 5)], 0),
+        ]);
+        assert_eq!(sony_srf_size(&t), Some((3, 5)));
+        // Every truncation of the seed: no panic.
+        let bytes = seed("srf-huge-dimensions.bin");
+        for n in 0..300 {
+            let _ = sony_srf_size(&bytes[..n]);
+        }
     }
 
     #[test]
