@@ -157,6 +157,7 @@ fn model_of(
         pyramid: pyr,
         casc_thr: o.casc_thr,
         casc_cal: CASC_CAL,
+        casc_trace: None,
         mosaic_tone: o.mosaic_tone,
         boost,
         classifier,
