@@ -5,9 +5,11 @@ use std::time::Instant;
 
 use anyhow::Context;
 use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
-use mosaicd::detect::boost::{BoostOptions, TreeOptions};
+use mosaicd::detect::boost::{BoostOptions, TraceOptions, TreeOptions};
 use mosaicd::detect::channels::{ChannelInput, PyramidOptions};
-use mosaicd::detect::train::acf::{evaluate_acf_windows, positive_windows, train_acf, AcfTrainOptions};
+use mosaicd::detect::train::acf::{
+    calibrate_cascade, evaluate_acf_windows, positive_windows, train_acf, AcfTrainOptions,
+};
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
@@ -59,6 +61,36 @@ pub struct AcfTrainArgs {
     /// not touched): for choosing settings such as the cascade threshold.
     #[arg(long)]
     pub acf_inner: bool,
+    /// ACF: the calibrated per-tree rejection trace (cap, loss fraction, margin; see
+    /// docs/acf.md), calibrated on the training positives after training or with
+    /// --acf-calibrate; `none` keeps only the constant --acf-casc-thr.
+    #[arg(long, value_name = "CAP,LOSS,MARGIN|none", allow_hyphen_values = true)]
+    pub acf_trace: Option<String>,
+    /// ACF: do not train; calibrate this model's rejection trace (--acf-trace) on the training
+    /// positives of the split and write the model to --out.
+    #[arg(long, value_name = "MODEL")]
+    pub acf_calibrate: Option<std::path::PathBuf>,
+}
+
+/// `--acf-trace`: `cap,loss,margin` or `none` (absent: the default trace).
+fn parse_trace(s: Option<&str>) -> anyhow::Result<Option<TraceOptions>> {
+    let Some(s) = s else {
+        return Ok(Some(TraceOptions::default()));
+    };
+    if s.trim() == "none" {
+        return Ok(None);
+    }
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--acf-trace {s}: cap,loss,margin or none"))?;
+    anyhow::ensure!(v.len() == 3, "--acf-trace {s}: three values cap,loss,margin or none");
+    Ok(Some(TraceOptions {
+        cap: v[0] as f32,
+        loss: v[1],
+        margin: v[2] as f32,
+    }))
 }
 
 /// `mosaicd train --detector acf`.
@@ -93,6 +125,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         max_neg_images: a.max_neg_images,
         measure_lambdas: x.acf_lambdas.is_none(),
         casc_thr: x.acf_casc_thr.unwrap_or(mosaicd::detect::acf::CASC_THR),
+        trace: parse_trace(x.acf_trace.as_deref())?,
         pyramid: PyramidOptions {
             lambdas: match &x.acf_lambdas {
                 Some(l) => [l[0], l[1], l[2]],
@@ -130,6 +163,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         let mut model = AcfModel::load(path)?;
         if let Some(t) = x.acf_casc_thr {
             model.casc_thr = t;
+            model.casc_trace = None;
         }
         let ev = validate(&model, &mut progress)?;
         println!(
@@ -187,6 +221,31 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
                 k *= 2;
             }
         }
+        return Ok(());
+    }
+    if let Some(path) = &x.acf_calibrate {
+        let mut model = AcfModel::load(path)?;
+        let t = o
+            .trace
+            .context("--acf-calibrate needs a trace (--acf-trace cap,loss,margin)")?;
+        let xs = pool.install(|| {
+            positive_windows(
+                &split.train_pos,
+                &model,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                Gains::FromFile,
+            )
+        })?;
+        pool.install(|| calibrate_cascade(&mut model, &xs, &t))?;
+        model.save(&a.out)?;
+        eprintln!(
+            "calibrated the rejection trace of {} on {} training positives: wrote {}",
+            path.display(),
+            xs.len(),
+            a.out.display()
+        );
         return Ok(());
     }
     let mut model = pool.install(|| train_acf(&split, &o, &mut progress))?;

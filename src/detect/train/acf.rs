@@ -37,7 +37,7 @@ use super::error::TrainError;
 use super::split::Split;
 use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
 use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
-use crate::detect::boost::{train_adaboost, BoostOptions};
+use crate::detect::boost::{calibrate_trace, train_adaboost, BoostOptions, TraceOptions};
 use crate::detect::channels::{
     channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
 };
@@ -90,8 +90,11 @@ pub struct AcfTrainOptions {
     /// Measure the pyramid's λ on the training positives ([`measure_lambdas`], as Dollár's
     /// `acfTrain` does when none are given) instead of using `pyramid.lambdas`.
     pub measure_lambdas: bool,
-    /// Soft-cascade threshold written into the model (Dollár's −1).
+    /// Soft-cascade threshold written into the model (Dollár's −1; used when `trace` is `None`).
     pub casc_thr: f32,
+    /// Calibrate a per-tree rejection trace on the training positives after the last stage
+    /// ([`calibrate_cascade`]); `None`: the constant `casc_thr` only.
+    pub trace: Option<TraceOptions>,
 }
 
 impl Default for AcfTrainOptions {
@@ -112,6 +115,7 @@ impl Default for AcfTrainOptions {
             max_neg_images: 0,
             measure_lambdas: true,
             casc_thr: CASC_THR,
+            trace: Some(TraceOptions::default()),
         }
     }
 }
@@ -396,6 +400,16 @@ pub fn train_acf(
         }));
     }
     let mut m = model.expect("at least one stage ran");
+    if let Some(t) = &o.trace {
+        calibrate_cascade(&mut m, &x1, t)?;
+        progress(&format!(
+            "acf: rejection trace calibrated on {} training positives (cap {}, loss {}, margin {})",
+            x1.len(),
+            t.cap,
+            t.loss,
+            t.margin
+        ));
+    }
     m.provenance = serde_json::json!({
         "trainer": "mosaicd train --detector acf (discrete AdaBoost over depth-2 trees, Dollár's acfTrain)",
         "seed": o.seed, "domain": o.domain, "cfa": o.cfa.name(),
@@ -410,6 +424,26 @@ pub fn train_acf(
         m.provenance["noise_seed"] = serde_json::json!(seed);
     }
     Ok(m)
+}
+
+/// Calibrate `model`'s per-tree rejection trace ([`calibrate_trace`]) on the features of
+/// calibration positives (the training positives: never held-out files), and record the options
+/// in its provenance.
+pub fn calibrate_cascade(model: &mut AcfModel, positives: &[Vec<f32>], o: &TraceOptions) -> Result<(), TrainError> {
+    let runs: Vec<Vec<f32>> = positives
+        .par_iter()
+        .map(|x| model.classifier.running_scores(x))
+        .collect();
+    let trace = calibrate_trace(&runs, o)?;
+    model.casc_trace = Some(trace);
+    if !model.provenance.is_object() {
+        model.provenance = serde_json::json!({});
+    }
+    model.provenance["casc_trace"] = serde_json::json!({
+        "calibration": "the training positives' running scores (boost::calibrate_trace)",
+        "positives": positives.len(), "cap": o.cap, "loss": o.loss, "margin": o.margin,
+    });
+    Ok(())
 }
 
 /// The features of the positive windows of the 96x160 crops `files` for `model` (image `i` on
@@ -462,25 +496,43 @@ pub fn evaluate_acf_windows(
         .map(|x| det.score_features(x))
         .collect();
     progress(&format!("eval: {} positives scored", pos.len()));
-    let per_image: Vec<Vec<f32>> = split
+    let per_image: Vec<(Vec<f32>, u64)> = split
         .val_neg
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
             let img = held_out_negative(p, i, domain, cfa, pipeline, &prep)?;
+            let pyr = det.pyramid(&channel_input(&img, cfa))?;
             let mut v = Vec::new();
-            det.for_each_window(&channel_input(&img, cfa), |_, _, _, _, s| v.push(s))?;
-            Ok(v)
+            let mut trees = 0;
+            for l in &pyr.levels {
+                let (s, t) = det.score_level(&l.channels);
+                v.extend(s.into_iter().map(|w| w.2));
+                trees += t;
+            }
+            Ok((v, trees))
         })
         .collect::<Result<_, TrainError>>()?;
-    let windows_per_image: Vec<usize> = per_image.iter().map(|v| v.len()).collect();
-    let neg: Vec<f32> = per_image.into_iter().flatten().collect();
+    let windows_per_image: Vec<usize> = per_image.iter().map(|v| v.0.len()).collect();
+    let trees: u64 = per_image.iter().map(|v| v.1).sum();
+    let neg: Vec<f32> = per_image.into_iter().flat_map(|v| v.0).collect();
     progress(&format!(
-        "eval: {} negative windows in {} images",
+        "eval: {} negative windows in {} images, {:.2} trees per window",
         neg.len(),
-        windows_per_image.len()
+        windows_per_image.len(),
+        trees as f64 / neg.len().max(1) as f64
     ));
-    window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)
+    let ev = window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)?;
+    let mut sorted = neg;
+    sorted.sort_unstable_by(|a, b| b.total_cmp(a));
+    let at = |f: f64| sorted.get((f * sorted.len() as f64) as usize).copied();
+    progress(&format!(
+        "eval: negative score at FPPW 1e-2 {:?}, 1e-3 {:?}, 1e-4 {:?}",
+        at(1e-2),
+        at(1e-3),
+        at(1e-4)
+    ));
+    Ok(ev)
 }
 
 /// A random subset of `n` of `0..len` (all if `n ≥ len`) in increasing order.
