@@ -56,6 +56,9 @@ pub const VERSION: u32 = 1;
 pub const CASC_THR: f32 = -1.0;
 /// Dollár's cascade calibration (added to every leaf after training).
 pub const CASC_CAL: f32 = 0.005;
+/// The score of a window the soft cascade rejects (the lowest finite `f32`): no detection at
+/// any threshold.
+pub const REJECTED: f32 = f32::MIN;
 
 /// Errors of the ACF detector.
 #[derive(Debug, Error)]
@@ -508,7 +511,8 @@ impl AcfDetector {
     }
 
     /// Scores of every window of one level, row by row (`(bx, by, score)`), and the trees
-    /// evaluated. A window the soft cascade rejects keeps its running score at rejection.
+    /// evaluated. A window the soft cascade rejects scores [`REJECTED`]: it is no detection at
+    /// any threshold.
     pub fn score_level(&self, ch: &Channels) -> (Vec<(usize, usize, f32)>, u64) {
         let Some(l) = self.score_windows(ch) else {
             return (vec![], 0);
@@ -517,8 +521,12 @@ impl AcfDetector {
         let out = l
             .scores
             .iter()
+            .zip(&l.counts)
             .enumerate()
-            .map(|(i, &s)| (i % l.nx, i / l.nx, s))
+            .map(|(i, (&s, &c))| {
+                let s = if self.survived(s, c) { s } else { REJECTED };
+                (i % l.nx, i / l.nx, s)
+            })
             .collect();
         (out, trees)
     }
@@ -593,9 +601,15 @@ impl AcfDetector {
         Ok((out, st))
     }
 
-    /// Score of a window's feature vector (e.g. a training positive), with the soft cascade.
+    /// Score of a window's feature vector (e.g. a training positive) with the soft cascade:
+    /// [`REJECTED`] when the cascade rejects it (as [`AcfDetector::score_level`]).
     pub fn score_features(&self, x: &[f32]) -> f32 {
-        self.model.classifier.score_trace(x, &self.reject).0
+        let (s, n) = self.model.classifier.score_trace(x, &self.reject);
+        if self.survived(s, n as u32) {
+            s
+        } else {
+            REJECTED
+        }
     }
 }
 

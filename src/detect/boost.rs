@@ -45,20 +45,22 @@
 //!
 //! **Calibrated rejection trace** (Bourdev & Brandt's per-tree trace, set as in Zhang & Viola's
 //! direct backward pruning; [`calibrate_trace`]): the window is rejected after tree `k` when
-//! `H_k ≤ r_k`. Given the running scores `H_k(x_i)` of calibration positives, a cap `κ` (the
-//! lowest score that must stay exact), a loss fraction `f` and a margin `δ ≥ 0`:
+//! `H_k ≤ r_k`. Given the running scores `H_k(x_i)` of calibration positives (held out from the
+//! classifier's training: a classifier's own training positives run far higher than new ones),
+//! a floor `κ` (the lowest final score a detection may have), a loss fraction `f` and a margin
+//! `δ ≥ 0`:
 //!
 //! ```text
-//! K  = { i : H_T(x_i) ≥ κ }                      the positives that matter at scores ≥ κ
+//! K  = { i : H_T(x_i) ≥ κ }                      the positives that are detections at κ
 //! K' = K without the ⌊f·|K|⌋ members of lowest min_k H_k(x_i)   (the deepest dips)
-//! r_k = min(κ, min_{i ∈ K'} H_k(x_i) − δ)⁻        (⁻: the next float below)
+//! r_k = (min_{i ∈ K'} H_k(x_i) − δ)⁻              (⁻: the next float below)
 //! ```
 //!
 //! No member of `K'` is rejected (each stays strictly above `r_k`), so at most a fraction `f` of
-//! the calibration positives that reach `κ` are lost; a rejected window's score is at most
-//! `r_k ≤ κ`, so every score above `κ` is exact. With the constant threshold the running score
-//! of a positive must never dip to `cascThr`; with the trace it must only stay above the lowest
-//! running score that the calibration positives reached after the same number of trees.
+//! the calibration positives that reach `κ` are lost. `r_T ≥ κ − δ`: with a trace, windows
+//! scoring below about `κ` are not detections. With the constant threshold the running score of a
+//! positive must never dip to `cascThr`; with the trace it must only stay above the lowest running
+//! score that the calibration positives reached after the same number of trees.
 //!
 //! # Determinism
 //! Each feature's best split is computed sequentially over the samples in a fixed order (f64
@@ -339,9 +341,9 @@ impl BoostedTrees {
 /// Options of [`calibrate_trace`] (see the module docs for the rule).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TraceOptions {
-    /// Cap `κ`: the trace never exceeds it, and only calibration positives whose final score
-    /// reaches it are protected (scores above it stay exact).
-    pub cap: f32,
+    /// Floor `κ`: only calibration positives whose final score reaches it are protected (the
+    /// lowest final score a detection is expected to have).
+    pub floor: f32,
     /// Fraction `f` of the protected positives the trace may reject (those whose running score
     /// dips lowest).
     pub loss: f64,
@@ -350,12 +352,12 @@ pub struct TraceOptions {
 }
 
 impl Default for TraceOptions {
-    /// κ = 0 (Dollár's decision point), f = 1 %, δ = 0.
+    /// κ = −10, f = 0, δ = 1 (chosen on the inner split of fold 0: docs/acf.md).
     fn default() -> Self {
         Self {
-            cap: 0.0,
-            loss: 0.01,
-            margin: 0.0,
+            floor: -10.0,
+            loss: 0.0,
+            margin: 1.0,
         }
     }
 }
@@ -370,8 +372,8 @@ pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, 
     if !(o.margin.is_finite() && o.margin >= 0.0) {
         return bad("trace margin", o.margin.to_string(), "finite and ≥ 0");
     }
-    if !o.cap.is_finite() {
-        return bad("trace cap", o.cap.to_string(), "finite");
+    if !o.floor.is_finite() {
+        return bad("trace floor", o.floor.to_string(), "finite");
     }
     let t = runs.first().map_or(0, |r| r.len());
     if let Some(i) = runs.iter().position(|r| r.len() != t) {
@@ -385,7 +387,7 @@ pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, 
     let mut keep: Vec<(f32, usize)> = runs
         .iter()
         .enumerate()
-        .filter(|(_, r)| r.last().is_some_and(|&h| h >= o.cap))
+        .filter(|(_, r)| r.last().is_some_and(|&h| h >= o.floor))
         .map(|(i, r)| (r.iter().copied().fold(f32::INFINITY, f32::min), i))
         .collect();
     if keep.is_empty() || t == 0 {
@@ -400,7 +402,7 @@ pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, 
     Ok((0..t)
         .map(|k| {
             let low = kept.iter().map(|&(_, i)| runs[i][k]).fold(f32::INFINITY, f32::min);
-            (low - o.margin).min(o.cap).next_down()
+            (low - o.margin).next_down()
         })
         .collect())
 }
@@ -751,23 +753,23 @@ mod tests {
     }
 
     #[test]
-    fn trace_protects_the_kept_positives_and_caps() {
+    fn trace_protects_the_kept_positives() {
         // three positives over three trees; the third dips lowest and is the one dropped at 34 %
         let runs = vec![
             vec![0.5f32, 1.0, 3.0],
             vec![-0.5, 0.5, 2.0],
             vec![-2.0, -1.0, 4.0],
-            vec![-3.0, -4.0, -1.0], // ends below the cap: not protected
+            vec![-3.0, -4.0, -1.0], // ends below the floor: not protected
         ];
         let o = TraceOptions {
-            cap: 0.0,
+            floor: 0.0,
             loss: 0.0,
             margin: 0.0,
         };
         let r = calibrate_trace(&runs, &o).unwrap();
-        assert_eq!(r, vec![(-2.0f32).next_down(), (-1.0f32).next_down(), 0.0f32.next_down()]);
+        assert_eq!(r, vec![(-2.0f32).next_down(), (-1.0f32).next_down(), 2.0f32.next_down()]);
         let r = calibrate_trace(&runs, &TraceOptions { loss: 0.34, ..o }).unwrap();
-        assert_eq!(r, vec![(-0.5f32).next_down(), 0.0f32.next_down(), 0.0f32.next_down()]);
+        assert_eq!(r, vec![(-0.5f32).next_down(), 0.5f32.next_down(), 2.0f32.next_down()]);
         let r = calibrate_trace(&runs, &TraceOptions { margin: 1.0, ..o }).unwrap();
         assert_eq!(r[0], (-3.0f32).next_down());
         // every kept positive survives the trace when scored
@@ -783,11 +785,11 @@ mod tests {
         };
         let runs = vec![m.running_scores(&[1.0]), m.running_scores(&[0.0])];
         assert_eq!(runs[0], vec![1.0, 2.0]);
-        let r = calibrate_trace(&runs, &TraceOptions { cap: 1.5, ..o }).unwrap();
+        let r = calibrate_trace(&runs, &TraceOptions { floor: 1.5, ..o }).unwrap();
         assert_eq!(m.score_trace(&[1.0], &r), (2.0, 2));
         assert_eq!(m.score_trace(&[0.0], &r), (-1.0, 1));
         assert!(matches!(
-            calibrate_trace(&runs, &TraceOptions { cap: 9.0, ..o }),
+            calibrate_trace(&runs, &TraceOptions { floor: 9.0, ..o }),
             Err(BoostError::NoData { positives: 0, .. })
         ));
         assert!(matches!(

@@ -34,7 +34,7 @@ use rayon::prelude::*;
 
 use super::domain::{image_seed, load_rgb, DomainImage, InputPipeline, NEG_SEED_OFFSET};
 use super::error::TrainError;
-use super::split::Split;
+use super::split::{inner_split, Split};
 use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
 use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
 use crate::detect::boost::{calibrate_trace, train_adaboost, BoostOptions, TraceOptions};
@@ -56,6 +56,8 @@ const POS_WINDOW_BLOCK: usize = 16 / SHRINK;
 const NEG_STREAM_SALT: u64 = 0x6163_665f_6e65_6773;
 /// IoU of the suppression among one image's hard negatives.
 const MINING_NMS_IOU: f32 = 0.5;
+/// Fraction of the training files held out by the inner split that calibrates the trace.
+pub const INNER_FRACTION: f64 = 0.2;
 
 /// ACF training options; defaults are Dollár's INRIA detector (`acfDemoInria`).
 #[derive(Debug, Clone, PartialEq)]
@@ -92,8 +94,10 @@ pub struct AcfTrainOptions {
     pub measure_lambdas: bool,
     /// Soft-cascade threshold written into the model (Dollár's −1; used when `trace` is `None`).
     pub casc_thr: f32,
-    /// Calibrate a per-tree rejection trace on the training positives after the last stage
-    /// ([`calibrate_cascade`]); `None`: the constant `casc_thr` only.
+    /// Calibrate a per-tree rejection trace ([`calibrate_cascade`]): a model is first trained on
+    /// the inner split of the training files (fraction [`INNER_FRACTION`] held out), its trace
+    /// calibrated on the inner held-out positives, and the trace stored in the model trained on
+    /// all training files. Doubles the training time. `None`: the constant `casc_thr` only.
     pub trace: Option<TraceOptions>,
 }
 
@@ -204,6 +208,27 @@ pub fn train_acf(
 ) -> Result<AcfModel, TrainError> {
     check(o)?;
     let t0 = Instant::now();
+    let inner_trace = match &o.trace {
+        Some(t) => {
+            let inner = inner_split(split, o.seed, INNER_FRACTION);
+            progress(&format!(
+                "acf: training on the inner split ({} positives, {} negative images) to calibrate the rejection trace",
+                inner.train_pos.len(),
+                inner.train_neg.len()
+            ));
+            let mut prog = |s: &str| progress(&format!("inner: {s}"));
+            let im = train_acf(&inner, &AcfTrainOptions { trace: None, ..o.clone() }, &mut prog)?;
+            let xs = positive_windows(&inner.val_pos, &im, o.domain, o.cfa, &o.pipeline, Gains::FromFile)?;
+            let trace = calibrate_cascade(&im, &xs, t)?;
+            progress(&format!(
+                "acf: rejection trace calibrated on {} inner held-out positives ({:.1} s)",
+                xs.len(),
+                t0.elapsed().as_secs_f64()
+            ));
+            Some((trace, xs.len()))
+        }
+        None => None,
+    };
     let spec = ChannelSpec::new(o.channels).map_err(AcfError::from)?;
     let prep = MosaicPrep::with_tone(o.mosaic_tone);
     let win = (o.pyramid.min_size.0 / SHRINK, o.pyramid.min_size.1 / SHRINK);
@@ -400,16 +425,6 @@ pub fn train_acf(
         }));
     }
     let mut m = model.expect("at least one stage ran");
-    if let Some(t) = &o.trace {
-        calibrate_cascade(&mut m, &x1, t)?;
-        progress(&format!(
-            "acf: rejection trace calibrated on {} training positives (cap {}, loss {}, margin {})",
-            x1.len(),
-            t.cap,
-            t.loss,
-            t.margin
-        ));
-    }
     m.provenance = serde_json::json!({
         "trainer": "mosaicd train --detector acf (discrete AdaBoost over depth-2 trees, Dollár's acfTrain)",
         "seed": o.seed, "domain": o.domain, "cfa": o.cfa.name(),
@@ -423,27 +438,38 @@ pub fn train_acf(
     if let InputPipeline::ReverseIsp { seed, .. } = o.pipeline {
         m.provenance["noise_seed"] = serde_json::json!(seed);
     }
+    if let (Some((trace, n)), Some(t)) = (inner_trace, &o.trace) {
+        let src = format!(
+            "{n} held-out positives of the inner split ({INNER_FRACTION} of the training files) scored by a model trained on the rest"
+        );
+        set_trace(&mut m, &trace, t, &src);
+    }
     Ok(m)
 }
 
-/// Calibrate `model`'s per-tree rejection trace ([`calibrate_trace`]) on the features of
-/// calibration positives (the training positives: never held-out files), and record the options
-/// in its provenance.
-pub fn calibrate_cascade(model: &mut AcfModel, positives: &[Vec<f32>], o: &TraceOptions) -> Result<(), TrainError> {
+/// A per-tree rejection trace ([`calibrate_trace`]) from the running scores, under `model`, of
+/// calibration positives that `model` was not trained on (a model's own training positives run
+/// far higher than new ones: docs/acf.md).
+pub fn calibrate_cascade(model: &AcfModel, positives: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, TrainError> {
     let runs: Vec<Vec<f32>> = positives
         .par_iter()
         .map(|x| model.classifier.running_scores(x))
         .collect();
-    let trace = calibrate_trace(&runs, o)?;
-    model.casc_trace = Some(trace);
+    Ok(calibrate_trace(&runs, o)?)
+}
+
+/// Store `trace` (calibrated with another model of the same training recipe) in `model`: cut to
+/// its trees, or extended by its last value; the options and `source` go into the provenance.
+pub fn set_trace(model: &mut AcfModel, trace: &[f32], o: &TraceOptions, source: &str) {
+    let n = model.classifier.trees.len();
+    let last = trace.last().copied().unwrap_or(f32::NEG_INFINITY);
+    model.casc_trace = Some((0..n).map(|k| trace.get(k).copied().unwrap_or(last)).collect());
     if !model.provenance.is_object() {
         model.provenance = serde_json::json!({});
     }
     model.provenance["casc_trace"] = serde_json::json!({
-        "calibration": "the training positives' running scores (boost::calibrate_trace)",
-        "positives": positives.len(), "cap": o.cap, "loss": o.loss, "margin": o.margin,
+        "calibration": source, "floor": o.floor, "loss": o.loss, "margin": o.margin,
     });
-    Ok(())
 }
 
 /// The features of the positive windows of the 96x160 crops `files` for `model` (image `i` on
@@ -474,8 +500,8 @@ pub fn positive_windows(
 
 /// Window-level evaluation of an ACF model on `split`'s held-out files (the HOG detector's
 /// protocol: every held-out positive window, every window of every pyramid level of the held-out
-/// negative images). Scores are soft-cascade scores (a rejected window keeps its running sum,
-/// at most the cascade threshold), so miss rates are exact at thresholds above it.
+/// negative images). A window the soft cascade rejects is no detection at any threshold (score
+/// [`crate::detect::acf::REJECTED`]).
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_acf_windows(
     model: &AcfModel,
