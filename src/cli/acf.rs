@@ -89,7 +89,10 @@ fn parse_trace(s: Option<&str>) -> anyhow::Result<Option<TraceOptions>> {
         .map(|p| p.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .with_context(|| format!("--acf-trace {s}: floor,loss,margin or none"))?;
-    anyhow::ensure!(v.len() == 3, "--acf-trace {s}: three values floor,loss,margin or none");
+    anyhow::ensure!(
+        v.len() == 3,
+        "--acf-trace {s}: three values floor,loss,margin or none"
+    );
     Ok(Some(TraceOptions {
         floor: v[0] as f32,
         loss: v[1],

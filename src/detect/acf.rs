@@ -45,8 +45,8 @@ use crate::detect::channels::{
     PyramidOptions, N_CHANNELS, SHRINK,
 };
 use crate::geometry::Detection;
-use kernels::{score_run, Tree2};
 use crate::raw::tone::MosaicTone;
+use kernels::{goes_right, score_run, Tree2};
 
 /// The format name in ACF model files.
 pub const FORMAT: &str = "mosaicd-acf";
@@ -454,7 +454,7 @@ impl AcfDetector {
             let mut k = s as usize;
             while child[k] != 0 {
                 let c = child[k] as usize;
-                k = c + (!(data[base + off[k] as usize] < thr[k])) as usize;
+                k = c + goes_right(data[base + off[k] as usize], thr[k]) as usize;
             }
             h += hs[k];
             n += 1;

@@ -401,7 +401,10 @@ pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, 
     let kept = &keep[drop.min(keep.len() - 1)..];
     Ok((0..t)
         .map(|k| {
-            let low = kept.iter().map(|&(_, i)| runs[i][k]).fold(f32::INFINITY, f32::min);
+            let low = kept
+                .iter()
+                .map(|&(_, i)| runs[i][k])
+                .fold(f32::INFINITY, f32::min);
             (low - o.margin).next_down()
         })
         .collect())
@@ -767,9 +770,15 @@ mod tests {
             margin: 0.0,
         };
         let r = calibrate_trace(&runs, &o).unwrap();
-        assert_eq!(r, vec![(-2.0f32).next_down(), (-1.0f32).next_down(), 2.0f32.next_down()]);
+        assert_eq!(
+            r,
+            vec![(-2.0f32).next_down(), (-1.0f32).next_down(), 2.0f32.next_down()]
+        );
         let r = calibrate_trace(&runs, &TraceOptions { loss: 0.34, ..o }).unwrap();
-        assert_eq!(r, vec![(-0.5f32).next_down(), 0.5f32.next_down(), 2.0f32.next_down()]);
+        assert_eq!(
+            r,
+            vec![(-0.5f32).next_down(), 0.5f32.next_down(), 2.0f32.next_down()]
+        );
         let r = calibrate_trace(&runs, &TraceOptions { margin: 1.0, ..o }).unwrap();
         assert_eq!(r[0], (-3.0f32).next_down());
         // every kept positive survives the trace when scored
@@ -794,7 +803,10 @@ mod tests {
         ));
         assert!(matches!(
             calibrate_trace(&runs, &TraceOptions { loss: 1.0, ..o }),
-            Err(BoostError::BadOption { name: "trace loss", .. })
+            Err(BoostError::BadOption {
+                name: "trace loss",
+                ..
+            })
         ));
     }
 

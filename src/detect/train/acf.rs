@@ -217,7 +217,14 @@ pub fn train_acf(
                 inner.train_neg.len()
             ));
             let mut prog = |s: &str| progress(&format!("inner: {s}"));
-            let im = train_acf(&inner, &AcfTrainOptions { trace: None, ..o.clone() }, &mut prog)?;
+            let im = train_acf(
+                &inner,
+                &AcfTrainOptions {
+                    trace: None,
+                    ..o.clone()
+                },
+                &mut prog,
+            )?;
             let xs = positive_windows(&inner.val_pos, &im, o.domain, o.cfa, &o.pipeline, Gains::FromFile)?;
             let trace = calibrate_cascade(&im, &xs, t)?;
             progress(&format!(
@@ -450,7 +457,11 @@ pub fn train_acf(
 /// A per-tree rejection trace ([`calibrate_trace`]) from the running scores, under `model`, of
 /// calibration positives that `model` was not trained on (a model's own training positives run
 /// far higher than new ones: docs/acf.md).
-pub fn calibrate_cascade(model: &AcfModel, positives: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, TrainError> {
+pub fn calibrate_cascade(
+    model: &AcfModel,
+    positives: &[Vec<f32>],
+    o: &TraceOptions,
+) -> Result<Vec<f32>, TrainError> {
     let runs: Vec<Vec<f32>> = positives
         .par_iter()
         .map(|x| model.classifier.running_scores(x))

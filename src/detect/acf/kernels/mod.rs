@@ -59,11 +59,7 @@ pub(crate) fn score_run(
     if n == 0 {
         return;
     }
-    let max_off = trees
-        .iter()
-        .flat_map(|t| t.off)
-        .max()
-        .unwrap_or(0) as usize;
+    let max_off = trees.iter().flat_map(|t| t.off).max().unwrap_or(0) as usize;
     assert!(
         base0 + n - 1 + max_off < data.len(),
         "window run {base0}+{n} reads offset {max_off} beyond {} values",
@@ -84,6 +80,13 @@ pub(crate) fn score_run(
     }
 }
 
+/// Whether a node sends feature value `x` right: `!(x < thr)`, as
+/// [`crate::detect::boost::Tree::apply`] (a NaN goes right).
+#[inline]
+pub(crate) fn goes_right(x: f32, thr: f32) -> bool {
+    x.partial_cmp(&thr) != Some(std::cmp::Ordering::Less)
+}
+
 /// The scalar oracle of [`score_run`] (also the SIMD paths' tail).
 pub(crate) fn score_run_scalar(
     trees: &[Tree2],
@@ -98,9 +101,9 @@ pub(crate) fn score_run_scalar(
         let mut h = 0.0f32;
         let mut n = 0u32;
         for (t, &r) in trees.iter().zip(reject) {
-            let b0 = !(x[t.off[0] as usize] < t.thr[0]) as usize;
+            let b0 = goes_right(x[t.off[0] as usize], t.thr[0]) as usize;
             let k = 1 + b0;
-            let b1 = !(x[t.off[k] as usize] < t.thr[k]) as usize;
+            let b1 = goes_right(x[t.off[k] as usize], t.thr[k]) as usize;
             h += t.hs[2 * b0 + b1];
             n += 1;
             if h <= r {
