@@ -736,14 +736,18 @@ mod tests {
         );
     }
 
-    #[test]
-    fn soft_cascade_stops_early() {
-        let stump = |v: f32| Tree {
+    /// A stump on feature 0 at 0.5 adding −v (left) or v (right).
+    fn stump(v: f32) -> Tree {
+        Tree {
             fid: vec![0, 0, 0],
             thr: vec![0.5, 0.0, 0.0],
             child: vec![1, 0, 0],
             hs: vec![0.0, -v, v],
-        };
+        }
+    }
+
+    #[test]
+    fn soft_cascade_stops_early() {
         let m = BoostedTrees {
             n_features: 1,
             trees: vec![stump(0.6), stump(0.6), stump(5.0)],
@@ -782,12 +786,6 @@ mod tests {
         let r = calibrate_trace(&runs, &TraceOptions { margin: 1.0, ..o }).unwrap();
         assert_eq!(r[0], (-3.0f32).next_down());
         // every kept positive survives the trace when scored
-        let stump = |v: f32| Tree {
-            fid: vec![0, 0, 0],
-            thr: vec![0.5, 0.0, 0.0],
-            child: vec![1, 0, 0],
-            hs: vec![0.0, -v, v],
-        };
         let m = BoostedTrees {
             n_features: 1,
             trees: vec![stump(1.0), stump(1.0)],
