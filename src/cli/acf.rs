@@ -5,9 +5,11 @@ use std::time::Instant;
 
 use anyhow::Context;
 use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
-use mosaicd::detect::boost::{BoostOptions, TreeOptions};
+use mosaicd::detect::boost::{BoostOptions, TraceOptions, TreeOptions};
 use mosaicd::detect::channels::{ChannelInput, PyramidOptions};
-use mosaicd::detect::train::acf::{evaluate_acf_windows, positive_windows, train_acf, AcfTrainOptions};
+use mosaicd::detect::train::acf::{
+    calibrate_cascade, evaluate_acf_windows, positive_windows, set_trace, train_acf, AcfTrainOptions,
+};
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
@@ -59,6 +61,43 @@ pub struct AcfTrainArgs {
     /// not touched): for choosing settings such as the cascade threshold.
     #[arg(long)]
     pub acf_inner: bool,
+    /// ACF: the calibrated per-tree rejection trace (floor, loss fraction, margin; see
+    /// docs/acf.md), calibrated on the training positives after training or with
+    /// --acf-calibrate; `none` keeps only the constant --acf-casc-thr.
+    #[arg(long, value_name = "FLOOR,LOSS,MARGIN|none", allow_hyphen_values = true)]
+    pub acf_trace: Option<String>,
+    /// ACF: do not train; calibrate a rejection trace (--acf-trace) with this model, trained on
+    /// the inner split of the training files (--acf-inner), on the inner held-out positives, and
+    /// write it into --acf-calibrate-into (default: this model) as --out.
+    #[arg(long, value_name = "INNER_MODEL")]
+    pub acf_calibrate: Option<std::path::PathBuf>,
+    /// ACF: the model (trained on all training files) that receives the trace of --acf-calibrate.
+    #[arg(long, value_name = "MODEL")]
+    pub acf_calibrate_into: Option<std::path::PathBuf>,
+}
+
+/// `--acf-trace`: `floor,loss,margin` or `none` (absent: the default trace).
+fn parse_trace(s: Option<&str>) -> anyhow::Result<Option<TraceOptions>> {
+    let Some(s) = s else {
+        return Ok(Some(TraceOptions::default()));
+    };
+    if s.trim() == "none" {
+        return Ok(None);
+    }
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--acf-trace {s}: floor,loss,margin or none"))?;
+    anyhow::ensure!(
+        v.len() == 3,
+        "--acf-trace {s}: three values floor,loss,margin or none"
+    );
+    Ok(Some(TraceOptions {
+        floor: v[0] as f32,
+        loss: v[1],
+        margin: v[2] as f32,
+    }))
 }
 
 /// `mosaicd train --detector acf`.
@@ -93,6 +132,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         max_neg_images: a.max_neg_images,
         measure_lambdas: x.acf_lambdas.is_none(),
         casc_thr: x.acf_casc_thr.unwrap_or(mosaicd::detect::acf::CASC_THR),
+        trace: parse_trace(x.acf_trace.as_deref())?,
         pyramid: PyramidOptions {
             lambdas: match &x.acf_lambdas {
                 Some(l) => [l[0], l[1], l[2]],
@@ -130,6 +170,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         let mut model = AcfModel::load(path)?;
         if let Some(t) = x.acf_casc_thr {
             model.casc_thr = t;
+            model.casc_trace = None;
         }
         let ev = validate(&model, &mut progress)?;
         println!(
@@ -187,6 +228,44 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
                 k *= 2;
             }
         }
+        return Ok(());
+    }
+    if let Some(path) = &x.acf_calibrate {
+        let inner_model = AcfModel::load(path)?;
+        let t = o
+            .trace
+            .context("--acf-calibrate needs a trace (--acf-trace floor,loss,margin)")?;
+        anyhow::ensure!(
+            x.acf_inner,
+            "--acf-calibrate: pass --acf-inner (the trace is calibrated on the inner held-out positives)"
+        );
+        let xs = pool.install(|| {
+            positive_windows(
+                &split.val_pos,
+                &inner_model,
+                o.domain,
+                o.cfa,
+                &o.pipeline,
+                Gains::FromFile,
+            )
+        })?;
+        let trace = pool.install(|| calibrate_cascade(&inner_model, &xs, &t))?;
+        let into = x.acf_calibrate_into.as_ref().unwrap_or(path);
+        let mut model = AcfModel::load(into)?;
+        let src = format!(
+            "{} held-out positives of the inner split scored by {}",
+            xs.len(),
+            path.display()
+        );
+        set_trace(&mut model, &trace, &t, &src);
+        model.save(&a.out)?;
+        eprintln!(
+            "rejection trace calibrated with {} on {} inner held-out positives, stored in {}: wrote {}",
+            path.display(),
+            xs.len(),
+            into.display(),
+            a.out.display()
+        );
         return Ok(());
     }
     let mut model = pool.install(|| train_acf(&split, &o, &mut progress))?;

@@ -10,6 +10,8 @@
 //!   "win_width": 64, "win_height": 128,   // pixels; features: 10 x 16 x 32 blocks
 //!   "channels": { ChannelOptions }, "pyramid": { PyramidOptions },
 //!   "casc_thr": -1.0, "casc_cal": 0.005,  // soft cascade (casc_cal already added to the leaves)
+//!   "casc_trace": [r_1, …, r_T],          // optional: calibrated per-tree rejection (replaces
+//!                                         // casc_thr while scoring; boost::calibrate_trace)
 //!   "mosaic_tone": "linear" | "srgb",     // how raw frames become the mosaic
 //!   "boost": { BoostOptions of the last stage },
 //!   "classifier": { "n_features": 5120, "trees": [ { "fid", "thr", "child", "hs" }, … ] },
@@ -25,6 +27,8 @@
 //! No channel padding, so windows stay inside the frame; boxes are the full window; the NMS is
 //! ours ([`NmsMethod`]; Dollár's is greedy with overlap 0.65 over the smaller box).
 
+mod kernels;
+
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -32,7 +36,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::boost::{BoostError, BoostOptions, BoostedTrees};
+use super::boost::{BoostError, BoostOptions, BoostedTrees, Tree};
 use super::detector::NmsMethod;
 use super::model::{Domain, ModelError, MAX_MODEL_FILE_BYTES};
 use super::nms::{greedy_nms, group_rectangles};
@@ -42,6 +46,7 @@ use crate::detect::channels::{
 };
 use crate::geometry::Detection;
 use crate::raw::tone::MosaicTone;
+use kernels::{goes_right, score_run, Tree2};
 
 /// The format name in ACF model files.
 pub const FORMAT: &str = "mosaicd-acf";
@@ -51,6 +56,9 @@ pub const VERSION: u32 = 1;
 pub const CASC_THR: f32 = -1.0;
 /// Dollár's cascade calibration (added to every leaf after training).
 pub const CASC_CAL: f32 = 0.005;
+/// The score of a window the soft cascade rejects (the lowest finite `f32`): no detection at
+/// any threshold.
+pub const REJECTED: f32 = f32::MIN;
 
 /// Errors of the ACF detector.
 #[derive(Debug, Error)]
@@ -95,6 +103,11 @@ pub struct AcfModel {
     pub casc_thr: f32,
     /// Calibration already added to every node value.
     pub casc_cal: f32,
+    /// Calibrated per-tree rejection trace ([`super::boost::calibrate_trace`]): a window is
+    /// rejected after tree `k` when its running score is `≤ casc_trace[k]`; when present it
+    /// replaces `casc_thr` while scoring. Absent in models written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub casc_trace: Option<Vec<f32>>,
     /// How raw frames become the mosaic.
     #[serde(default)]
     pub mosaic_tone: MosaicTone,
@@ -149,6 +162,18 @@ impl AcfModel {
         }
         if !self.casc_thr.is_finite() && self.casc_thr != f32::NEG_INFINITY {
             return bad(format!("casc_thr = {}", self.casc_thr));
+        }
+        if let Some(t) = &self.casc_trace {
+            if t.len() != self.classifier.trees.len() {
+                return bad(format!(
+                    "casc_trace has {} entries for {} trees",
+                    t.len(),
+                    self.classifier.trees.len()
+                ));
+            }
+            if let Some(k) = t.iter().position(|r| r.is_nan() || *r == f32::INFINITY) {
+                return bad(format!("casc_trace[{k}] = {}", t[k]));
+            }
         }
         ChannelSpec::new(self.channels)?;
         self.classifier.validate()?;
@@ -252,17 +277,26 @@ pub struct AcfStats {
     pub total: Duration,
 }
 
-/// One row of window scores `(bx, by, score)` and the trees evaluated for it.
-type ScoredRow = (Vec<(usize, usize, f32)>, u64);
+/// The trees of one level in the scoring form: feature indices turned into offsets into the
+/// level's planar channels (relative to the window's top-left block).
+enum LevelTrees<'a> {
+    /// Every tree of depth ≤ 2: the packed form of the SIMD kernels.
+    Packed(Vec<Tree2>),
+    /// Some deeper tree: the flattened nodes, walked one window at a time.
+    General {
+        starts: &'a [u32],
+        child: &'a [u32],
+        thr: &'a [f32],
+        hs: &'a [f32],
+        off: Vec<u32>,
+    },
+}
 
-/// The trees flattened, with each node's feature turned into an offset into one level's planar
-/// channels (relative to the window's top-left block).
-struct LevelTrees<'a> {
-    starts: &'a [u32],
-    child: &'a [u32],
-    thr: &'a [f32],
-    hs: &'a [f32],
-    off: Vec<u32>,
+/// The scores and trees evaluated of every window of one level, row-major (`nx` per row).
+struct LevelScores {
+    nx: usize,
+    scores: Vec<f32>,
+    counts: Vec<u32>,
 }
 
 /// The ACF detector: a validated model and options.
@@ -272,12 +306,47 @@ pub struct AcfDetector {
     opts: AcfOptions,
     spec: ChannelSpec,
     pyr: PyramidOptions,
+    /// Rejection threshold after each tree: the model's trace, or its constant threshold.
+    reject: Vec<f32>,
+    /// Every tree completed to depth 2 with feature indices in `off` (`None`: a deeper tree).
+    packed: Option<Vec<Tree2>>,
     // flattened trees: node k of tree t is starts[t] + k; child indices absolute (0 = leaf)
     starts: Vec<u32>,
     fid: Vec<u32>,
     child: Vec<u32>,
     thr: Vec<f32>,
     hs: Vec<f32>,
+}
+
+/// `t` completed to depth 2 ([`Tree2`], feature indices in `off`), or `None` if it is deeper.
+/// A leaf above depth 2 becomes a split (on feature 0, threshold 0) whose children both carry
+/// its value, so the output is the same whichever way the split goes.
+fn pack_tree(t: &Tree) -> Option<Tree2> {
+    let leaf = |k: usize| t.child[k] == 0;
+    let mut p = Tree2::default();
+    if leaf(0) {
+        p.hs = [t.hs[0]; 4];
+        return Some(p);
+    }
+    p.off[0] = t.fid[0];
+    p.thr[0] = t.thr[0];
+    let c = t.child[0] as usize;
+    for (side, k) in [c, c + 1].into_iter().enumerate() {
+        if leaf(k) {
+            p.hs[2 * side] = t.hs[k];
+            p.hs[2 * side + 1] = t.hs[k];
+        } else {
+            let g = t.child[k] as usize;
+            if !leaf(g) || !leaf(g + 1) {
+                return None;
+            }
+            p.off[1 + side] = t.fid[k];
+            p.thr[1 + side] = t.thr[k];
+            p.hs[2 * side] = t.hs[g];
+            p.hs[2 * side + 1] = t.hs[g + 1];
+        }
+    }
+    Some(p)
 }
 
 impl AcfDetector {
@@ -301,11 +370,18 @@ impl AcfDetector {
             thr.extend_from_slice(&t.thr);
             hs.extend_from_slice(&t.hs);
         }
+        let reject = match &model.casc_trace {
+            Some(t) => t.clone(),
+            None => vec![model.casc_thr; model.classifier.trees.len()],
+        };
+        let packed = model.classifier.trees.iter().map(pack_tree).collect();
         Ok(Self {
             model,
             opts: *opts,
             spec,
             pyr,
+            reject,
+            packed,
             starts,
             fid,
             child,
@@ -329,74 +405,130 @@ impl AcfDetector {
         Ok(pyramid(input, &self.spec, &self.pyr)?)
     }
 
-    fn level_trees(&self, ch: &Channels) -> LevelTrees<'_> {
+    /// Offset of feature `f` of a window in a level of `w x h` blocks.
+    fn offset(&self, f: u32, w: usize, h: usize) -> u32 {
         let (ww, wh) = self.model.window_blocks();
+        let f = f as usize;
+        let (c, rest) = (f / (ww * wh), f % (ww * wh));
+        let (y, x) = (rest / ww, rest % ww);
+        ((c * h + y) * w + x) as u32
+    }
+
+    fn level_trees(&self, ch: &Channels) -> LevelTrees<'_> {
         let (w, h) = (ch.width(), ch.height());
-        let off = self
-            .fid
-            .iter()
-            .map(|&f| {
-                let f = f as usize;
-                let (c, rest) = (f / (ww * wh), f % (ww * wh));
-                let (y, x) = (rest / ww, rest % ww);
-                ((c * h + y) * w + x) as u32
-            })
-            .collect();
-        LevelTrees {
-            starts: &self.starts,
-            child: &self.child,
-            thr: &self.thr,
-            hs: &self.hs,
-            off,
+        match &self.packed {
+            Some(p) => LevelTrees::Packed(
+                p.iter()
+                    .map(|t| Tree2 {
+                        off: t.off.map(|f| self.offset(f, w, h)),
+                        ..*t
+                    })
+                    .collect(),
+            ),
+            None => LevelTrees::General {
+                starts: &self.starts,
+                child: &self.child,
+                thr: &self.thr,
+                hs: &self.hs,
+                off: self.fid.iter().map(|&f| self.offset(f, w, h)).collect(),
+            },
         }
     }
 
-    /// Soft-cascade score of the window at block `(bx, by)` of `ch` and the trees evaluated.
-    #[inline]
-    fn score_at(&self, lt: &LevelTrees, data: &[f32], base: usize) -> (f32, u32) {
+    /// Soft-cascade score of the window whose first value is `data[base]` through the general
+    /// (deeper) trees, and the trees evaluated.
+    #[allow(clippy::too_many_arguments)]
+    fn score_general(
+        &self,
+        starts: &[u32],
+        child: &[u32],
+        thr: &[f32],
+        hs: &[f32],
+        off: &[u32],
+        data: &[f32],
+        base: usize,
+    ) -> (f32, u32) {
         let mut h = 0.0f32;
-        let casc = self.model.casc_thr;
         let mut n = 0;
-        for &s in lt.starts {
+        for (&s, &r) in starts.iter().zip(&self.reject) {
             let mut k = s as usize;
-            while lt.child[k] != 0 {
-                let c = lt.child[k] as usize;
-                k = c + (data[base + lt.off[k] as usize] >= lt.thr[k]) as usize;
+            while child[k] != 0 {
+                let c = child[k] as usize;
+                k = c + goes_right(data[base + off[k] as usize], thr[k]) as usize;
             }
-            h += lt.hs[k];
+            h += hs[k];
             n += 1;
-            if h <= casc {
+            if h <= r {
                 break;
             }
         }
         (h, n)
     }
 
-    /// Scores of every window of one level, row by row (`(bx, by, score)`), and the trees
-    /// evaluated.
-    pub fn score_level(&self, ch: &Channels) -> (Vec<(usize, usize, f32)>, u64) {
+    /// Scores and trees evaluated of every window of one level (rows in parallel, each row the
+    /// same arithmetic for any thread count); `None` if the level is smaller than the window.
+    fn score_windows(&self, ch: &Channels) -> Option<LevelScores> {
         let (ww, wh) = self.model.window_blocks();
         if ch.width() < ww || ch.height() < wh {
-            return (vec![], 0);
+            return None;
         }
         let (nx, ny) = (ch.width() - ww + 1, ch.height() - wh + 1);
         let lt = self.level_trees(ch);
         let data = ch.as_slice();
-        let rows: Vec<ScoredRow> = (0..ny)
-            .into_par_iter()
-            .map(|by| {
-                let mut out = Vec::with_capacity(nx);
-                let mut trees = 0u64;
-                for bx in 0..nx {
-                    let (s, n) = self.score_at(&lt, data, by * ch.width() + bx);
-                    trees += n as u64;
-                    out.push((bx, by, s));
+        let isa = crate::kernels::isa();
+        let mut scores = vec![0.0f32; nx * ny];
+        let mut counts = vec![0u32; nx * ny];
+        scores
+            .par_chunks_mut(nx)
+            .zip(counts.par_chunks_mut(nx))
+            .enumerate()
+            .for_each(|(by, (s, c))| {
+                let base = by * ch.width();
+                match &lt {
+                    LevelTrees::Packed(t) => score_run(isa, t, &self.reject, data, base, s, c),
+                    LevelTrees::General {
+                        starts,
+                        child,
+                        thr,
+                        hs,
+                        off,
+                    } => {
+                        for (bx, (s, c)) in s.iter_mut().zip(c.iter_mut()).enumerate() {
+                            (*s, *c) = self.score_general(starts, child, thr, hs, off, data, base + bx);
+                        }
+                    }
                 }
-                (out, trees)
+            });
+        Some(LevelScores { nx, scores, counts })
+    }
+
+    /// Whether a window that evaluated `count` trees and scored `s` survived the soft cascade.
+    fn survived(&self, s: f32, count: u32) -> bool {
+        match self.reject.last() {
+            Some(&r) => count as usize == self.reject.len() && s > r,
+            None => true,
+        }
+    }
+
+    /// Scores of every window of one level, row by row (`(bx, by, score)`), and the trees
+    /// evaluated. A window the soft cascade rejects scores [`REJECTED`]: it is no detection at
+    /// any threshold.
+    pub fn score_level(&self, ch: &Channels) -> (Vec<(usize, usize, f32)>, u64) {
+        let Some(l) = self.score_windows(ch) else {
+            return (vec![], 0);
+        };
+        let trees = l.counts.iter().map(|&c| c as u64).sum();
+        let out = l
+            .scores
+            .iter()
+            .zip(&l.counts)
+            .enumerate()
+            .map(|(i, (&s, &c))| {
+                let s = if self.survived(s, c) { s } else { REJECTED };
+                (i % l.nx, i / l.nx, s)
             })
             .collect();
-        let trees = rows.iter().map(|r| r.1).sum();
-        (rows.into_iter().flat_map(|r| r.0).collect(), trees)
+        (out, trees)
     }
 
     /// Call `f(level, channels, bx, by, score)` for every window of every level of `input`'s
@@ -430,11 +562,14 @@ impl AcfDetector {
         let t1 = Instant::now();
         let mut dets = Vec::new();
         for l in &p.levels {
-            let (scores, trees) = self.score_level(&l.channels);
-            st.windows += scores.len();
-            st.trees_evaluated += trees;
-            for (bx, by, s) in scores {
-                if s >= self.opts.hit_threshold && s > self.model.casc_thr {
+            let Some(ls) = self.score_windows(&l.channels) else {
+                continue;
+            };
+            st.windows += ls.scores.len();
+            st.trees_evaluated += ls.counts.iter().map(|&c| c as u64).sum::<u64>();
+            for (i, (&s, &c)) in ls.scores.iter().zip(&ls.counts).enumerate() {
+                let (bx, by) = (i % ls.nx, i / ls.nx);
+                if s >= self.opts.hit_threshold && self.survived(s, c) {
                     dets.push(Detection {
                         x: (bx * SHRINK) as f32 / l.scale_x as f32,
                         y: (by * SHRINK) as f32 / l.scale_y as f32,
@@ -466,16 +601,21 @@ impl AcfDetector {
         Ok((out, st))
     }
 
-    /// Score of a window's feature vector (e.g. a training positive), with the soft cascade.
+    /// Score of a window's feature vector (e.g. a training positive) with the soft cascade:
+    /// [`REJECTED`] when the cascade rejects it (as [`AcfDetector::score_level`]).
     pub fn score_features(&self, x: &[f32]) -> f32 {
-        self.model.classifier.score(x, self.model.casc_thr)
+        let (s, n) = self.model.classifier.score_trace(x, &self.reject);
+        if self.survived(s, n as u32) {
+            s
+        } else {
+            REJECTED
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::detect::boost::Tree;
     use crate::detect::channels::channels;
     use crate::image::Image;
     use crate::raw::Cfa;
@@ -493,6 +633,7 @@ mod tests {
             pyramid: PyramidOptions::default(),
             casc_thr: CASC_THR,
             casc_cal: 0.0,
+            casc_trace: None,
             mosaic_tone: MosaicTone::Linear,
             boost: BoostOptions::default(),
             classifier: BoostedTrees {

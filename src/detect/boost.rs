@@ -43,6 +43,25 @@
 //! after training; while scoring, `H_k = Σ_{j ≤ k} h_j(x)`, and the window is rejected as soon as
 //! `H_k ≤ cascThr` (−1). A window that survives every tree scores `H_T`.
 //!
+//! **Calibrated rejection trace** (Bourdev & Brandt's per-tree trace, set as in Zhang & Viola's
+//! direct backward pruning; [`calibrate_trace`]): the window is rejected after tree `k` when
+//! `H_k ≤ r_k`. Given the running scores `H_k(x_i)` of calibration positives (held out from the
+//! classifier's training: a classifier's own training positives run far higher than new ones),
+//! a floor `κ` (the lowest final score a detection may have), a loss fraction `f` and a margin
+//! `δ ≥ 0`:
+//!
+//! ```text
+//! K  = { i : H_T(x_i) ≥ κ }                      the positives that are detections at κ
+//! K' = K without the ⌊f·|K|⌋ members of lowest min_k H_k(x_i)   (the deepest dips)
+//! r_k = (min_{i ∈ K'} H_k(x_i) − δ)⁻              (⁻: the next float below)
+//! ```
+//!
+//! No member of `K'` is rejected (each stays strictly above `r_k`), so at most a fraction `f` of
+//! the calibration positives that reach `κ` are lost. `r_T ≥ κ − δ`: with a trace, windows
+//! scoring below about `κ` are not detections. With the constant threshold the running score of a
+//! positive must never dip to `cascThr`; with the trace it must only stay above the lowest running
+//! score that the calibration positives reached after the same number of trees.
+//!
 //! # Determinism
 //! Each feature's best split is computed sequentially over the samples in a fixed order (f64
 //! sums) and the features' results are compared in index order, so the trees are identical for
@@ -285,12 +304,110 @@ impl BoostedTrees {
         h
     }
 
+    /// The running scores `H_1 … H_T` of a feature vector (every tree, no rejection).
+    pub fn running_scores(&self, x: &[f32]) -> Vec<f32> {
+        let mut h = 0.0f32;
+        self.trees
+            .iter()
+            .map(|t| {
+                h += t.apply(|f| x[f]);
+                h
+            })
+            .collect()
+    }
+
+    /// Soft-cascade score with a per-tree rejection threshold `reject[k]` (one per tree): stops
+    /// after tree `k` when the running sum is `≤ reject[k]`. Returns the score and the trees
+    /// evaluated.
+    pub fn score_trace(&self, x: &[f32], reject: &[f32]) -> (f32, usize) {
+        let mut h = 0.0f32;
+        for (k, (t, &r)) in self.trees.iter().zip(reject).enumerate() {
+            h += t.apply(|f| x[f]);
+            if h <= r {
+                return (h, k + 1);
+            }
+        }
+        (h, self.trees.len().min(reject.len()))
+    }
+
     /// Add `cal` to every node value (Dollár's `cascCal`).
     pub fn calibrate(&mut self, cal: f32) {
         for t in &mut self.trees {
             t.hs.iter_mut().for_each(|h| *h += cal);
         }
     }
+}
+
+/// Options of [`calibrate_trace`] (see the module docs for the rule).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TraceOptions {
+    /// Floor `κ`: only calibration positives whose final score reaches it are protected (the
+    /// lowest final score a detection is expected to have).
+    pub floor: f32,
+    /// Fraction `f` of the protected positives the trace may reject (those whose running score
+    /// dips lowest).
+    pub loss: f64,
+    /// Margin `δ ≥ 0` subtracted from the trace (room for positives unlike the calibration set).
+    pub margin: f32,
+}
+
+impl Default for TraceOptions {
+    /// κ = −10, f = 0, δ = 1 (chosen on the inner split of fold 0: docs/acf.md).
+    fn default() -> Self {
+        Self {
+            floor: -10.0,
+            loss: 0.0,
+            margin: 1.0,
+        }
+    }
+}
+
+/// A per-tree rejection trace from the running scores `runs[i][k] = H_{k+1}(x_i)` of calibration
+/// positives (all of the same length, one per tree; see the module docs).
+pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, BoostError> {
+    let bad = |name, value: String, allowed| Err(BoostError::BadOption { name, value, allowed });
+    if !(0.0..1.0).contains(&o.loss) {
+        return bad("trace loss", o.loss.to_string(), "in [0, 1)");
+    }
+    if !(o.margin.is_finite() && o.margin >= 0.0) {
+        return bad("trace margin", o.margin.to_string(), "finite and ≥ 0");
+    }
+    if !o.floor.is_finite() {
+        return bad("trace floor", o.floor.to_string(), "finite");
+    }
+    let t = runs.first().map_or(0, |r| r.len());
+    if let Some(i) = runs.iter().position(|r| r.len() != t) {
+        return Err(BoostError::FeatureCount {
+            index: i,
+            got: runs[i].len(),
+            expected: t,
+        });
+    }
+    // the protected positives, deepest dip first (ties: by index)
+    let mut keep: Vec<(f32, usize)> = runs
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.last().is_some_and(|&h| h >= o.floor))
+        .map(|(i, r)| (r.iter().copied().fold(f32::INFINITY, f32::min), i))
+        .collect();
+    if keep.is_empty() || t == 0 {
+        return Err(BoostError::NoData {
+            positives: keep.len(),
+            negatives: 0,
+        });
+    }
+    keep.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let drop = (o.loss * keep.len() as f64).floor() as usize;
+    let kept = &keep[drop.min(keep.len() - 1)..];
+    Ok((0..t)
+        .map(|k| {
+            let low = kept
+                .iter()
+                .map(|&(_, i)| runs[i][k])
+                .fold(f32::INFINITY, f32::min);
+            (low - o.margin).next_down()
+        })
+        .collect())
 }
 
 /// Training data quantised feature-major: `q[f · n + i]`.
@@ -619,14 +736,18 @@ mod tests {
         );
     }
 
-    #[test]
-    fn soft_cascade_stops_early() {
-        let stump = |v: f32| Tree {
+    /// A stump on feature 0 at 0.5 adding −v (left) or v (right).
+    fn stump(v: f32) -> Tree {
+        Tree {
             fid: vec![0, 0, 0],
             thr: vec![0.5, 0.0, 0.0],
             child: vec![1, 0, 0],
             hs: vec![0.0, -v, v],
-        };
+        }
+    }
+
+    #[test]
+    fn soft_cascade_stops_early() {
         let m = BoostedTrees {
             n_features: 1,
             trees: vec![stump(0.6), stump(0.6), stump(5.0)],
@@ -636,6 +757,55 @@ mod tests {
         assert_eq!(m.score(&[0.0], -1.0), -1.2);
         assert_eq!(m.score(&[0.0], f32::NEG_INFINITY), -6.2);
         assert_eq!(m.score(&[1.0], -1.0), 6.2);
+    }
+
+    #[test]
+    fn trace_protects_the_kept_positives() {
+        // three positives over three trees; the third dips lowest and is the one dropped at 34 %
+        let runs = vec![
+            vec![0.5f32, 1.0, 3.0],
+            vec![-0.5, 0.5, 2.0],
+            vec![-2.0, -1.0, 4.0],
+            vec![-3.0, -4.0, -1.0], // ends below the floor: not protected
+        ];
+        let o = TraceOptions {
+            floor: 0.0,
+            loss: 0.0,
+            margin: 0.0,
+        };
+        let r = calibrate_trace(&runs, &o).unwrap();
+        assert_eq!(
+            r,
+            vec![(-2.0f32).next_down(), (-1.0f32).next_down(), 2.0f32.next_down()]
+        );
+        let r = calibrate_trace(&runs, &TraceOptions { loss: 0.34, ..o }).unwrap();
+        assert_eq!(
+            r,
+            vec![(-0.5f32).next_down(), 0.5f32.next_down(), 2.0f32.next_down()]
+        );
+        let r = calibrate_trace(&runs, &TraceOptions { margin: 1.0, ..o }).unwrap();
+        assert_eq!(r[0], (-3.0f32).next_down());
+        // every kept positive survives the trace when scored
+        let m = BoostedTrees {
+            n_features: 1,
+            trees: vec![stump(1.0), stump(1.0)],
+        };
+        let runs = vec![m.running_scores(&[1.0]), m.running_scores(&[0.0])];
+        assert_eq!(runs[0], vec![1.0, 2.0]);
+        let r = calibrate_trace(&runs, &TraceOptions { floor: 1.5, ..o }).unwrap();
+        assert_eq!(m.score_trace(&[1.0], &r), (2.0, 2));
+        assert_eq!(m.score_trace(&[0.0], &r), (-1.0, 1));
+        assert!(matches!(
+            calibrate_trace(&runs, &TraceOptions { floor: 9.0, ..o }),
+            Err(BoostError::NoData { positives: 0, .. })
+        ));
+        assert!(matches!(
+            calibrate_trace(&runs, &TraceOptions { loss: 1.0, ..o }),
+            Err(BoostError::BadOption {
+                name: "trace loss",
+                ..
+            })
+        ));
     }
 
     #[test]

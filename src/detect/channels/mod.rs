@@ -80,6 +80,7 @@
 //! W. Zhou, L. Zhang, S. Gao, X. Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
 //! Images" (the same-colour central difference).
 
+mod kernels;
 pub mod pyramid;
 #[cfg(test)]
 mod tests;
@@ -510,6 +511,36 @@ fn gradient_row(
     let yu = if y == 0 { 1.min(h - 1) } else { y - 1 };
     let yd = if y + 1 == h { y.saturating_sub(1) } else { y + 1 };
     let gw = mrow.len();
+    if let [p] = planes {
+        // one plane (mosaic, grey): the interior through the kernels, the border columns here
+        let (up, mid, dn) = (
+            &p[yu * w..(yu + 1) * w],
+            &p[y * w..(y + 1) * w],
+            &p[yd * w..(yd + 1) * w],
+        );
+        let one = |x: usize, xl: usize, xr: usize| {
+            let gx = (mid[xr] - mid[xl]) * 0.5;
+            let gy = (dn[x] - up[x]) * 0.5;
+            ((gx * gx + gy * gy).sqrt(), orient_bin(gx, gy, &edges))
+        };
+        (mrow[0], brow[0]) = one(0, 1.min(w - 1), 1.min(w - 1));
+        let inner_end = gw.min(w - 1);
+        if inner_end > 1 {
+            kernels::grad_row(
+                crate::kernels::isa(),
+                up,
+                mid,
+                dn,
+                &edges,
+                &mut mrow[..inner_end],
+                &mut brow[..inner_end],
+            );
+        }
+        if gw == w && w > 1 {
+            (mrow[w - 1], brow[w - 1]) = one(w - 1, w - 2, w - 2);
+        }
+        return;
+    }
     for (pi, p) in planes.iter().enumerate() {
         let (up, mid, dn) = (
             &p[yu * w..(yu + 1) * w],
@@ -585,22 +616,25 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
     }
     // Per block row: magnitude and six orientation sums (normalised), then L, U, V.
     let inv = 1.0 / (SHRINK * SHRINK) as f32;
+    let isa = crate::kernels::isa();
     let grad_rows: Vec<Vec<f32>> = (0..ch)
         .into_par_iter()
         .map(|by| {
             let mut acc = vec![0.0f32; cw * (1 + N_ORIENTS)];
+            let mut vrow = vec![0.0f32; gw];
             for y in by * SHRINK..(by + 1) * SHRINK {
                 let row = y * gw..(y + 1) * gw;
                 let (m, b) = (&mag[row.clone()], &bin[row.clone()]);
-                for x in 0..gw {
-                    let v = if norm.is_empty() {
-                        m[x]
-                    } else {
-                        m[x] / (norm[row.start + x] + o.norm_const)
-                    };
+                let v: &[f32] = if norm.is_empty() {
+                    m
+                } else {
+                    kernels::normalise(isa, m, &norm[row], o.norm_const, &mut vrow);
+                    &vrow
+                };
+                for (x, (&v, &b)) in v.iter().zip(b).enumerate() {
                     let a = &mut acc[(x / SHRINK) * (1 + N_ORIENTS)..];
                     a[0] += v;
-                    a[1 + b[x] as usize] += v;
+                    a[1 + b as usize] += v;
                 }
             }
             acc

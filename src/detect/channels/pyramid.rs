@@ -22,6 +22,8 @@
 //! the image. The default λ are Dollár's published INRIA values until we measure our own
 //! ([`PyramidOptions::default`]).
 
+use rayon::prelude::*;
+
 use crate::detect::pyramid::{resize_bilinear, resize_mosaic};
 use crate::image::{Image, ImageView};
 
@@ -150,13 +152,17 @@ fn resize_input(input: &ChannelInput, w: usize, h: usize) -> Result<Resized, Cha
     })
 }
 
-/// The unsmoothed channels of `input` resized to `w x h` pixels.
+/// The unsmoothed channels of `input` resized to `w x h` pixels (the input itself, not a copy,
+/// at its own size).
 fn resized_channels(
     input: &ChannelInput,
     w: usize,
     h: usize,
     spec: &ChannelSpec,
 ) -> Result<Channels, ChannelsError> {
+    if input.dimensions() == (w, h) {
+        return channels_unsmoothed(input, spec);
+    }
     match (resize_input(input, w, h)?, input) {
         (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed(
             &ChannelInput::Mosaic {
@@ -228,48 +234,44 @@ pub fn pyramid(
     let n = plan.len();
     let step = opts.approx + 1;
     let exact: Vec<usize> = (0..n).step_by(step).collect();
-    let mut raw: Vec<Option<Channels>> = vec![None; n];
-    for &i in &exact {
-        let (_, lw, lh) = plan[i];
-        raw[i] = Some(resized_channels(input, lw, lh, spec)?);
-    }
-    let mut levels = Vec::with_capacity(n);
-    for i in 0..n {
-        let (s, lw, lh) = plan[i];
-        let (ch, is_exact) = match raw[i].take() {
-            Some(c) => (c, true),
-            None => {
+    // Exact levels one after the other (each parallel inside), then every approximated level
+    // resampled from the unsmoothed channels of its nearest exact level, levels in parallel: each
+    // level is the same arithmetic for any thread count.
+    let raw: Vec<Channels> = exact
+        .iter()
+        .map(|&i| resized_channels(input, plan[i].1, plan[i].2, spec))
+        .collect::<Result<_, _>>()?;
+    let mut levels: Vec<Level> = (0..n)
+        .into_par_iter()
+        .map(|i| -> Result<Level, ChannelsError> {
+            let (s, lw, lh) = plan[i];
+            let channels = if i % step == 0 {
+                raw[i / step].clone()
+            } else {
                 // nearest exact level in index (ties: the larger image, as Dollár's split)
                 let r = exact
                     .iter()
                     .copied()
                     .min_by_key(|&e| (e.abs_diff(i), e > i))
                     .expect("level 0 is exact");
-                let src = levels
-                    .get(r)
-                    .map(|l: &Level| l.channels.clone())
-                    .or_else(|| raw.get(r).and_then(|c| c.clone()))
-                    .expect("exact level computed");
-                let (sr, _, _) = plan[r];
-                let rel = (s / sr) as f32;
-                (
-                    resample_channels(&src, lw / SHRINK, lh / SHRINK, |c| rel.powf(-opts.lambda_of(c)))?,
-                    false,
-                )
-            }
-        };
-        levels.push(Level {
-            scale: s,
-            scale_x: lw as f64 / w as f64,
-            scale_y: lh as f64 / h as f64,
-            exact: is_exact,
-            channels: ch,
-        });
-    }
+                let rel = (s / plan[r].0) as f32;
+                resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
+                    rel.powf(-opts.lambda_of(c))
+                })?
+            };
+            Ok(Level {
+                scale: s,
+                scale_x: lw as f64 / w as f64,
+                scale_y: lh as f64 / h as f64,
+                exact: i % step == 0,
+                channels,
+            })
+        })
+        .collect::<Result<_, _>>()?;
     // Approximated levels must read the unsmoothed exact channels: smooth only now.
     let r = spec.options().output_smooth;
     levels
-        .iter_mut()
+        .par_iter_mut()
         .for_each(|l| smooth_channels(&mut l.channels, r));
     Ok(ChannelPyramid { levels })
 }

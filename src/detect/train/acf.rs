@@ -34,10 +34,10 @@ use rayon::prelude::*;
 
 use super::domain::{image_seed, load_rgb, DomainImage, InputPipeline, NEG_SEED_OFFSET};
 use super::error::TrainError;
-use super::split::Split;
+use super::split::{inner_split, Split};
 use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
 use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
-use crate::detect::boost::{train_adaboost, BoostOptions};
+use crate::detect::boost::{calibrate_trace, train_adaboost, BoostOptions, TraceOptions};
 use crate::detect::channels::{
     channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
 };
@@ -56,6 +56,8 @@ const POS_WINDOW_BLOCK: usize = 16 / SHRINK;
 const NEG_STREAM_SALT: u64 = 0x6163_665f_6e65_6773;
 /// IoU of the suppression among one image's hard negatives.
 const MINING_NMS_IOU: f32 = 0.5;
+/// Fraction of the training files held out by the inner split that calibrates the trace.
+pub const INNER_FRACTION: f64 = 0.2;
 
 /// ACF training options; defaults are Dollár's INRIA detector (`acfDemoInria`).
 #[derive(Debug, Clone, PartialEq)]
@@ -90,8 +92,13 @@ pub struct AcfTrainOptions {
     /// Measure the pyramid's λ on the training positives ([`measure_lambdas`], as Dollár's
     /// `acfTrain` does when none are given) instead of using `pyramid.lambdas`.
     pub measure_lambdas: bool,
-    /// Soft-cascade threshold written into the model (Dollár's −1).
+    /// Soft-cascade threshold written into the model (Dollár's −1; used when `trace` is `None`).
     pub casc_thr: f32,
+    /// Calibrate a per-tree rejection trace ([`calibrate_cascade`]): a model is first trained on
+    /// the inner split of the training files (fraction [`INNER_FRACTION`] held out), its trace
+    /// calibrated on the inner held-out positives, and the trace stored in the model trained on
+    /// all training files. Doubles the training time. `None`: the constant `casc_thr` only.
+    pub trace: Option<TraceOptions>,
 }
 
 impl Default for AcfTrainOptions {
@@ -112,6 +119,7 @@ impl Default for AcfTrainOptions {
             max_neg_images: 0,
             measure_lambdas: true,
             casc_thr: CASC_THR,
+            trace: Some(TraceOptions::default()),
         }
     }
 }
@@ -157,6 +165,7 @@ fn model_of(
         pyramid: pyr,
         casc_thr: o.casc_thr,
         casc_cal: CASC_CAL,
+        casc_trace: None,
         mosaic_tone: o.mosaic_tone,
         boost,
         classifier,
@@ -199,6 +208,34 @@ pub fn train_acf(
 ) -> Result<AcfModel, TrainError> {
     check(o)?;
     let t0 = Instant::now();
+    let inner_trace = match &o.trace {
+        Some(t) => {
+            let inner = inner_split(split, o.seed, INNER_FRACTION);
+            progress(&format!(
+                "acf: training on the inner split ({} positives, {} negative images) to calibrate the rejection trace",
+                inner.train_pos.len(),
+                inner.train_neg.len()
+            ));
+            let mut prog = |s: &str| progress(&format!("inner: {s}"));
+            let im = train_acf(
+                &inner,
+                &AcfTrainOptions {
+                    trace: None,
+                    ..o.clone()
+                },
+                &mut prog,
+            )?;
+            let xs = positive_windows(&inner.val_pos, &im, o.domain, o.cfa, &o.pipeline, Gains::FromFile)?;
+            let trace = calibrate_cascade(&im, &xs, t)?;
+            progress(&format!(
+                "acf: rejection trace calibrated on {} inner held-out positives ({:.1} s)",
+                xs.len(),
+                t0.elapsed().as_secs_f64()
+            ));
+            Some((trace, xs.len()))
+        }
+        None => None,
+    };
     let spec = ChannelSpec::new(o.channels).map_err(AcfError::from)?;
     let prep = MosaicPrep::with_tone(o.mosaic_tone);
     let win = (o.pyramid.min_size.0 / SHRINK, o.pyramid.min_size.1 / SHRINK);
@@ -408,7 +445,42 @@ pub fn train_acf(
     if let InputPipeline::ReverseIsp { seed, .. } = o.pipeline {
         m.provenance["noise_seed"] = serde_json::json!(seed);
     }
+    if let (Some((trace, n)), Some(t)) = (inner_trace, &o.trace) {
+        let src = format!(
+            "{n} held-out positives of the inner split ({INNER_FRACTION} of the training files) scored by a model trained on the rest"
+        );
+        set_trace(&mut m, &trace, t, &src);
+    }
     Ok(m)
+}
+
+/// A per-tree rejection trace ([`calibrate_trace`]) from the running scores, under `model`, of
+/// calibration positives that `model` was not trained on (a model's own training positives run
+/// far higher than new ones: docs/acf.md).
+pub fn calibrate_cascade(
+    model: &AcfModel,
+    positives: &[Vec<f32>],
+    o: &TraceOptions,
+) -> Result<Vec<f32>, TrainError> {
+    let runs: Vec<Vec<f32>> = positives
+        .par_iter()
+        .map(|x| model.classifier.running_scores(x))
+        .collect();
+    Ok(calibrate_trace(&runs, o)?)
+}
+
+/// Store `trace` (calibrated with another model of the same training recipe) in `model`: cut to
+/// its trees, or extended by its last value; the options and `source` go into the provenance.
+pub fn set_trace(model: &mut AcfModel, trace: &[f32], o: &TraceOptions, source: &str) {
+    let n = model.classifier.trees.len();
+    let last = trace.last().copied().unwrap_or(f32::NEG_INFINITY);
+    model.casc_trace = Some((0..n).map(|k| trace.get(k).copied().unwrap_or(last)).collect());
+    if !model.provenance.is_object() {
+        model.provenance = serde_json::json!({});
+    }
+    model.provenance["casc_trace"] = serde_json::json!({
+        "calibration": source, "floor": o.floor, "loss": o.loss, "margin": o.margin,
+    });
 }
 
 /// The features of the positive windows of the 96x160 crops `files` for `model` (image `i` on
@@ -439,8 +511,8 @@ pub fn positive_windows(
 
 /// Window-level evaluation of an ACF model on `split`'s held-out files (the HOG detector's
 /// protocol: every held-out positive window, every window of every pyramid level of the held-out
-/// negative images). Scores are soft-cascade scores (a rejected window keeps its running sum,
-/// at most the cascade threshold), so miss rates are exact at thresholds above it.
+/// negative images). A window the soft cascade rejects is no detection at any threshold (score
+/// [`crate::detect::acf::REJECTED`]).
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_acf_windows(
     model: &AcfModel,
@@ -461,25 +533,43 @@ pub fn evaluate_acf_windows(
         .map(|x| det.score_features(x))
         .collect();
     progress(&format!("eval: {} positives scored", pos.len()));
-    let per_image: Vec<Vec<f32>> = split
+    let per_image: Vec<(Vec<f32>, u64)> = split
         .val_neg
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
             let img = held_out_negative(p, i, domain, cfa, pipeline, &prep)?;
+            let pyr = det.pyramid(&channel_input(&img, cfa))?;
             let mut v = Vec::new();
-            det.for_each_window(&channel_input(&img, cfa), |_, _, _, _, s| v.push(s))?;
-            Ok(v)
+            let mut trees = 0;
+            for l in &pyr.levels {
+                let (s, t) = det.score_level(&l.channels);
+                v.extend(s.into_iter().map(|w| w.2));
+                trees += t;
+            }
+            Ok((v, trees))
         })
         .collect::<Result<_, TrainError>>()?;
-    let windows_per_image: Vec<usize> = per_image.iter().map(|v| v.len()).collect();
-    let neg: Vec<f32> = per_image.into_iter().flatten().collect();
+    let windows_per_image: Vec<usize> = per_image.iter().map(|v| v.0.len()).collect();
+    let trees: u64 = per_image.iter().map(|v| v.1).sum();
+    let neg: Vec<f32> = per_image.into_iter().flat_map(|v| v.0).collect();
     progress(&format!(
-        "eval: {} negative windows in {} images",
+        "eval: {} negative windows in {} images, {:.2} trees per window",
         neg.len(),
-        windows_per_image.len()
+        windows_per_image.len(),
+        trees as f64 / neg.len().max(1) as f64
     ));
-    window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)
+    let ev = window_eval(pos, photo_indices(&split.val_pos), &neg, windows_per_image)?;
+    let mut sorted = neg;
+    sorted.sort_unstable_by(|a, b| b.total_cmp(a));
+    let at = |f: f64| sorted.get((f * sorted.len() as f64) as usize).copied();
+    progress(&format!(
+        "eval: negative score at FPPW 1e-2 {:?}, 1e-3 {:?}, 1e-4 {:?}",
+        at(1e-2),
+        at(1e-3),
+        at(1e-4)
+    ));
+    Ok(ev)
 }
 
 /// A random subset of `n` of `0..len` (all if `n ≥ len`) in increasing order.

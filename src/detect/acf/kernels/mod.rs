@@ -1,0 +1,168 @@
+//! Per-instruction-set kernels of the ACF detector's tree scoring: every intrinsic of
+//! [`super`]'s scoring lives here, one file per ISA; the scalar code below is the oracle.
+//!
+//! A run of `n` windows at consecutive block columns of one level row is scored through depth-2
+//! trees in the packed form [`Tree2`]. Because the windows of a run sit one block apart, the
+//! feature a node reads is at consecutive addresses for consecutive windows: the SIMD paths read
+//! one vector per node (no gathers), evaluate every tree for 8 (AVX2), 16 (AVX-512) or 4 (NEON)
+//! windows at once, freeze a lane's running score when the soft cascade rejects it and stop when
+//! every lane of the group is rejected. The running score of each window is the same sequence of
+//! f32 additions as in the scalar oracle, so every path equals it **bit for bit** (scores and
+//! trees evaluated). Windows left over after the last full group are scored by the scalar code.
+//!
+//! | kernel | scalar (oracle) | AVX2 | AVX-512 | NEON |
+//! |---|---|---|---|---|
+//! | tree scoring | one window at a time | 8 windows, `blendv` | 16 windows, mask registers | 4 windows, `bsl` |
+
+use crate::kernels::Isa;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+#[cfg(target_arch = "aarch64")]
+mod neon;
+
+/// A depth-2 tree in the scoring form: nodes 0 (root), 1 (left child) and 2 (right child), each
+/// reading the feature at offset `off[k]` from the window's first value and going right when
+/// `!(x < thr[k])` (as [`crate::detect::boost::Tree::apply`]); leaf `2·b₀ + b₁` adds `hs[…]`.
+/// Shallower trees are completed by repeating a leaf's value under a dummy split.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub(crate) struct Tree2 {
+    /// Offsets of the features the three nodes read.
+    pub off: [u32; 3],
+    /// Thresholds of the three nodes.
+    pub thr: [f32; 3],
+    /// The four leaf values.
+    pub hs: [f32; 4],
+}
+
+/// Score the `scores.len()` windows whose first values are at `data[base0 + i]`: `scores[i]` is
+/// the running score when the window was rejected (the first tree `k` after which it is
+/// `≤ reject[k]`) or after the last tree, `counts[i]` the trees evaluated.
+///
+/// # Panics
+/// If a node reads outside `data` or the slices disagree in length.
+pub(crate) fn score_run(
+    isa: Isa,
+    trees: &[Tree2],
+    reject: &[f32],
+    data: &[f32],
+    base0: usize,
+    scores: &mut [f32],
+    counts: &mut [u32],
+) {
+    let n = scores.len();
+    assert_eq!(counts.len(), n, "one count per score");
+    assert_eq!(reject.len(), trees.len(), "one rejection threshold per tree");
+    if n == 0 {
+        return;
+    }
+    let max_off = trees.iter().flat_map(|t| t.off).max().unwrap_or(0) as usize;
+    assert!(
+        base0 + n - 1 + max_off < data.len(),
+        "window run {base0}+{n} reads offset {max_off} beyond {} values",
+        data.len()
+    );
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the AVX2 path is chosen only when the CPU has AVX2 and FMA
+        // (`Isa::is_available`); every read is below `data.len()` (asserted above).
+        Isa::Avx2 => unsafe { avx2::score_run(trees, reject, data, base0, scores, counts) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above, with AVX-512 F (checked by `Isa::is_available`).
+        Isa::Avx512 => unsafe { avx512::score_run(trees, reject, data, base0, scores, counts) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: as above; NEON is part of every aarch64 target.
+        Isa::Neon => unsafe { neon::score_run(trees, reject, data, base0, scores, counts) },
+        _ => score_run_scalar(trees, reject, data, base0, scores, counts),
+    }
+}
+
+/// Whether a node sends feature value `x` right: `!(x < thr)`, as
+/// [`crate::detect::boost::Tree::apply`] (a NaN goes right).
+#[inline]
+pub(crate) fn goes_right(x: f32, thr: f32) -> bool {
+    x.partial_cmp(&thr) != Some(std::cmp::Ordering::Less)
+}
+
+/// The scalar oracle of [`score_run`] (also the SIMD paths' tail).
+pub(crate) fn score_run_scalar(
+    trees: &[Tree2],
+    reject: &[f32],
+    data: &[f32],
+    base0: usize,
+    scores: &mut [f32],
+    counts: &mut [u32],
+) {
+    for (i, (s, c)) in scores.iter_mut().zip(counts.iter_mut()).enumerate() {
+        let x = &data[base0 + i..];
+        let mut h = 0.0f32;
+        let mut n = 0u32;
+        for (t, &r) in trees.iter().zip(reject) {
+            let b0 = goes_right(x[t.off[0] as usize], t.thr[0]) as usize;
+            let k = 1 + b0;
+            let b1 = goes_right(x[t.off[k] as usize], t.thr[k]) as usize;
+            h += t.hs[2 * b0 + b1];
+            n += 1;
+            if h <= r {
+                break;
+            }
+        }
+        *s = h;
+        *c = n;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn every_path_equals_the_scalar_oracle() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let data: Vec<f32> = (0..4200)
+            .map(|i| {
+                if i % 97 == 0 {
+                    f32::NAN // NaN goes right, as in the oracle
+                } else {
+                    rng.random_range(-1.0..1.0)
+                }
+            })
+            .collect();
+        let trees: Vec<Tree2> = (0..300)
+            .map(|_| Tree2 {
+                off: std::array::from_fn(|_| rng.random_range(0..3000)),
+                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
+                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
+            })
+            .collect();
+        for reject in [vec![f32::NEG_INFINITY; 300], vec![-1.0; 300], {
+            (0..300).map(|k| -3.0 + k as f32 * 0.01).collect()
+        }] {
+            for (base0, n) in [(0usize, 37usize), (5, 64), (100, 3), (900, 0), (11, 1000)] {
+                let mut want = (vec![0.0f32; n], vec![0u32; n]);
+                score_run_scalar(&trees, &reject, &data, base0, &mut want.0, &mut want.1);
+                for isa in Isa::available() {
+                    let mut got = (vec![0.0f32; n], vec![0u32; n]);
+                    score_run(isa, &trees, &reject, &data, base0, &mut got.0, &mut got.1);
+                    assert_eq!(got.1, want.1, "{isa} counts, run {base0}+{n}");
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&got.0), bits(&want.0), "{isa} scores, run {base0}+{n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "beyond")]
+    fn reads_outside_the_data_are_refused() {
+        let t = Tree2 {
+            off: [0, 0, 10],
+            ..Tree2::default()
+        };
+        score_run(Isa::Scalar, &[t], &[0.0], &[0.0; 10], 0, &mut [0.0], &mut [0]);
+    }
+}

@@ -1,0 +1,91 @@
+//! AVX2 channel kernels (see [`super`]): 8 pixels per step, the scalar oracle for the tail.
+
+use std::arch::x86_64::*;
+
+use super::Edges;
+
+/// [`super::grad_row`] on 8 pixels at a time.
+///
+/// # Safety
+/// The CPU has AVX2; `mid.len() > mag.len()`, `up.len()`, `dn.len() ≥ mag.len() = bin.len()`.
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn grad_row(
+    up: &[f32],
+    mid: &[f32],
+    dn: &[f32],
+    edges: &Edges,
+    mag: &mut [f32],
+    bin: &mut [u8],
+) {
+    let n = mag.len();
+    let half = _mm256_set1_ps(0.5);
+    let zero = _mm256_setzero_ps();
+    let sign = _mm256_set1_ps(-0.0);
+    let six = _mm256_set1_epi32(6);
+    // byte 0 of each 32-bit lane, per 128-bit half
+    let pick = _mm256_setr_epi8(
+        0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1,
+        -1, -1, -1, -1, -1,
+    );
+    let ec: [__m256; 6] = std::array::from_fn(|k| _mm256_set1_ps(edges[k].0));
+    let es: [__m256; 6] = std::array::from_fn(|k| _mm256_set1_ps(edges[k].1));
+    let mut x = 1;
+    while x + 8 <= n {
+        // SAFETY: x + 8 ≤ n < mid.len(), so mid[x − 1 .. x + 9] and up/dn[x .. x + 8] are in
+        // bounds, as are mag/bin[x .. x + 8].
+        unsafe {
+            let l = _mm256_loadu_ps(mid.as_ptr().add(x - 1));
+            let r = _mm256_loadu_ps(mid.as_ptr().add(x + 1));
+            let u = _mm256_loadu_ps(up.as_ptr().add(x));
+            let d = _mm256_loadu_ps(dn.as_ptr().add(x));
+            let gx = _mm256_mul_ps(_mm256_sub_ps(r, l), half);
+            let gy = _mm256_mul_ps(_mm256_sub_ps(d, u), half);
+            let m2 = _mm256_add_ps(_mm256_mul_ps(gx, gx), _mm256_mul_ps(gy, gy));
+            _mm256_storeu_ps(mag.as_mut_ptr().add(x), _mm256_sqrt_ps(m2));
+            // fold into the upper half-plane: gy < 0, or gy = 0 and gx < 0
+            let neg = _mm256_or_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(gy, zero),
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_EQ_OQ>(gy, zero),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(gx, zero),
+                ),
+            );
+            let flip = _mm256_and_ps(neg, sign);
+            let (fx, fy) = (_mm256_xor_ps(gx, flip), _mm256_xor_ps(gy, flip));
+            let mut c = _mm256_setzero_si256();
+            for k in 0..6 {
+                let t = _mm256_sub_ps(_mm256_mul_ps(fy, ec[k]), _mm256_mul_ps(fx, es[k]));
+                c = _mm256_sub_epi32(c, _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(t, zero)));
+            }
+            c = _mm256_andnot_si256(_mm256_cmpeq_epi32(c, six), c);
+            let p = _mm256_shuffle_epi8(c, pick);
+            let v = _mm_unpacklo_epi32(_mm256_castsi256_si128(p), _mm256_extracti128_si256::<1>(p));
+            _mm_storel_epi64(bin.as_mut_ptr().add(x).cast(), v);
+        }
+        x += 8;
+    }
+    super::grad_row_scalar(up, mid, dn, edges, x, mag, bin);
+}
+
+/// [`super::normalise`] on 8 values at a time.
+///
+/// # Safety
+/// The CPU has AVX2; the three slices have one length.
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
+    let len = out.len();
+    let cv = _mm256_set1_ps(c);
+    let mut x = 0;
+    while x + 8 <= len {
+        // SAFETY: x + 8 ≤ len, the length of all three slices.
+        unsafe {
+            let v = _mm256_div_ps(
+                _mm256_loadu_ps(m.as_ptr().add(x)),
+                _mm256_add_ps(_mm256_loadu_ps(n.as_ptr().add(x)), cv),
+            );
+            _mm256_storeu_ps(out.as_mut_ptr().add(x), v);
+        }
+        x += 8;
+    }
+    super::normalise_scalar(m, n, c, out, x);
+}

@@ -1,0 +1,147 @@
+//! Per-instruction-set kernels of the channel computation ([`super`]): every intrinsic of the
+//! channels lives here, one file per ISA; the scalar code below is the oracle.
+//!
+//! | kernel | scalar (oracle) | AVX2 (AVX-512 runs it too) | NEON |
+//! |---|---|---|---|
+//! | gradient row: magnitude and orientation bin of one plane | per pixel | 8 pixels | 4 pixels |
+//! | normalised magnitude `m / (n + c)` | per pixel | 8 pixels | 4 pixels |
+//!
+//! Both kernels are the same IEEE operations in the same order on every path (multiplications
+//! and additions kept separate, never fused; `sqrt` and division correctly rounded), so every
+//! path equals the oracle **bit for bit**. The AVX-512 path runs the AVX2 kernels: these loops
+//! are bound by loads and stores, not by the vector width.
+
+use crate::kernels::Isa;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "aarch64")]
+mod neon;
+
+/// `(cos e, sin e)` of the six orientation bin edges 15°, 45°, …, 165° (see
+/// [`super::orient_bin`]).
+pub(crate) type Edges = [(f32, f32); super::N_ORIENTS];
+
+/// Gradient magnitude and orientation bin of pixels `1..mag.len()` of a row of one plane with
+/// rows `up`, `mid`, `dn` (the rows above and below, already reflected at the image border):
+/// `gx = (mid[x+1] − mid[x−1])/2`, `gy = (dn[x] − up[x])/2`, `mag = √(gx² + gy²)`,
+/// `bin = orient_bin(gx, gy)`. Pixel 0 is left untouched (its left neighbour is a border case).
+///
+/// # Panics
+/// If `mid` has fewer than `mag.len() + 1` values, `up`/`dn` fewer than `mag.len()`, or
+/// `bin.len() != mag.len()`.
+pub(crate) fn grad_row(
+    isa: Isa,
+    up: &[f32],
+    mid: &[f32],
+    dn: &[f32],
+    edges: &Edges,
+    mag: &mut [f32],
+    bin: &mut [u8],
+) {
+    let n = mag.len();
+    assert!(
+        bin.len() == n && mid.len() > n && up.len() >= n && dn.len() >= n,
+        "gradient row: {n} outputs need a row of {} and rows of {n} (got {}, {}, {}, {})",
+        n + 1,
+        mid.len(),
+        up.len(),
+        dn.len(),
+        bin.len()
+    );
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the AVX2 and AVX-512 paths are chosen only when the CPU has AVX2
+        // (`Isa::is_available`); lengths checked above.
+        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::grad_row(up, mid, dn, edges, mag, bin) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 target; lengths checked above.
+        Isa::Neon => unsafe { neon::grad_row(up, mid, dn, edges, mag, bin) },
+        _ => grad_row_scalar(up, mid, dn, edges, 1, mag, bin),
+    }
+}
+
+/// The scalar oracle of [`grad_row`] for pixels `from..mag.len()` (also the SIMD tails).
+pub(crate) fn grad_row_scalar(
+    up: &[f32],
+    mid: &[f32],
+    dn: &[f32],
+    edges: &Edges,
+    from: usize,
+    mag: &mut [f32],
+    bin: &mut [u8],
+) {
+    for x in from.max(1)..mag.len() {
+        let gx = (mid[x + 1] - mid[x - 1]) * 0.5;
+        let gy = (dn[x] - up[x]) * 0.5;
+        mag[x] = (gx * gx + gy * gy).sqrt();
+        bin[x] = super::orient_bin(gx, gy, edges);
+    }
+}
+
+/// `out[x] = m[x] / (n[x] + c)` (the magnitude normalisation).
+///
+/// # Panics
+/// If the slices differ in length.
+pub(crate) fn normalise(isa: Isa, m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
+    assert!(
+        m.len() == out.len() && n.len() == out.len(),
+        "normalise: lengths {}, {}, {}",
+        m.len(),
+        n.len(),
+        out.len()
+    );
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: AVX2 is available on these paths (`Isa::is_available`); lengths checked.
+        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::normalise(m, n, c, out) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 target; lengths checked.
+        Isa::Neon => unsafe { neon::normalise(m, n, c, out) },
+        _ => normalise_scalar(m, n, c, out, 0),
+    }
+}
+
+/// The scalar oracle of [`normalise`] from index `from` on (also the SIMD tails).
+pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], from: usize) {
+    for x in from..out.len() {
+        out[x] = m[x] / (n[x] + c);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn every_path_equals_the_scalar_oracle() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let edges = super::super::bin_edges();
+        for len in [1usize, 2, 7, 9, 16, 17, 64, 203] {
+            // values on a coarse grid make zero and tied gradients (the fold's edge cases) common
+            let row = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f32> {
+                (0..len + 1)
+                    .map(|_| rng.random_range(0..6) as f32 * 0.25)
+                    .collect()
+            };
+            let (up, mid, dn) = (row(&mut rng), row(&mut rng), row(&mut rng));
+            let mut want = (vec![0.0f32; len], vec![0u8; len]);
+            grad_row_scalar(&up, &mid, &dn, &edges, 1, &mut want.0, &mut want.1);
+            let m: Vec<f32> = (0..len).map(|_| rng.random_range(0.0..3.0)).collect();
+            let nn: Vec<f32> = (0..len).map(|_| rng.random_range(0.0..1.0)).collect();
+            let mut want_n = vec![0.0f32; len];
+            normalise_scalar(&m, &nn, 0.005, &mut want_n, 0);
+            for isa in Isa::available() {
+                let mut got = (vec![0.0f32; len], vec![0u8; len]);
+                grad_row(isa, &up, &mid, &dn, &edges, &mut got.0, &mut got.1);
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&got.0), bits(&want.0), "{isa} magnitudes, {len}");
+                assert_eq!(got.1, want.1, "{isa} bins, {len}");
+                let mut got_n = vec![0.0f32; len];
+                normalise(isa, &m, &nn, 0.005, &mut got_n);
+                assert_eq!(bits(&got_n), bits(&want_n), "{isa} normalised, {len}");
+            }
+        }
+    }
+}
