@@ -91,12 +91,12 @@ use thiserror::Error;
 use crate::image::ImageView;
 use crate::raw::{Cfa, Colour};
 
+pub use kernels::N_ORIENTS;
+use kernels::{bin_edges, orient_bin};
 pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.
 pub const N_CHANNELS: usize = 10;
-/// Orientation channels (Dollár's `nOrients`).
-pub const N_ORIENTS: usize = 6;
 /// Aggregation block in pixels (Dollár's `shrink`): 2x2 super-pixels on a mosaic.
 pub const SHRINK: usize = 4;
 /// Index of the magnitude channel; the orientation channels follow it.
@@ -471,29 +471,6 @@ fn planes_of(input: &ChannelInput) -> (Vec<Vec<f32>>, usize) {
         ),
         ChannelInput::RgbF32(p) => (p.iter().map(f32_plane).collect(), 1),
     }
-}
-
-/// `(cos, sin)` of the orientation bin edges 15°, 45°, …, 165°.
-fn bin_edges() -> [(f32, f32); N_ORIENTS] {
-    std::array::from_fn(|k| {
-        let e = ((15 + 30 * k) as f64).to_radians();
-        (e.cos() as f32, e.sin() as f32)
-    })
-}
-
-/// Orientation bin of the gradient `(gx, gy)`: the nearest of the six bin centres `30°·k` of the
-/// unsigned angle, found by counting the edges `e` below it with `gy·cos e − gx·sin e ≥ 0` after
-/// folding the vector into the upper half-plane. Equal to `round(6θ/π) mod 6` except within float
-/// rounding of an edge; the zero vector gets bin 0.
-#[inline]
-fn orient_bin(gx: f32, gy: f32, edges: &[(f32, f32); N_ORIENTS]) -> u8 {
-    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) {
-        (-gx, -gy)
-    } else {
-        (gx, gy)
-    };
-    let c: u8 = edges.iter().map(|&(c, s)| (gy * c - gx * s >= 0.0) as u8).sum();
-    c % N_ORIENTS as u8
 }
 
 /// Gradient magnitude and orientation bin of row `y` (the first `mrow.len()` columns), the plane

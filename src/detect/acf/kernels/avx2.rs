@@ -2,7 +2,7 @@
 
 use std::arch::x86_64::*;
 
-use super::Tree2;
+use super::scalar::Tree2;
 
 /// [`super::score_run`] on 8 windows at a time, the rest by the scalar oracle.
 ///
@@ -57,7 +57,7 @@ pub(super) unsafe fn score_run(
         }
     }
     let done = groups * 8;
-    super::score_run_scalar(
+    super::scalar::score_run_scalar(
         trees,
         reject,
         data,

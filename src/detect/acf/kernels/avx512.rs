@@ -2,7 +2,7 @@
 
 use std::arch::x86_64::*;
 
-use super::Tree2;
+use super::scalar::Tree2;
 
 /// [`super::score_run`] on 16 windows at a time, the rest by the scalar oracle.
 ///

@@ -2,7 +2,7 @@
 
 use std::arch::aarch64::*;
 
-use super::Tree2;
+use super::scalar::Tree2;
 
 /// [`super::score_run`] on 4 windows at a time, the rest by the scalar oracle.
 ///
@@ -59,7 +59,7 @@ pub(super) unsafe fn score_run(
         }
     }
     let done = groups * 4;
-    super::score_run_scalar(
+    super::scalar::score_run_scalar(
         trees,
         reject,
         data,

@@ -2,7 +2,7 @@
 
 use std::arch::x86_64::*;
 
-use super::Edges;
+use super::scalar::Edges;
 
 /// [`super::grad_row`] on 8 pixels at a time.
 ///
@@ -64,7 +64,7 @@ pub(super) unsafe fn grad_row(
         }
         x += 8;
     }
-    super::grad_row_scalar(up, mid, dn, edges, x, mag, bin);
+    super::scalar::grad_row_scalar(up, mid, dn, edges, x, mag, bin);
 }
 
 /// [`super::normalise`] on 8 values at a time.
@@ -87,5 +87,5 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
         }
         x += 8;
     }
-    super::normalise_scalar(m, n, c, out, x);
+    super::scalar::normalise_scalar(m, n, c, out, x);
 }

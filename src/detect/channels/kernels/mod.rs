@@ -13,14 +13,14 @@
 
 use crate::kernels::Isa;
 
+pub use scalar::N_ORIENTS;
+pub(crate) use scalar::{bin_edges, grad_row_scalar, normalise_scalar, orient_bin, Edges};
+
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 #[cfg(target_arch = "aarch64")]
 mod neon;
-
-/// `(cos e, sin e)` of the six orientation bin edges 15°, 45°, …, 165° (see
-/// [`super::orient_bin`]).
-pub(crate) type Edges = [(f32, f32); super::N_ORIENTS];
+mod scalar;
 
 /// Gradient magnitude and orientation bin of pixels `1..mag.len()` of a row of one plane with
 /// rows `up`, `mid`, `dn` (the rows above and below, already reflected at the image border):
@@ -61,24 +61,6 @@ pub(crate) fn grad_row(
     }
 }
 
-/// The scalar oracle of [`grad_row`] for pixels `from..mag.len()` (also the SIMD tails).
-pub(crate) fn grad_row_scalar(
-    up: &[f32],
-    mid: &[f32],
-    dn: &[f32],
-    edges: &Edges,
-    from: usize,
-    mag: &mut [f32],
-    bin: &mut [u8],
-) {
-    for x in from.max(1)..mag.len() {
-        let gx = (mid[x + 1] - mid[x - 1]) * 0.5;
-        let gy = (dn[x] - up[x]) * 0.5;
-        mag[x] = (gx * gx + gy * gy).sqrt();
-        bin[x] = super::orient_bin(gx, gy, edges);
-    }
-}
-
 /// `out[x] = m[x] / (n[x] + c)` (the magnitude normalisation).
 ///
 /// # Panics
@@ -102,13 +84,6 @@ pub(crate) fn normalise(isa: Isa, m: &[f32], n: &[f32], c: f32, out: &mut [f32])
     }
 }
 
-/// The scalar oracle of [`normalise`] from index `from` on (also the SIMD tails).
-pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], from: usize) {
-    for x in from..out.len() {
-        out[x] = m[x] / (n[x] + c);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -117,7 +92,7 @@ mod tests {
     #[test]
     fn every_path_equals_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let edges = super::super::bin_edges();
+        let edges = bin_edges();
         for len in [1usize, 2, 7, 9, 16, 17, 64, 203] {
             // values on a coarse grid make zero and tied gradients (the fold's edge cases) common
             let row = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f32> {

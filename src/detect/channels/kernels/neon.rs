@@ -2,7 +2,7 @@
 
 use std::arch::aarch64::*;
 
-use super::Edges;
+use super::scalar::Edges;
 
 /// [`super::grad_row`] on 4 pixels at a time.
 ///
@@ -56,7 +56,7 @@ pub(super) unsafe fn grad_row(
         }
         x += 4;
     }
-    super::grad_row_scalar(up, mid, dn, edges, x, mag, bin);
+    super::scalar::grad_row_scalar(up, mid, dn, edges, x, mag, bin);
 }
 
 /// [`super::normalise`] on 4 values at a time.
@@ -79,5 +79,5 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
         }
         x += 4;
     }
-    super::normalise_scalar(m, n, c, out, x);
+    super::scalar::normalise_scalar(m, n, c, out, x);
 }

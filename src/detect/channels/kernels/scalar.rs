@@ -1,0 +1,58 @@
+//! The scalar oracle of the channel kernels and what it shares with the channel code (the
+//! orientation bins): below the dispatch in `mod.rs`, the per-ISA files and `channels/mod.rs`,
+//! which all use it.
+
+/// Orientation channels (Dollár's `nOrients`).
+pub const N_ORIENTS: usize = 6;
+
+/// `(cos e, sin e)` of the six orientation bin edges 15°, 45°, …, 165° (see
+/// [`orient_bin`]).
+pub(crate) type Edges = [(f32, f32); N_ORIENTS];
+
+/// `(cos, sin)` of the orientation bin edges 15°, 45°, …, 165°.
+pub(crate) fn bin_edges() -> [(f32, f32); N_ORIENTS] {
+    std::array::from_fn(|k| {
+        let e = ((15 + 30 * k) as f64).to_radians();
+        (e.cos() as f32, e.sin() as f32)
+    })
+}
+
+/// Orientation bin of the gradient `(gx, gy)`: the nearest of the six bin centres `30°·k` of the
+/// unsigned angle, found by counting the edges `e` below it with `gy·cos e − gx·sin e ≥ 0` after
+/// folding the vector into the upper half-plane. Equal to `round(6θ/π) mod 6` except within float
+/// rounding of an edge; the zero vector gets bin 0.
+#[inline]
+pub(crate) fn orient_bin(gx: f32, gy: f32, edges: &[(f32, f32); N_ORIENTS]) -> u8 {
+    let (gx, gy) = if gy < 0.0 || (gy == 0.0 && gx < 0.0) {
+        (-gx, -gy)
+    } else {
+        (gx, gy)
+    };
+    let c: u8 = edges.iter().map(|&(c, s)| (gy * c - gx * s >= 0.0) as u8).sum();
+    c % N_ORIENTS as u8
+}
+
+/// The scalar oracle of `grad_row` for pixels `from..mag.len()` (also the SIMD tails).
+pub(crate) fn grad_row_scalar(
+    up: &[f32],
+    mid: &[f32],
+    dn: &[f32],
+    edges: &Edges,
+    from: usize,
+    mag: &mut [f32],
+    bin: &mut [u8],
+) {
+    for x in from.max(1)..mag.len() {
+        let gx = (mid[x + 1] - mid[x - 1]) * 0.5;
+        let gy = (dn[x] - up[x]) * 0.5;
+        mag[x] = (gx * gx + gy * gy).sqrt();
+        bin[x] = orient_bin(gx, gy, edges);
+    }
+}
+
+/// The scalar oracle of `normalise` from index `from` on (also the SIMD tails).
+pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], from: usize) {
+    for x in from..out.len() {
+        out[x] = m[x] / (n[x] + c);
+    }
+}
