@@ -204,15 +204,6 @@ pub enum PeopleInput<'a> {
 }
 
 impl<'a> PeopleInput<'a> {
-    /// Width and height, pixels.
-    pub fn dimensions(&self) -> (usize, usize) {
-        match self {
-            PeopleInput::Mosaic { image, .. } => (image.width(), image.height()),
-            PeopleInput::Grey(g) => (g.width(), g.height()),
-            PeopleInput::Colour(c) => (c.width(), c.height()),
-        }
-    }
-
     /// The HOG detector's view.
     pub fn hog(&self) -> HogInput<'a> {
         match *self {
@@ -338,17 +329,9 @@ impl PeopleDetector {
     }
 
     /// Detections (after suppression, in the detector's order) and statistics. A frame smaller
-    /// than the window gives no detections (not an error) from either detector.
+    /// than the window even after the pyramid's upsampling is an error from either detector
+    /// (the daemon's stage gives such frames no detections before calling).
     pub fn detect(&self, input: &PeopleInput) -> Result<(Vec<Detection>, PeopleStats), PeopleError> {
-        let (ww, wh) = self.window();
-        let (w, h) = input.dimensions();
-        if w < ww || h < wh {
-            let stats = match self {
-                PeopleDetector::Hog(_) => PeopleStats::Hog(DetectStats::default()),
-                PeopleDetector::Acf(_) => PeopleStats::Acf(AcfStats::default()),
-            };
-            return Ok((Vec::new(), stats));
-        }
         match self {
             PeopleDetector::Hog(d) => {
                 let (b, s) = d.detect(&input.hog())?;
@@ -464,7 +447,7 @@ mod tests {
     }
 
     #[test]
-    fn both_detectors_run_through_one_call_and_small_frames_give_nothing() {
+    fn both_detectors_run_through_one_call_and_refuse_frames_below_the_window() {
         use crate::image::Image;
         let img = Image::from_fn(160, 192, |x, y| ((x * 13 + y * 7 + x * y / 3) % 256) as f32);
         let input = PeopleInput::Mosaic {
@@ -500,14 +483,15 @@ mod tests {
         };
         assert_eq!(boxes, d.detect(&input.hog()).unwrap().0);
         assert!(!boxes.is_empty() && st.hits() > 0);
-        // below the window: no boxes from either
+        // below the window: an error from either
         let small = Image::from_fn(62, 126, |x, _| x as f32);
         let input = PeopleInput::Mosaic {
             image: small.view(),
             cfa: Cfa::Rggb,
         };
         for det in [&acf, &hog] {
-            assert!(det.detect(&input).unwrap().0.is_empty(), "{:?}", det.kind());
+            let e = det.detect(&input).unwrap_err().to_string();
+            assert!(e.contains("62") && e.contains("126"), "{:?}: {e}", det.kind());
         }
     }
 }
