@@ -493,5 +493,28 @@ mod tests {
             let e = det.detect(&input).unwrap_err().to_string();
             assert!(e.contains("62") && e.contains("126"), "{:?}: {e}", det.kind());
         }
+        // ... unless the pyramid starts magnified: then it is scanned like any frame
+        let up = |m: PeopleModel| {
+            m.build(
+                &DetectorOptions {
+                    upsample: 2.0,
+                    hit_threshold: -1e6,
+                    ..DetectorOptions::default()
+                },
+                &AcfOptions {
+                    upsample: 2.0,
+                    ..AcfOptions::default()
+                },
+            )
+            .unwrap()
+        };
+        let hog_file = root.join("models/mosaic.json");
+        for det in [
+            up(PeopleModel::Acf(tiny_acf_model())),
+            up(PeopleModel::load(hog_file.to_str().unwrap(), Domain::Mosaic).unwrap()),
+        ] {
+            let (_, st) = det.detect(&input).unwrap();
+            assert!(st.windows() > 0, "{:?}", det.kind());
+        }
     }
 }
