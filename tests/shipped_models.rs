@@ -83,6 +83,10 @@ fn shipped_acf_models_load_and_say_how_they_were_made() {
         );
         assert_eq!(p["input_pipeline"], input, "{name}");
         assert_eq!(p["val_fraction"], 0.0, "{name}: trained on every training file");
-        assert_eq!(cmd.contains("--mosaic-tone srgb"), tone == MosaicTone::Srgb, "{name}");
+        assert_eq!(
+            cmd.contains("--mosaic-tone srgb"),
+            tone == MosaicTone::Srgb,
+            "{name}"
+        );
     }
 }
