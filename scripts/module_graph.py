@@ -386,12 +386,6 @@ def shortest_cycle(graph, comp) -> list:
 
 # Circles not yet removed, as sorted file lists (relative to src/), each with why it remains.
 KNOWN: dict[tuple[str, ...], str] = {
-    ("cli/acf.rs", "cli/detect.rs", "cli/train.rs"): (
-        "`detect` and `train` dispatch to cli/acf.rs for ACF models, which reads their argument "
-        "structs and frame/box helpers; moving those shared helpers (load_frame, print_boxes, "
-        "save_preview, the argument structs) into a cli/detect_common.rs below all three removes "
-        "it (left from the ACF work of issue 26)"
-    ),
     (
         "features/hog/approx.rs",
         "features/hog/blocks.rs",

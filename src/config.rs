@@ -37,6 +37,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::detect::people::DetectorKind;
 use crate::detect::ScorePrecision;
 use crate::features::hog::{MosaicTaps, MosaicTone};
 use crate::raw::levels::{Compression, Gains, NormaliseOptions};
@@ -62,6 +63,10 @@ const NAME_CHARS: &str = "a-z, A-Z, 0-9, '_', '-'";
 /// Where a relative model file is looked for after the config file's directory: the model
 /// files the Debian package installs.
 pub const SYSTEM_MODEL_DIR: &str = "/usr/share/mosaicd/models";
+
+/// The default `compute.acf_model`: the shipped raw-mosaic ACF model (`models/acf-mosaic.json`,
+/// installed into [`SYSTEM_MODEL_DIR`]).
+pub const DEFAULT_ACF_MODEL: &str = "acf-mosaic.json";
 
 /// Errors from loading or validating a configuration. Each names the offending key.
 #[derive(Debug, thiserror::Error)]
@@ -381,15 +386,27 @@ impl FoxgloveConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ComputeConfig {
-    /// Run pedestrian detection (multi-scale HOG + linear SVM on the mosaic).
+    /// Run pedestrian detection on the mosaic (the detector of `detector`).
     pub detect: bool,
+    /// Which detector: `"hog"` (multi-scale HOG + linear SVM with the model of `model`; the
+    /// default) or `"acf"` (aggregated channel features, boosted trees with a soft cascade, with
+    /// the model file of `acf_model`; docs/acf.md). [`ComputeConfig::detector_kind`] parses it.
+    pub detector: String,
+    /// With `detector = "acf"`: the ACF model file (`mosaicd train --detector acf`; default
+    /// `acf-mosaic.json`, the shipped raw-mosaic model `models/acf-mosaic.json`). A relative path
+    /// is looked for like `model`'s: in the config file's directory, then in [`SYSTEM_MODEL_DIR`].
+    /// The HOG-only keys (`model`, `scale_step`, `approx_levels`, `svm`, `mosaic_taps`) do not
+    /// apply to it; `hit_threshold`, `max_levels`, `upsample`, `mosaic_tone` and `wb_gains` do.
+    pub acf_model: String,
     /// Detector model: a built-in name ([`crate::detect::shipped::SHIPPED`]; default
     /// [`crate::detect::DEFAULT_MODEL`], compiled into the binary), `opencv-default` (OpenCV's
     /// people detector from the shared data directory,
     /// `opencv_hog/default_people_detector_64x128.npy`) or a model file (`.json` ours; `.npy`,
     /// `.yml`, text: OpenCV vectors).
     pub model: String,
-    /// SVM score a window needs (OpenCV `hitThreshold`) (`-10..=10`).
+    /// Score a window needs: the SVM's (OpenCV `hitThreshold`, `-10..=10`), or with
+    /// `detector = "acf"` the trees' sum (`-100..=100`; a window the soft cascade rejects is never
+    /// a hit).
     pub hit_threshold: f32,
     /// Scale factor between pyramid levels (`1.01..=2.0`, OpenCV 1.05).
     pub scale_step: f64,
@@ -443,6 +460,8 @@ impl Default for ComputeConfig {
     fn default() -> Self {
         Self {
             detect: true,
+            detector: DetectorKind::Hog.name().into(),
+            acf_model: DEFAULT_ACF_MODEL.into(),
             model: crate::detect::DEFAULT_MODEL.into(),
             hit_threshold: 0.0,
             scale_step: 1.05,
@@ -651,6 +670,24 @@ fn model_override<T: std::str::FromStr>(
 }
 
 impl ComputeConfig {
+    /// `detector` parsed.
+    pub fn detector_kind(&self) -> Result<DetectorKind, ConfigError> {
+        self.detector.parse().map_err(|_| ConfigError::OutOfRange {
+            key: "compute.detector".into(),
+            value: format!("{:?}", self.detector),
+            allowed: "one of \"hog\", \"acf\"".into(),
+        })
+    }
+
+    /// The model file or name the configured detector reads, and its key: `acf_model` for
+    /// `detector = "acf"`, else `model`.
+    pub fn model_key(&self) -> Result<(&'static str, &str), ConfigError> {
+        Ok(match self.detector_kind()? {
+            DetectorKind::Hog => ("compute.model", &self.model),
+            DetectorKind::Acf => ("compute.acf_model", &self.acf_model),
+        })
+    }
+
     /// `mosaic_taps` parsed: `None` = the model's own.
     pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
         model_override(
@@ -749,15 +786,21 @@ impl Config {
         Ok((cfg, resolved))
     }
 
-    /// Makes the relative input paths absolute: `compute.model` (when it is a file, not a
-    /// built-in name) becomes the first of `config_dir/model`, `model_dirs[i]/model` that is a
-    /// file (or `config_dir/model` when none is, so that the error names it), `camera.path`
-    /// and `camera.sidecar` become `config_dir/path`. Returns what it changed, in key order.
+    /// Makes the relative input paths absolute: the detector's model (`compute.model` when it is
+    /// a file, not a built-in name; `compute.acf_model` with `compute.detector = "acf"`) becomes
+    /// the first of `config_dir/model`, `model_dirs[i]/model` that is a file (or
+    /// `config_dir/model` when none is, so that the error names it), `camera.path` and
+    /// `camera.sidecar` become `config_dir/path`. Returns what it changed, in key order.
     pub fn resolve_paths(&mut self, config_dir: &Path, model_dirs: &[PathBuf]) -> Vec<ResolvedPath> {
         let mut out = Vec::new();
-        let model = &mut self.compute.model;
-        let is_name =
-            crate::detect::shipped::shipped(model).is_some() || model == crate::detect::OPENCV_DEFAULT;
+        let acf = matches!(self.compute.detector_kind(), Ok(DetectorKind::Acf));
+        let (key, model) = if acf {
+            ("compute.acf_model", &mut self.compute.acf_model)
+        } else {
+            ("compute.model", &mut self.compute.model)
+        };
+        let is_name = !acf
+            && (crate::detect::shipped::shipped(model).is_some() || model == crate::detect::OPENCV_DEFAULT);
         if !is_name && Path::new(model.as_str()).is_relative() && !model.is_empty() {
             let tried: Vec<PathBuf> = std::iter::once(config_dir)
                 .chain(model_dirs.iter().map(PathBuf::as_path))
@@ -766,7 +809,7 @@ impl Config {
             let found = tried.iter().find(|p| p.is_file()).cloned();
             let resolved = found.clone().unwrap_or_else(|| tried[0].clone());
             out.push(ResolvedPath {
-                key: "compute.model".into(),
+                key: key.into(),
                 given: PathBuf::from(model.as_str()),
                 resolved: resolved.clone(),
                 tried,
@@ -895,12 +938,18 @@ impl Config {
         let c = &self.compute;
         range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
         range("compute.strip_rows", c.strip_rows, 2, 4096)?;
-        range("compute.hit_threshold", c.hit_threshold, -10.0, 10.0)?;
+        // ACF scores are sums over up to thousands of trees: a wider scale than the SVM's.
+        let hit = match c.detector_kind()? {
+            DetectorKind::Hog => 10.0,
+            DetectorKind::Acf => 100.0,
+        };
+        range("compute.hit_threshold", c.hit_threshold, -hit, hit)?;
         range("compute.scale_step", c.scale_step, 1.01, 2.0)?;
         range("compute.max_levels", c.max_levels, 1, 64)?;
         range("compute.upsample", c.upsample, 1.0, 4.0)?;
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
         c.svm_precision()?;
+        let (model_key, model) = c.model_key()?;
         c.mosaic_taps_override()?;
         c.mosaic_tone_override()?;
         c.wb_gains()?;
@@ -916,10 +965,10 @@ impl Config {
                 });
             }
         }
-        if c.model.is_empty() {
+        if model.is_empty() {
             return Err(ConfigError::Missing {
-                key: "compute.model".into(),
-                when: "compute.detect = true".into(),
+                key: model_key.into(),
+                when: format!("compute.detect = true and compute.detector = {:?}", c.detector),
             });
         }
         if !c.strip_rows.is_multiple_of(2) {
@@ -1329,6 +1378,105 @@ mod tests {
         assert_eq!(Config::from_toml_str(MIN).unwrap().metrics.textfile, None);
         let c = Config::from_toml_str(&format!("[metrics]\ntextfile = \"m/mosaicd.prom\"\n{MIN}")).unwrap();
         assert_eq!(c.metrics.textfile, Some(PathBuf::from("m/mosaicd.prom")));
+    }
+
+    #[test]
+    fn the_detector_is_hog_or_acf_and_acf_reads_its_own_model_key() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        assert_eq!(c.compute.detector_kind().unwrap(), DetectorKind::Hog);
+        assert_eq!(c.compute.acf_model, DEFAULT_ACF_MODEL);
+        assert_eq!(
+            c.compute.model_key().unwrap(),
+            ("compute.model", crate::detect::DEFAULT_MODEL)
+        );
+        let c = Config::from_toml_str(&format!("[compute]\ndetector = \"acf\"\n{MIN}")).unwrap();
+        assert_eq!(c.compute.detector_kind().unwrap(), DetectorKind::Acf);
+        assert_eq!(
+            c.compute.model_key().unwrap(),
+            ("compute.acf_model", DEFAULT_ACF_MODEL)
+        );
+        for bad in ["ACF", "svm", ""] {
+            let msg = Config::from_toml_str(&format!("[compute]\ndetector = {bad:?}\n{MIN}"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                msg.contains("compute.detector") && msg.contains("\"hog\", \"acf\""),
+                "{msg}"
+            );
+        }
+        let msg = Config::from_toml_str(&format!("[compute]\ndetector = 1\n{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("detector"), "{msg}");
+        // The empty model of the detector in use is missing; the other one's is not read.
+        let msg = Config::from_toml_str(&format!("[compute]\ndetector = \"acf\"\nacf_model = \"\"\n{MIN}"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("compute.acf_model") && msg.contains("compute.detector = \"acf\""),
+            "{msg}"
+        );
+        Config::from_toml_str(&format!("[compute]\nacf_model = \"\"\n{MIN}")).unwrap();
+        // ACF scores are on a wider scale than the SVM's
+        let hit = |lines: &str| Config::from_toml_str(&format!("[compute]\n{lines}\n{MIN}"));
+        hit("detector = \"acf\"\nhit_threshold = 40.0").unwrap();
+        let msg = hit("hit_threshold = 40.0").unwrap_err().to_string();
+        assert!(
+            msg.contains("compute.hit_threshold") && msg.contains("-10..=10"),
+            "{msg}"
+        );
+        let msg = hit("detector = \"acf\"\nhit_threshold = -101.0")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("compute.hit_threshold") && msg.contains("-100..=100"),
+            "{msg}"
+        );
+        Config::from_toml_str(&format!("[compute]\ndetector = \"acf\"\nmodel = \"\"\n{MIN}")).unwrap();
+    }
+
+    #[test]
+    fn the_acf_model_resolves_like_the_hog_model_when_the_detector_is_acf() {
+        let dir = tempfile::tempdir().unwrap();
+        let (conf, models) = (dir.path().join("etc"), dir.path().join("share"));
+        std::fs::create_dir_all(&conf).unwrap();
+        std::fs::create_dir_all(&models).unwrap();
+        std::fs::write(models.join(DEFAULT_ACF_MODEL), "{}").unwrap();
+        std::fs::write(conf.join("mine.json"), "{}").unwrap();
+        let resolve = |lines: &str| {
+            let mut c = Config::from_toml_str(&format!("[compute]\n{lines}\n{MIN}")).unwrap();
+            let r = c.resolve_paths(&conf, std::slice::from_ref(&models));
+            (c, r)
+        };
+        // The default file: not in the config's directory, found in the model directory.
+        let (c, r) = resolve("detector = \"acf\"");
+        assert_eq!(
+            c.compute.acf_model,
+            models.join(DEFAULT_ACF_MODEL).to_string_lossy()
+        );
+        assert_eq!(r[0].key, "compute.acf_model");
+        assert_eq!(
+            r[0].tried,
+            vec![conf.join(DEFAULT_ACF_MODEL), models.join(DEFAULT_ACF_MODEL)]
+        );
+        // The config's directory first; HOG's key untouched.
+        let (c, r) = resolve("detector = \"acf\"\nacf_model = \"mine.json\"\nmodel = \"mine.json\"");
+        assert_eq!(c.compute.acf_model, conf.join("mine.json").to_string_lossy());
+        assert_eq!(c.compute.model, "mine.json");
+        assert_eq!(r.len(), 1, "{r:?}");
+        // An ACF model is never a built-in name: a name is a file like any other.
+        let (c, _) = resolve(&format!(
+            "detector = \"acf\"\nacf_model = {:?}",
+            crate::detect::DEFAULT_MODEL
+        ));
+        assert_eq!(
+            c.compute.acf_model,
+            conf.join(crate::detect::DEFAULT_MODEL).to_string_lossy()
+        );
+        // With the HOG detector the ACF key is not resolved.
+        let (c, r) = resolve("acf_model = \"mine.json\"");
+        assert_eq!(c.compute.acf_model, "mine.json");
+        assert!(r.is_empty(), "{r:?}");
     }
 
     #[test]

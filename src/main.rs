@@ -34,7 +34,7 @@ enum Command {
     /// SIFT keypoints of one input (JSON and a picture).
     Sift(cli::sift::SiftArgs),
     /// Train a linear SVM pedestrian model.
-    Train(cli::train::TrainArgs),
+    Train(cli::detect_common::TrainArgs),
     /// The paper's experiments.
     Eval(cli::eval::EvalArgs),
     /// Benchmarks against OpenCV run in the same process run; prints ratios.
@@ -112,7 +112,7 @@ mod tests {
 
     #[test]
     fn svm_precision_parses_on_detect_bench_and_eval() {
-        use cli::detect::SvmArg;
+        use cli::detect_common::SvmArg;
         let Command::Detect(d) = parse(&["detect", "f.raw", "--svm", "i8"]).unwrap().command else {
             panic!("detect")
         };

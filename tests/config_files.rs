@@ -19,6 +19,7 @@ fn shipped_configs_validate() {
         "multi-camera.toml",
         "synthetic.toml",
         "system.toml",
+        "acf.toml",
     ] {
         let c = load(name);
         assert!(!c.cameras.is_empty(), "{name}");
@@ -71,7 +72,7 @@ fn a_bad_value_in_a_file_names_the_file_key_and_range() {
 
 #[test]
 fn the_no_shared_data_examples_run_without_shared_data() {
-    // README and docs/daemon.md: these two commands need nothing from the shared data directory.
+    // README and docs/daemon.md: these commands need nothing from the shared data directory.
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let empty = tempfile::tempdir().unwrap();
     let out = empty.path().join("pan.mcap");
@@ -90,6 +91,10 @@ fn the_no_shared_data_examples_run_without_shared_data() {
                 out.to_str().unwrap(),
                 "--no-publish",
             ],
+            "12 frames processed of 12 captured",
+        ),
+        (
+            vec!["run", "--config", "config/acf.toml", "--no-publish"],
             "12 frames processed of 12 captured",
         ),
     ] {

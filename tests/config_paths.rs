@@ -50,6 +50,17 @@ fn config_dir(extra: &str) -> (tempfile::TempDir, PathBuf) {
     (dir, cfg)
 }
 
+/// `mosaicd check` on [`config_dir`]`(extra)` exits 1 and its messages contain every `want`.
+fn check_fails_naming(extra: &str, want: &[&str]) {
+    let (_dir, cfg) = config_dir(extra);
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{extra}: {t}");
+    for w in want {
+        assert!(t.contains(w), "{extra}: {w:?} not in {t}");
+    }
+}
+
 #[test]
 fn relative_model_and_recording_resolve_against_the_config_dir_from_any_cwd() {
     let (dir, cfg) = config_dir("");
@@ -87,13 +98,7 @@ fn check_exits_1_naming_the_key_of_every_problem() {
         ),
     ];
     for (extra, want) in cases {
-        let (_dir, cfg) = config_dir(extra);
-        let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
-        let t = text(&o);
-        assert_eq!(o.status.code(), Some(1), "{extra}: {t}");
-        for w in want {
-            assert!(t.contains(w), "{extra}: {w:?} not in {t}");
-        }
+        check_fails_naming(extra, want);
     }
     // A model found nowhere: the places looked at are named; so is the missing recording.
     let (dir, cfg) = config_dir("");
@@ -178,5 +183,55 @@ fn opencv_default_needs_mosaicd_data_and_no_path_is_compiled_in() {
     assert!(
         !bin.windows(needle.len()).any(|w| w == needle),
         "the binary contains \"shared/data\""
+    );
+}
+
+#[test]
+fn check_validates_the_acf_detector_and_its_model_file() {
+    // compute.detector = "acf" reads compute.acf_model, resolved like compute.model.
+    let (dir, cfg) = config_dir("detector = \"acf\"\nacf_model = \"acf.json\"\nhit_threshold = 20.0");
+    std::fs::copy(repo("models/acf-mosaic.json"), dir.path().join("acf.json")).unwrap();
+    let c = cfg.to_str().unwrap();
+    let o = mosaicd(&["check", "--config", c]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("compute.acf_model") && t.contains("(acf detector)"),
+        "{t}"
+    );
+    assert!(
+        t.contains(&format!("{}", dir.path().join("acf.json").display())),
+        "{t}"
+    );
+    let o = mosaicd(&["run", "--config", c]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("12 frames processed of 12 captured"), "{t}");
+    // Each problem names its key: a bad detector, a model of the other kind, a missing file.
+    let cases: [(&str, &[&str]); 4] = [
+        ("detector = \"ACF\"", &["compute.detector", "\"hog\", \"acf\""]),
+        (
+            "detector = \"acf\"\nacf_model = \"mine.json\"",
+            &["compute.acf_model", "is a HOG model, not an ACF model"],
+        ),
+        (
+            "detector = \"acf\"\nacf_model = \"none.json\"",
+            &["compute.acf_model", "/usr/share/mosaicd/models/none.json"],
+        ),
+        (
+            "detector = \"acf\"\nhit_threshold = 150.0",
+            &["compute.hit_threshold", "-100..=100"],
+        ),
+    ];
+    for (extra, want) in cases {
+        check_fails_naming(extra, want);
+    }
+    // The HOG detector's model key holding an ACF file is refused too.
+    let (dir, cfg) = config_dir("");
+    std::fs::copy(repo("models/acf-mosaic.json"), dir.path().join("mine.json")).unwrap();
+    let t = text(&mosaicd(&["check", "--config", cfg.to_str().unwrap()]));
+    assert!(
+        t.contains("compute.model") && t.contains("is an ACF model, not a HOG model"),
+        "{t}"
     );
 }

@@ -5,6 +5,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+mod common;
+use common::frame_results;
+
 /// Three 160x128 8-bit GRBG frames, a directory sidecar, and a truncated frame that sorts first.
 fn frames(dir: &Path) {
     for i in 0..3usize {
@@ -19,21 +22,6 @@ fn frames(dir: &Path) {
     )
     .unwrap();
     std::fs::write(dir.join("broken.raw"), [0u8; 100]).unwrap();
-}
-
-/// The frame results of a `--results` file without their wall-clock fields (latency), which are
-/// the deterministic part.
-fn frame_results(results: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(results)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-        .filter(|v| v["type"] == "frame")
-        .map(|mut v| {
-            v.as_object_mut().unwrap().remove("wall");
-            v
-        })
-        .collect()
 }
 
 fn run(cfg: &Path, threads: &str, results: &Path) -> Output {

@@ -1,8 +1,11 @@
 //! Every model in `models/` loads and validates, is in the domain and input pipeline its name
 //! says, reads the mosaic in the tone its name says, and records the training command (docs/detection.md, "The shipped models").
+//! The ACF models (`acf-*.json`, docs/acf.md "Shipped models") likewise, and were trained on every
+//! training file with the full schedule.
 
 use std::path::Path;
 
+use mosaicd::detect::acf::AcfModel;
 use mosaicd::detect::model::LinearModel;
 use mosaicd::detect::Domain;
 use mosaicd::features::hog::MosaicTone;
@@ -13,7 +16,7 @@ fn shipped_models_load_and_say_how_they_were_made() {
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .filter_map(|e| e.ok()?.file_name().into_string().ok())
-        .filter(|n| n.ends_with(".json"))
+        .filter(|n| n.ends_with(".json") && !n.starts_with("acf-"))
         .collect();
     names.sort();
     assert!(names.len() >= 5, "{names:?}");
@@ -56,6 +59,34 @@ fn shipped_models_load_and_say_how_they_were_made() {
             cmd.contains("--mosaic-tone srgb"),
             tone == MosaicTone::Srgb,
             "{name}: {cmd:?}"
+        );
+    }
+}
+
+#[test]
+fn shipped_acf_models_load_and_say_how_they_were_made() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    for (name, domain, input, tone) in [
+        ("acf-mosaic.json", Domain::Mosaic, "raw-clean", MosaicTone::Srgb),
+        ("acf-colour.json", Domain::Colour, "sampled", MosaicTone::Linear),
+    ] {
+        let m = AcfModel::load(&dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!((m.domain, m.mosaic_tone), (domain, tone), "{name}");
+        assert_eq!(m.classifier.trees.len(), 2048, "{name}");
+        let p = &m.provenance;
+        let cmd = p["command"].as_str().unwrap_or_default();
+        assert!(
+            cmd.contains("mosaicd train --detector acf")
+                && cmd.contains(&format!("--domain {}", domain.name()))
+                && cmd.contains(&format!("--out models/{name}")),
+            "{name}: {cmd:?}"
+        );
+        assert_eq!(p["input_pipeline"], input, "{name}");
+        assert_eq!(p["val_fraction"], 0.0, "{name}: trained on every training file");
+        assert_eq!(
+            cmd.contains("--mosaic-tone srgb"),
+            tone == MosaicTone::Srgb,
+            "{name}"
         );
     }
 }

@@ -1,80 +1,21 @@
-//! The ACF paths of `mosaicd train --detector acf` and `mosaicd detect` with an ACF model.
+//! `mosaicd train --detector acf` (training and `--acf-evaluate`). `mosaicd detect`, `eval
+//! detection` and `bench detect` run ACF models through [`mosaicd::detect::people`].
 
-use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
+use mosaicd::detect::acf::AcfModel;
 use mosaicd::detect::boost::{BoostOptions, TraceOptions, TreeOptions};
-use mosaicd::detect::channels::{ChannelInput, PyramidOptions};
+use mosaicd::detect::channels::PyramidOptions;
 use mosaicd::detect::train::acf::{
     calibrate_cascade, evaluate_acf_windows, positive_windows, set_trace, train_acf, AcfTrainOptions,
 };
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
-use mosaicd::detect::NmsMethod;
 use mosaicd::raw::levels::Gains;
 
-use super::detect::{load_frame, print_boxes, save_preview, DetectArgs, Frame};
-use super::train::TrainArgs;
-
-/// Options of `mosaicd train` that only the ACF detector reads.
-#[derive(clap::Args, Debug, Clone)]
-pub struct AcfTrainArgs {
-    /// ACF: trees after each stage (stage 0 on random negatives, then one hard-negative mining
-    /// round per further entry; Dollár's 32,128,512,2048).
-    #[arg(long, value_delimiter = ',', default_value = "32,128,512,2048")]
-    pub acf_stages: Vec<usize>,
-    /// ACF: depth of the boosted trees.
-    #[arg(long, default_value_t = 2)]
-    pub acf_depth: usize,
-    /// ACF: fraction of the features tried at each tree node (Dollár's INRIA detector: 1/16).
-    #[arg(long, default_value_t = 1.0 / 16.0)]
-    pub acf_frac_features: f64,
-    /// ACF: Real AdaBoost instead of discrete (Dollár's and our default).
-    #[arg(long)]
-    pub acf_real: bool,
-    /// ACF: negative windows sampled per stage (nNeg).
-    #[arg(long, default_value_t = 5000)]
-    pub acf_neg: usize,
-    /// ACF: negative windows per image and stage (nPerNeg).
-    #[arg(long, default_value_t = 25)]
-    pub acf_per_neg: usize,
-    /// ACF: negative windows kept over all stages (nAccNeg).
-    #[arg(long, default_value_t = 10000)]
-    pub acf_acc_neg: usize,
-    /// ACF: do not train; evaluate this ACF model on the held-out split (window protocol, the
-    /// split of --seed, --val-fraction, --fold; --out is not written).
-    #[arg(long, value_name = "MODEL")]
-    pub acf_evaluate: Option<std::path::PathBuf>,
-    /// ACF: soft-cascade threshold written into a trained model (default Dollár's −1), or with
-    /// --acf-evaluate the threshold the model is evaluated with (a very negative value scores
-    /// every window with every tree).
-    #[arg(long, allow_hyphen_values = true)]
-    pub acf_casc_thr: Option<f32>,
-    /// ACF: the pyramid's power-law exponents λ (colour, magnitude, orientations) instead of
-    /// measuring them on the training positives (Dollár's INRIA values: 0,0.11,0.11).
-    #[arg(long, value_delimiter = ',')]
-    pub acf_lambdas: Option<Vec<f32>>,
-    /// ACF: train and validate on the inner split of the training files (the held-out files are
-    /// not touched): for choosing settings such as the cascade threshold.
-    #[arg(long)]
-    pub acf_inner: bool,
-    /// ACF: the calibrated per-tree rejection trace (floor, loss fraction, margin; see
-    /// docs/acf.md), calibrated on the training positives after training or with
-    /// --acf-calibrate; `none` keeps only the constant --acf-casc-thr.
-    #[arg(long, value_name = "FLOOR,LOSS,MARGIN|none", allow_hyphen_values = true)]
-    pub acf_trace: Option<String>,
-    /// ACF: do not train; calibrate a rejection trace (--acf-trace) with this model, trained on
-    /// the inner split of the training files (--acf-inner), on the inner held-out positives, and
-    /// write it into --acf-calibrate-into (default: this model) as --out.
-    #[arg(long, value_name = "INNER_MODEL")]
-    pub acf_calibrate: Option<std::path::PathBuf>,
-    /// ACF: the model (trained on all training files) that receives the trace of --acf-calibrate.
-    #[arg(long, value_name = "MODEL")]
-    pub acf_calibrate_into: Option<std::path::PathBuf>,
-}
+use super::detect_common::{TrainArgs, TRAIN_NOISE_SALT};
 
 /// `--acf-trace`: `floor,loss,margin` or `none` (absent: the default trace).
 fn parse_trace(s: Option<&str>) -> anyhow::Result<Option<TraceOptions>> {
@@ -113,7 +54,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         domain: a.domain.into(),
         cfa: a.cfa,
         seed: a.seed,
-        pipeline: InputPipeline::parse(&a.input, a.seed ^ super::train::TRAIN_NOISE_SALT)
+        pipeline: InputPipeline::parse(&a.input, a.seed ^ TRAIN_NOISE_SALT)
             .map_err(|e| anyhow::anyhow!("--input {e}"))?,
         mosaic_tone: a.mosaic_tone,
         stages: x.acf_stages.clone(),
@@ -304,100 +245,11 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The channel input of a decoded frame.
-fn channel_input(f: &Frame) -> ChannelInput<'_> {
-    match f {
-        Frame::Mosaic(m, cfa) => ChannelInput::Mosaic {
-            image: m.view(),
-            cfa: *cfa,
-        },
-        Frame::Grey(g) => ChannelInput::GreyU8(g.view()),
-        Frame::Colour(c) => ChannelInput::Rgb8(c.view()),
-    }
-}
-
-/// `mosaicd detect` with an ACF model file.
-pub fn detect(args: &DetectArgs) -> anyhow::Result<()> {
-    let model = AcfModel::load(Path::new(&args.model))?;
-    let tone = args.det.mosaic_tone.unwrap_or(model.mosaic_tone);
-    let wb = args.det.wb_gains;
-    let frame = load_frame(&args.input, args.as_domain, &|f| {
-        mosaicd::detect::input::MosaicPrep { tone, gains: wb }
-            .mosaic(f)
-            .context("--wb-gains")
-    })?;
-    if args.as_domain.is_none() && model.domain != frame.domain() {
-        eprintln!(
-            "warning: {} was trained on {} input, but {} is read as {} (a transfer case)",
-            args.model,
-            model.domain.name(),
-            args.input.input.display(),
-            frame.domain().name()
-        );
-    }
-    let d = &args.det;
-    let nms = match d.nms {
-        super::detect::NmsArg::Group => NmsMethod::Group {
-            threshold: 2,
-            eps: 0.2,
-        },
-        super::detect::NmsArg::Greedy => NmsMethod::Greedy { iou: 0.5 },
-        super::detect::NmsArg::None => NmsMethod::None,
-    };
-    let opts = AcfOptions {
-        upsample: d.upsample,
-        approx: d.approx.map(|a| a.saturating_sub(1)),
-        max_levels: d.max_levels,
-        hit_threshold: d.threshold,
-        nms,
-    };
-    let det = AcfDetector::new(model, &opts)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()?;
-    let input = channel_input(&frame);
-    let (boxes, st) = pool.install(|| det.detect(&input))?;
-    let ms = |t: std::time::Duration| t.as_secs_f64() * 1e3;
-    let per_window = st.trees_evaluated as f64 / st.windows.max(1) as f64;
-    if args.json {
-        let out = serde_json::json!({
-            "input": args.input.input.display().to_string(),
-            "detector": "acf",
-            "domain": frame.domain(),
-            "cfa": frame.cfa().map(|c| c.name()),
-            "model": args.model,
-            "model_domain": det.model().domain,
-            "detections": boxes,
-            "stats": {
-                "levels": st.levels, "windows": st.windows, "hits": st.hits,
-                "trees_per_window": per_window,
-                "total_ms": ms(st.total), "channels_ms": ms(st.channels), "score_ms": ms(st.score), "nms_ms": ms(st.nms),
-            }
-        });
-        println!("{}", serde_json::to_string_pretty(&out)?);
-    } else {
-        println!(
-            "{}: {} detections (acf; {} levels, {} windows, {:.1} trees per window, {} hits, {:.1} ms: channels {:.1}, scoring {:.1})",
-            args.input.input.display(),
-            boxes.len(),
-            st.levels,
-            st.windows,
-            per_window,
-            st.hits,
-            ms(st.total),
-            ms(st.channels),
-            ms(st.score)
-        );
-        print_boxes(&boxes);
-    }
-    save_preview(&frame, &boxes, args.preview.as_deref())
-}
-
 #[cfg(test)]
 mod tests {
     use clap::Parser;
 
-    use super::super::train::{DetectorArg, TrainArgs};
+    use super::super::detect_common::{DetectorArg, TrainArgs};
 
     #[derive(Parser)]
     struct Cli {

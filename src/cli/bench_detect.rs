@@ -1,23 +1,25 @@
-//! `mosaicd bench detect`: our multi-scale detector on a 1080p 12-bit mosaic vs OpenCV
-//! (cvtColor Bayer→BGR + `HOGDescriptor.detectMultiScale`) in the same run, same thread count,
-//! same scale coverage. The output names the kernel path and the CPU's features
-//! ([`mosaicd::kernels::describe`]; `MOSAICD_KERNELS` forces a path), as does the JSON (`kernels`).
+//! `mosaicd bench detect`: our multi-scale detector (HOG, or ACF with an ACF `--model`) on a 1080p
+//! 12-bit mosaic vs OpenCV (cvtColor Bayer→BGR + `HOGDescriptor.detectMultiScale`) in the same
+//! run, same thread count, same smallest person height (both 64x128 windows from the frame's own
+//! scale, down to a window the size of the frame). The output names the kernel path and the CPU's
+//! features ([`mosaicd::kernels::describe`]; `MOSAICD_KERNELS` forces a path), as does the JSON
+//! (`kernels`). The timed loop is [`mosaicd::eval::detect_speed::time_detector`].
 
 use std::path::PathBuf;
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{bail, Context};
-use mosaicd::detect::input::MosaicPrep;
-use mosaicd::detect::{DetectStats, Detector, DetectorOptions, Domain, StageProfile};
+use mosaicd::detect::acf::AcfOptions;
+use mosaicd::detect::people::{PeopleDetector, PeopleModel, PeopleStats};
+use mosaicd::detect::{DetectStats, DetectorOptions, Domain, StageProfile};
+use mosaicd::eval::detect_speed::time_detector;
 use mosaicd::features::hog::{HogInput, MosaicTone};
-use mosaicd::image::ImageView;
 use mosaicd::progress::Progress;
 use mosaicd::raw::levels::Gains;
-use mosaicd::raw::tone::mosaic_from_raw_toned_into;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
-use super::detect::SvmArg;
+use super::detect_common::SvmArg;
 
 /// The OpenCV peer: reads the raw u16 file, times demosaic (+ 16→8 bit) and detectMultiScale.
 const PEER: &str = r#"
@@ -88,11 +90,20 @@ pub struct BenchDetectArgs {
     /// Skip the OpenCV peer.
     #[arg(long)]
     pub no_peer: bool,
-    /// How the frame becomes the detector's mosaic (OpenCV's weights read `linear`; `srgb` adds
-    /// per-site white balance, with grey-world gains since the frame has none, and the sRGB
-    /// curve: the daemon's `compute.mosaic_tone = "srgb"`).
-    #[arg(long, default_value = "linear")]
-    pub mosaic_tone: MosaicTone,
+    /// Our side's model: `opencv-default` (OpenCV's weights, the same as the peer's; the
+    /// default), a built-in name or HOG file, or an ACF model file (e.g. models/acf-mosaic.json:
+    /// its own pyramid, greedy suppression, the daemon's ACF options; --scale-step, --approx and
+    /// --svm are HOG's).
+    #[arg(long, default_value = mosaicd::detect::OPENCV_DEFAULT)]
+    pub model: String,
+    /// Hit threshold of our side (the peer's is 0).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub threshold: f32,
+    /// How the frame becomes the detector's mosaic, overriding the model's tone (OpenCV's weights
+    /// read `linear`; `srgb` adds per-site white balance, with grey-world gains since the frame
+    /// has none, and the sRGB curve: the daemon's `compute.mosaic_tone = "srgb"`).
+    #[arg(long)]
+    pub mosaic_tone: Option<MosaicTone>,
     /// Frames of the per-stage profile run after the timed frames: one thread, stages unfused and
     /// timed one by one (gradients, cells, blocks, micro-cells, approximated levels, SVM, NMS).
     /// 0 skips it.
@@ -141,78 +152,69 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         Levels::uniform(0, max),
     )?;
 
-    let mut model = super::detect::load_model("opencv-default", Domain::Mosaic)?;
-    model.mosaic_tone = a.mosaic_tone;
+    let model = PeopleModel::load(&a.model, Domain::Mosaic)?.with_overrides(None, a.mosaic_tone);
     let opts = DetectorOptions {
         scale_step: a.scale_step,
         max_levels: a.max_levels,
         approx_levels: a.approx,
         svm: a.svm.into(),
+        hit_threshold: a.threshold,
         ..Default::default()
     };
-    let prep = MosaicPrep::for_model(&model, Gains::Auto);
-    let det = Detector::new(model, &opts)?;
+    // the daemon's ACF options (greedy suppression, the model's pyramid)
+    let acf_opts = AcfOptions {
+        max_levels: a.max_levels,
+        hit_threshold: a.threshold,
+        ..AcfOptions::default()
+    };
+    let det = model.build(&opts, &acf_opts)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
-
-    let mut norm = Duration::ZERO;
-    let mut total = Duration::ZERO;
-    let mut acc = DetectStats::default();
-    // Per frame (the same for every frame).
-    let (mut levels, mut windows) = (0, 0);
-    let mut boxes = 0;
     // the mosaic buffer is reused between frames, as the daemon's pooled buffers are
-    let mut buf = Vec::new();
     let strip_rows = mosaicd::pipeline::stage::StageSpec::default().strip_rows;
     let bar = Progress::new("bench detect", Some(a.frames as u64 + 1));
-    for i in 0..=a.frames {
-        bar.set(i as u64, "ours");
-        let (t_norm, t_all, stats, nb) = pool.install(|| -> anyhow::Result<_> {
-            let t0 = Instant::now();
-            // the daemon's way: the model's tone, `auto` gains (this frame has none: grey world);
-            // srgb tables are built every frame here, where the daemon keeps them while the
-            // gains stay the same (they do for this repeated frame), so srgb is timed pessimistically
-            let gains = prep.gains_for(&frame)?;
-            mosaic_from_raw_toned_into(&frame, prep.tone, gains, strip_rows, &mut buf);
-            let m = ImageView::new(&buf, frame.width(), frame.height(), frame.width())?;
-            let t_norm = t0.elapsed();
-            let (b, s) = det.detect(&HogInput::Mosaic(m))?;
-            Ok((t_norm, t0.elapsed(), s, b.len()))
-        })?;
-        if i == 0 {
-            continue; // warm-up
-        }
-        norm += t_norm;
-        total += t_all;
-        (levels, windows) = (stats.levels, stats.windows);
-        acc += stats;
-        boxes = nb;
-    }
+    let timed = pool.install(|| {
+        time_detector(&det, &frame, Gains::Auto, strip_rows, a.frames, &mut |i| {
+            bar.set(i as u64, "ours")
+        })
+    })?;
     bar.finish();
-    let f = a.frames.max(1) as u32;
-    let ours_s = total.as_secs_f64() / f as f64;
+    let f = timed.len().max(1) as f64;
+    let sum = |g: &dyn Fn(&mosaicd::eval::detect_speed::TimedFrame) -> Duration| {
+        timed.iter().map(g).sum::<Duration>()
+    };
+    let (norm, total) = (sum(&|t| t.normalise), sum(&|t| t.total));
+    let ours_s = total.as_secs_f64() / f;
+    let last = timed.last().context("--frames 0: nothing timed")?;
+    let (levels, windows, boxes) = (last.stats.levels(), last.stats.windows(), last.boxes);
+    let stages = stage_ms(&timed, norm);
+    let tone = det.mosaic_tone().name();
+    let win = det.window();
 
-    // Per-stage CPU: the production path fuses gradients, cells and blocks and overlaps levels,
-    // so its stage clocks are summed wall times of overlapping sections. One thread, unfused.
-    let profile = if a.profile_frames == 0 {
-        None
-    } else {
-        let pool1 = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-        let mut p = StageProfile::default();
-        for _ in 0..a.profile_frames {
-            p += pool1
-                .install(|| -> anyhow::Result<_> {
-                    let m = prep.mosaic(&frame)?;
-                    Ok(det.stage_profile(&HogInput::Mosaic(m.view()))?)
-                })?
-                .1;
+    // Per-stage CPU (HOG): the production path fuses gradients, cells and blocks and overlaps
+    // levels, so its stage clocks are summed wall times of overlapping sections. One thread,
+    // unfused.
+    let profile = match &det {
+        PeopleDetector::Hog(hog) if a.profile_frames > 0 => {
+            let pool1 = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+            let prep = det.mosaic_prep(Gains::Auto);
+            let mut p = StageProfile::default();
+            for _ in 0..a.profile_frames {
+                p += pool1
+                    .install(|| -> anyhow::Result<_> {
+                        let m = prep.mosaic(&frame)?;
+                        Ok(hog.stage_profile(&HogInput::Mosaic(m.view()))?)
+                    })?
+                    .1;
+            }
+            let n = a.profile_frames as f64;
+            Some(serde_json::json!({
+                "resize": ms(p.resize) / n, "gradients": ms(p.gradients) / n, "cells": ms(p.cells) / n,
+                "blocks": ms(p.blocks) / n, "micro_cells": ms(p.micro_cells) / n,
+                "approx_cells_blocks": ms(p.approx_cells_blocks) / n, "svm": ms(p.svm) / n, "nms": ms(p.nms) / n,
+                "total": ms(p.total()) / n,
+            }))
         }
-        let n = a.profile_frames as f64;
-        Some(serde_json::json!({
-            "resize": ms(p.resize) / n, "gradients": ms(p.gradients) / n, "cells": ms(p.cells) / n,
-            "blocks": ms(p.blocks) / n, "micro_cells": ms(p.micro_cells) / n,
-            "approx_cells_blocks": ms(p.approx_cells_blocks) / n, "svm": ms(p.svm) / n, "nms": ms(p.nms) / n,
-            "total": ms(p.total()) / n,
-        }))
+        _ => None,
     };
 
     let peer = if a.no_peer {
@@ -256,17 +258,12 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         "input": path.display().to_string(), "width": a.width, "height": a.height, "bit_depth": a.bit_depth,
         "cfa": a.cfa.name(), "threads": a.threads, "frames": a.frames, "commit": commit,
         "kernels": super::bench_gradients::kernels_json(),
+        "detector": det.kind().name(), "model": a.model, "mosaic_tone": tone, "threshold": a.threshold,
+        "smallest_window": [win.0, win.1],
         "scale_step": a.scale_step, "approx_levels": a.approx, "svm": opts.svm.name(), "max_levels": a.max_levels, "levels": levels, "windows": windows,
         "ours": {
             "fps": 1.0 / ours_s, "frame_ms": ours_s * 1e3, "boxes": boxes,
-            // Each stage's clock summed over its sections; levels overlap, so this is close to CPU
-            // but not exact. Exact levels fuse gradients, cells and blocks (and the group's
-            // micro-cell pooling).
-            "stage_ms_per_frame": {
-                "normalise": ms(norm) / f as f64, "resize": ms(acc.resize) / f as f64,
-                "exact_levels": ms(acc.hog.cells + acc.hog.blocks) / f as f64,
-                "approx_levels": ms(acc.cell_resample) / f as f64, "svm": ms(acc.svm) / f as f64, "nms": ms(acc.nms) / f as f64,
-            },
+            "stage_ms_per_frame": stages,
             "stage_cpu_ms_per_frame_1_thread_unfused": profile,
         },
         "opencv": peer.as_ref().map(|p| serde_json::json!({
@@ -279,20 +276,30 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
+        let pyramid = match &det {
+            PeopleDetector::Hog(_) => format!(
+                "scale {} x {} levels (used {levels}), approx {}, svm {}",
+                a.scale_step, a.max_levels, a.approx, opts.svm
+            ),
+            PeopleDetector::Acf(d) => {
+                let p = d.pyramid_options();
+                format!(
+                    "acf {} levels per octave ({} approximated between exact ones; used {levels}), the peer scale {} x {} levels",
+                    p.per_octave, p.approx, a.scale_step, a.max_levels
+                )
+            }
+        };
         println!(
-            "bench detect: {}x{} {}-bit {} mosaic, {} threads each, scale {} x {} levels (used {}), approx {}, svm {}, {} windows/frame, commit {}",
+            "bench detect: {}x{} {}-bit {} mosaic, {} threads each, {} detector ({}, {tone} tone), {pyramid}, {windows} windows/frame, smallest window {}x{} both sides, commit {commit}",
             a.width,
             a.height,
             a.bit_depth,
             a.cfa.name(),
             a.threads,
-            a.scale_step,
-            a.max_levels,
-            levels,
-            a.approx,
-            opts.svm,
-            windows,
-            commit
+            det.kind(),
+            a.model,
+            win.0,
+            win.1,
         );
         println!("  {}", mosaicd::kernels::describe());
         println!(
@@ -302,7 +309,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
             boxes
         );
         let st = &report["ours"]["stage_ms_per_frame"];
-        println!("    stages (summed section clocks, ms/frame; exact levels fused): {st}");
+        println!("    stages (summed section clocks, ms/frame): {st}");
         let pr = &report["ours"]["stage_cpu_ms_per_frame_1_thread_unfused"];
         if !pr.is_null() {
             println!(
@@ -324,6 +331,39 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Each stage's clock summed over its sections, per frame. HOG: levels overlap, so this is close
+/// to CPU but not exact; exact levels fuse gradients, cells and blocks (and the group's
+/// micro-cell pooling). ACF: channel pyramid and scoring wall times, and the trees per window.
+fn stage_ms(timed: &[mosaicd::eval::detect_speed::TimedFrame], norm: Duration) -> serde_json::Value {
+    let f = timed.len().max(1) as f64;
+    let mut hog = DetectStats::default();
+    let (mut channels, mut score, mut nms, mut trees, mut windows) =
+        (Duration::ZERO, Duration::ZERO, Duration::ZERO, 0u64, 0u64);
+    for t in timed {
+        match &t.stats {
+            PeopleStats::Hog(s) => hog += s.clone(),
+            PeopleStats::Acf(s) => {
+                channels += s.channels;
+                score += s.score;
+                nms += s.nms;
+                trees += s.trees_evaluated;
+                windows += s.windows as u64;
+            }
+        }
+    }
+    match timed.first().map(|t| &t.stats) {
+        Some(PeopleStats::Acf(_)) => serde_json::json!({
+            "normalise": ms(norm) / f, "channels": ms(channels) / f, "score": ms(score) / f,
+            "nms": ms(nms) / f, "trees_per_window": trees as f64 / windows.max(1) as f64,
+        }),
+        _ => serde_json::json!({
+            "normalise": ms(norm) / f, "resize": ms(hog.resize) / f,
+            "exact_levels": ms(hog.hog.cells + hog.hog.blocks) / f,
+            "approx_levels": ms(hog.cell_resample) / f, "svm": ms(hog.svm) / f, "nms": ms(hog.nms) / f,
+        }),
+    }
 }
 
 fn tempfile_path() -> anyhow::Result<PathBuf> {

@@ -24,7 +24,7 @@ use mosaicd::pipeline::stage::Stage;
 use mosaicd::pool::BufferPool;
 use mosaicd::publish::service::{create_node, detections_service, subscriber};
 
-use super::detect::SvmArg;
+use super::detect_common::SvmArg;
 
 /// Arguments of `mosaicd bench pipeline`.
 #[derive(clap::Args, Debug)]

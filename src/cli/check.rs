@@ -3,9 +3,10 @@
 //! It opens nothing the daemon would open: no camera, no shared memory, no recording or metrics
 //! file. It checks, each problem named by its key:
 //! - the file parses, has no unknown key and every value is in range ([`Config::load`]);
-//! - the detector model loads: a built-in name, `opencv-default` where its weights are present
-//!   (`$MOSAICD_DATA`), or a file where relative paths resolve (the config file's directory, then
-//!   `/usr/share/mosaicd/models`);
+//! - the detector model loads, and is of the kind `compute.detector` names: for `"hog"`
+//!   (`compute.model`) a built-in name, `opencv-default` where its weights are present
+//!   (`$MOSAICD_DATA`), or a file; for `"acf"` the ACF model file `compute.acf_model`; relative
+//!   files resolve against the config file's directory, then `/usr/share/mosaicd/models`;
 //! - every camera's input exists: a recording or raw files (`camera.path`), a sidecar, or a V4L2
 //!   device node (looked at, not opened);
 //! - the directory of `metrics.textfile` exists.
@@ -44,11 +45,19 @@ pub fn problems(path: &Path, info: &mut Vec<String>) -> Vec<String> {
         ));
     }
     if cfg.compute.detect {
+        // the key of the configured detector's model (a bad compute.detector fails the load)
+        let (key, model) = cfg
+            .compute
+            .model_key()
+            .unwrap_or(("compute.model", &cfg.compute.model));
         match mosaicd::pipeline::daemon::load_detector(&cfg) {
-            Ok(_) => info.push(format!("compute.model: {} loads", cfg.compute.model)),
+            Ok(_) => info.push(format!(
+                "{key}: {model} loads ({} detector)",
+                cfg.compute.detector
+            )),
             Err(e) => {
                 let mut msg = e.to_string();
-                if let Some(r) = resolved.iter().find(|r| r.key == "compute.model" && !r.exists()) {
+                if let Some(r) = resolved.iter().find(|r| r.key == key && !r.exists()) {
                     let tried: Vec<String> = r.tried.iter().map(|p| p.display().to_string()).collect();
                     msg += &format!(" (a relative model file is looked for in: {})", tried.join(", "));
                 }

@@ -22,13 +22,15 @@ use mosaicd::eval::detection_runs::{
 };
 use mosaicd::raw::Cfa;
 
-use super::detect::{DetectorArgs, DomainArg, SvmArg};
+use super::detect_common::{DetectorArgs, DomainArg, SvmArg};
 
 /// Arguments of `mosaicd eval detection`.
 #[derive(clap::Args, Debug)]
 pub struct EvalDetectionArgs {
-    /// Models to evaluate (files or `opencv-default`), each as MODEL=DOMAIN, e.g.
-    /// `models/mosaic.json=mosaic opencv-default=colour models/colour.json=mosaic`.
+    /// Models to evaluate (HOG or ACF files, built-in names or `opencv-default`), each as
+    /// MODEL=DOMAIN, e.g. `models/mosaic.json=mosaic opencv-default=colour
+    /// models/acf-mosaic.json=mosaic`. ACF models run with the ACF options of `mosaicd detect`
+    /// (greedy suppression, their own pyramid) and, in the window protocol, their own scan.
     #[arg(required = true)]
     pub runs: Vec<String>,
     /// Input pipelines, comma-separated: `sampled` (sRGB sampled through the CFA / OpenCV grey /
@@ -278,6 +280,7 @@ fn ap_args(a: &EvalDetectionArgs) -> anyhow::Result<ApProtocol> {
         limit: a.limit,
         shrink,
         opts,
+        acf: a.det.acf_options(),
         phases,
         external,
     })

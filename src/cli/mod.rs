@@ -8,6 +8,7 @@ pub mod bench_pipeline;
 pub mod bench_sift;
 pub mod check;
 pub mod detect;
+pub mod detect_common;
 pub mod eval;
 pub mod eval_detection;
 pub mod eval_isp;

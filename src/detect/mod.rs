@@ -9,6 +9,7 @@ pub mod input;
 mod kernels;
 pub mod model;
 pub mod nms;
+pub mod people;
 pub mod pyramid;
 pub mod score;
 pub mod shipped;

@@ -51,9 +51,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::detect::input::MosaicPrep;
+use crate::detect::people::{PeopleDetector, PeopleInput};
 use crate::detect::train::{DomainImage, InputPipeline};
-use crate::detect::{Detection, Detector, Domain};
+use crate::detect::{Detection, Domain};
 use crate::eval::plot::{line_plot, Legend, LinePlot, Scale, Series};
 use crate::image::Image;
 use crate::metrics::detection::{
@@ -126,6 +126,15 @@ pub enum DetEvalError {
     /// The detector failed.
     #[error(transparent)]
     Detect(#[from] crate::detect::DetectError),
+    /// A HOG or ACF model did not load, or its detector failed.
+    #[error(transparent)]
+    People(#[from] crate::detect::people::PeopleError),
+    /// A raw frame could not be brought into the model's tone (e.g. bad gains).
+    #[error(transparent)]
+    Raw(crate::raw::RawError),
+    /// A buffer did not match the frame.
+    #[error(transparent)]
+    Image(crate::image::ImageError),
     /// Bringing an image into the model's domain failed.
     #[error(transparent)]
     Input(#[from] crate::detect::train::TrainError),
@@ -585,12 +594,21 @@ pub fn load_image_rgb(path: &Path) -> Result<Image<[u8; 3]>> {
     })
 }
 
-/// Run `det` on every image (brought into `domain` through `pipeline`; a reverse-ISP mosaic in the
-/// model's tone with gains from `wb`); `progress(i, key)` is called before image `i`. Returns the
-/// detections with each image's ground truth.
+/// The detector's view of a domain image (a mosaic sampled or made through `cfa`).
+pub fn people_input(img: &DomainImage, cfa: Cfa) -> PeopleInput<'_> {
+    match img {
+        DomainImage::Mosaic(m) => PeopleInput::Mosaic { image: m.view(), cfa },
+        DomainImage::Grey(g) => PeopleInput::Grey(g.view()),
+        DomainImage::Colour(c) => PeopleInput::Colour(c.view()),
+    }
+}
+
+/// Run `det` (HOG or ACF) on every image (brought into `domain` through `pipeline`; a reverse-ISP
+/// mosaic in the model's tone with gains from `wb`); `progress(i, key)` is called before image `i`.
+/// Returns the detections with each image's ground truth.
 #[allow(clippy::too_many_arguments)]
 pub fn detect_images(
-    det: &Detector,
+    det: &PeopleDetector,
     images: &[GtImage],
     domain: Domain,
     cfa: Cfa,
@@ -598,13 +616,13 @@ pub fn detect_images(
     wb: Gains,
     progress: &mut dyn FnMut(usize, &str),
 ) -> Result<Vec<ImageDetections>> {
-    let prep = MosaicPrep::for_model(det.model(), wb);
+    let prep = det.mosaic_prep(wb);
     let mut out = Vec::with_capacity(images.len());
     for (i, g) in images.iter().enumerate() {
         progress(i, &g.key);
         let rgb = load_image_rgb(&g.path)?;
         let img = DomainImage::from_rgb_via(&rgb, domain, cfa, pipeline, i as u64, &prep)?;
-        let (dets, _) = det.detect(&img.input())?;
+        let (dets, _) = det.detect(&people_input(&img, cfa))?;
         out.push(ImageDetections {
             detections: dets,
             ground_truth: g.boxes.clone(),

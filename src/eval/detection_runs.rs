@@ -13,9 +13,11 @@ use super::detection::{
     paired_bootstrap, parse_detections_csv, pr_plot, subsample, usc_root, ApSummary, DetEvalError, Interval,
     PerImageMatches, Result, Shrink,
 };
-use crate::detect::input::with_overrides;
+use crate::detect::acf::AcfOptions;
+use crate::detect::people::PeopleModel;
+use crate::detect::train::acf::evaluate_acf_windows;
 use crate::detect::train::{evaluate_windows_via, window_bootstrap, InputPipeline, Split, WindowEval};
-use crate::detect::{Detector, DetectorOptions, Domain, LinearModel, ScorePrecision};
+use crate::detect::{DetectorOptions, Domain, ScorePrecision};
 use crate::features::hog::MosaicTaps;
 use crate::metrics::detection::{ImageDetections, PASCAL_IOU};
 use crate::raw::levels::Gains;
@@ -28,7 +30,7 @@ const EXTERNAL: &str = "external";
 /// One model to evaluate in one input domain.
 #[derive(Debug, Clone)]
 pub struct DetRun {
-    /// The model as named (a file or `opencv-default`).
+    /// The model as named (a HOG file or built-in name, `opencv-default`, or an ACF model file).
     pub name: String,
     /// The input domain it is run in.
     pub domain: Domain,
@@ -37,14 +39,17 @@ pub struct DetRun {
 }
 
 impl DetRun {
-    /// The model ([`crate::detect::load_named`]; OpenCV's weights read as `opencv_domain`) with the
-    /// settings' tap and tone overrides applied.
-    fn model(&self, opencv_domain: Domain, s: &DetEvalSettings) -> Result<LinearModel> {
-        let model = crate::detect::load_named(&self.name, opencv_domain).map_err(|e| match e {
-            crate::detect::NamedModelError::Model(m) => super::detection::DetEvalError::Model(m),
-            crate::detect::NamedModelError::DataMissing(d) => super::detection::DetEvalError::Data(d),
+    /// The model ([`PeopleModel::load`]: an ACF model file, else [`crate::detect::load_named`],
+    /// OpenCV's weights read as `opencv_domain`) with the settings' tap and tone overrides applied.
+    fn model(&self, opencv_domain: Domain, s: &DetEvalSettings) -> Result<PeopleModel> {
+        use crate::detect::people::PeopleError;
+        use crate::detect::NamedModelError;
+        let model = PeopleModel::load(&self.name, opencv_domain).map_err(|e| match e {
+            PeopleError::Named(NamedModelError::Model(m)) => DetEvalError::Model(m),
+            PeopleError::Named(NamedModelError::DataMissing(d)) => DetEvalError::Data(d),
+            e => DetEvalError::People(e),
         })?;
-        Ok(with_overrides(model, s.mosaic_taps, s.mosaic_tone))
+        Ok(model.with_overrides(s.mosaic_taps, s.mosaic_tone))
     }
 }
 
@@ -131,18 +136,24 @@ pub fn window_protocol(
                 eprintln!("[{}/{total}] {label}, {}: {t}", k + 1, pipe.name())
             }
         };
-        let ev = evaluate_windows_via(
-            &model,
-            split,
-            run.domain,
-            s.cfa,
-            pipe,
-            p.svm,
-            s.wb_gains,
-            &mut progress,
-        )?;
+        let ev = match &model {
+            PeopleModel::Hog(model) => evaluate_windows_via(
+                model,
+                split,
+                run.domain,
+                s.cfa,
+                pipe,
+                p.svm,
+                s.wb_gains,
+                &mut progress,
+            )?,
+            // The ACF scan (stride 4 px, its own pyramid): FPPW per window of that scan.
+            PeopleModel::Acf(model) => {
+                evaluate_acf_windows(model, split, run.domain, s.cfa, pipe, s.wb_gains, &mut progress)?
+            }
+        };
         let mut row = vec![
-            format!("{m} ({:?})", model.domain),
+            format!("{m} ({:?})", model.domain()),
             d.clone(),
             pipe.name(),
             ev.negative_windows.to_string(),
@@ -252,8 +263,10 @@ pub struct ApProtocol {
     pub limit: usize,
     /// The shrunk-box map of the "shrunk" columns.
     pub shrink: Shrink,
-    /// Detector options (each phase sets its own `upsample`).
+    /// HOG detector options (each phase sets its own `upsample`).
     pub opts: DetectorOptions,
+    /// ACF detector options (each phase sets its own `upsample`).
+    pub acf: AcfOptions,
     /// Pyramid phases as (text as given, upsample factor); one for a single run.
     pub phases: Vec<(String, f64)>,
     /// Detections of other detectors, (name, CSV file; `{upsample}` replaced by each phase's text).
@@ -430,13 +443,15 @@ fn ap_detect(
         for run in runs {
             let model = run.model(Domain::Grey, s)?;
             let (m, d) = (&run.name, &run.domain_name);
-            let name = format!("{m} ({:?})", model.domain);
+            let name = format!("{m} ({:?})", model.domain());
             let mut per_phase = Vec::with_capacity(phases.len());
             for (text, u) in phases {
                 k += 1;
                 let mut o = p.opts;
                 o.upsample = *u;
-                let det = Detector::new(model.clone(), &o)?;
+                let mut acf = p.acf;
+                acf.upsample = *u;
+                let det = model.clone().build(&o, &acf)?;
                 let phase = if multi {
                     format!(" upsample {text}")
                 } else {

@@ -7,6 +7,7 @@
 //! | [`scale_space`] | Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize |
 //! | [`demosaic`] | Table IV: each demosaicing method vs true colour |
 //! | [`detection`] | pedestrian detection: full-image AP on boxed images (USC), DET and PR plots |
+//! | [`detect_speed`] | `bench detect`'s timed loop: a HOG or ACF detector on one raw frame, the daemon's way |
 //! | [`pipeline`] | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first) |
 //! | [`noise`] | gradient and HOG-input degradation under the three noise levels of eq. 24 |
 //! | [`sift`] | Fig. 12 / Fig. 10: SIFT repeatability, grey vs mosaic, under blur, scale and rotation |
@@ -18,6 +19,7 @@
 pub mod channels;
 pub mod common;
 pub mod demosaic;
+pub mod detect_speed;
 pub mod detection;
 pub mod detection_runs;
 pub mod draw;

@@ -36,7 +36,9 @@ use super::textfile::Textfile;
 use crate::capture::SourceKind;
 use crate::clock::{Clock, MonotonicClock, ReplayClock};
 use crate::config::{CameraConfig, Config};
-use crate::detect::{Detector, DetectorOptions, Domain};
+use crate::detect::acf::AcfOptions;
+use crate::detect::people::{PeopleDetector, PeopleModel};
+use crate::detect::{DetectorOptions, Domain};
 
 /// How often the daemon checks whether every pipeline has finished.
 const FINISH_POLL: Duration = Duration::from_millis(10);
@@ -198,40 +200,55 @@ pub fn stage_spec(cfg: &Config) -> Result<StageSpec, crate::config::ConfigError>
 #[cfg(test)]
 use crate::detect::OPENCV_DEFAULT_MODEL;
 
-/// Load the detector a config asks for (once; shared by every camera and task).
-pub fn load_detector(cfg: &Config) -> Result<Option<Arc<Detector>>, DaemonError> {
+/// Load the detector a config asks for (once; shared by every camera and task): the HOG model
+/// of `compute.model`, or with `compute.detector = "acf"` the ACF model of `compute.acf_model`.
+/// A model of the other kind, or one that does not load, is an error naming the key.
+pub fn load_detector(cfg: &Config) -> Result<Option<Arc<PeopleDetector>>, DaemonError> {
     let c = &cfg.compute;
     if !c.detect {
         return Ok(None);
     }
-    let mut model = crate::detect::load_named(&c.model, Domain::Mosaic).map_err(|e| DaemonError::Model {
-        message: format!("compute.model = {:?}: {e}", c.model),
-    })?;
-    if let Some(t) = c.mosaic_taps_override().map_err(|e| DaemonError::Model {
+    let model_err = |e: crate::config::ConfigError| DaemonError::Model {
         message: e.to_string(),
-    })? {
-        model.mosaic_taps = t;
-    }
-    if let Some(t) = c.mosaic_tone_override().map_err(|e| DaemonError::Model {
-        message: e.to_string(),
-    })? {
-        model.mosaic_tone = t;
-    }
-    let opts = DetectorOptions {
+    };
+    let kind = c.detector_kind().map_err(model_err)?;
+    let (key, name) = c.model_key().map_err(model_err)?;
+    let model = PeopleModel::load_as(name, kind, Domain::Mosaic)
+        .map_err(|e| DaemonError::Model {
+            message: format!("{key} = {name:?} (compute.detector = {:?}): {e}", c.detector),
+        })?
+        .with_overrides(
+            c.mosaic_taps_override().map_err(model_err)?,
+            c.mosaic_tone_override().map_err(model_err)?,
+        );
+    let hog = DetectorOptions {
         scale_step: c.scale_step,
         max_levels: c.max_levels,
         upsample: c.upsample,
         hit_threshold: c.hit_threshold,
         approx_levels: c.approx_levels,
-        svm: c.svm_precision().map_err(|e| DaemonError::Model {
-            message: e.to_string(),
-        })?,
+        svm: c.svm_precision().map_err(model_err)?,
         ..DetectorOptions::default()
     };
-    let det = Detector::new(model, &opts).map_err(|e| DaemonError::Model {
-        message: format!("compute: {e}"),
-    })?;
+    let det = model
+        .build(&hog, &acf_options(cfg))
+        .map_err(|e| DaemonError::Model {
+            message: format!("compute: {e}"),
+        })?;
     Ok(Some(Arc::new(det)))
+}
+
+/// The ACF detector's options of a config: `compute.upsample`, `compute.max_levels` and
+/// `compute.hit_threshold`; the model's own pyramid approximation; greedy suppression at IoU 0.5
+/// (the ACF detector's default, as in `mosaicd detect` and `eval detection`).
+pub fn acf_options(cfg: &Config) -> AcfOptions {
+    let c = &cfg.compute;
+    AcfOptions {
+        upsample: c.upsample,
+        max_levels: c.max_levels,
+        hit_threshold: c.hit_threshold,
+        ..AcfOptions::default()
+    }
 }
 
 /// Run the daemon until every source ends or a signal arrives.
@@ -616,6 +633,65 @@ mod tests {
     }
 
     #[test]
+    fn compute_detector_acf_loads_its_model_and_refuses_the_other_kind() {
+        use crate::detect::people::DetectorKind;
+        use crate::features::hog::MosaicTone;
+        let acf = concat!(env!("CARGO_MANIFEST_DIR"), "/models/acf-mosaic.json");
+        let hog = concat!(env!("CARGO_MANIFEST_DIR"), "/models/mosaic.json");
+        let load = |lines: &str| {
+            let cfg = Config::from_toml_str(&format!(
+                "[compute]\n{lines}\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n"
+            ))
+            .unwrap();
+            load_detector(&cfg).map(|d| d.expect("compute.detect is on"))
+        };
+        let det = load(&format!("detector = \"acf\"\nacf_model = {acf:?}")).unwrap();
+        assert_eq!(det.kind(), DetectorKind::Acf);
+        assert_eq!(
+            det.mosaic_tone(),
+            MosaicTone::Srgb,
+            "the shipped ACF model's tone"
+        );
+        let det = load(&format!(
+            "detector = \"acf\"\nacf_model = {acf:?}\nmosaic_tone = \"linear\""
+        ))
+        .unwrap();
+        assert_eq!(det.mosaic_tone(), MosaicTone::Linear);
+        // compute.model is HOG's: an ACF file there is refused, and a HOG file in acf_model
+        for (lines, key, what) in [
+            (
+                format!("detector = \"acf\"\nacf_model = {hog:?}"),
+                "compute.acf_model",
+                "is a HOG model, not an ACF model",
+            ),
+            (
+                format!("model = {acf:?}"),
+                "compute.model",
+                "is an ACF model, not a HOG model",
+            ),
+            (
+                "detector = \"acf\"\nacf_model = \"/no/such/acf.json\"".to_string(),
+                "compute.acf_model",
+                "/no/such/acf.json",
+            ),
+        ] {
+            let e = load(&lines).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains(what), "{lines}: {e}");
+        }
+        // the ACF options: the config's, greedy suppression, the model's pyramid
+        let cfg = Config::from_toml_str(
+            "[compute]\nupsample = 2.0\nmax_levels = 9\nhit_threshold = -3.5\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n",
+        )
+        .unwrap();
+        let o = acf_options(&cfg);
+        assert_eq!(
+            (o.upsample, o.max_levels, o.hit_threshold, o.approx),
+            (2.0, 9, -3.5, None)
+        );
+        assert_eq!(o.nms, crate::detect::NmsMethod::Greedy { iou: 0.5 });
+    }
+
+    #[test]
     fn compute_mosaic_taps_reaches_the_detector() {
         crate::data::require(OPENCV_DEFAULT_MODEL);
         let taps = |line: &str| {
@@ -623,7 +699,10 @@ mod tests {
                 "[compute]\n{line}\n[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n"
             ))
             .unwrap();
-            load_detector(&cfg).unwrap().unwrap().model().mosaic_taps
+            match &*load_detector(&cfg).unwrap().unwrap() {
+                PeopleDetector::Hog(d) => d.model().mosaic_taps,
+                PeopleDetector::Acf(_) => panic!("an ACF detector for a HOG model"),
+            }
         };
         assert_eq!(taps(""), MosaicTaps::SameSite, "OpenCV's weights: same-site");
         assert_eq!(taps("mosaic_taps = \"model\""), MosaicTaps::SameSite);
@@ -641,7 +720,7 @@ mod tests {
             ))
             .unwrap()
         };
-        let tone = |line: &str| load_detector(&cfg(line)).unwrap().unwrap().model().mosaic_tone;
+        let tone = |line: &str| load_detector(&cfg(line)).unwrap().unwrap().mosaic_tone();
         assert_eq!(tone(""), MosaicTone::Srgb, "the default built-in model: srgb");
         let opencv = "model = \"opencv-default\"";
         assert_eq!(tone(opencv), MosaicTone::Linear, "OpenCV's weights: linear");

@@ -5,7 +5,8 @@
 //!   `u8` orientation bin over 0..180°, reflect-101 borders), into pooled buffers, on the calling
 //!   rayon pool.
 //! * **Detection** (optional): the mosaic is brought into the model's tone in a pooled `f32`
-//!   buffer in 8-bit units and handed to the multi-scale HOG + linear SVM [`Detector`]. Linear:
+//!   buffer in 8-bit units and handed, with the frame's CFA, to the [`PeopleDetector`]: the
+//!   multi-scale HOG + linear SVM detector or the ACF detector (`compute.detector`). Linear:
 //!   `(v − black) · 255 / (white − black)`, clamped at 0
 //!   ([`crate::features::hog::mosaic_from_raw_into`]; the tone module's linear tables are tested
 //!   equal to it). sRGB: each
@@ -43,8 +44,8 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use crate::detect::input::{MosaicInput, MosaicPrep};
-use crate::detect::Detector;
+use crate::detect::input::MosaicInput;
+use crate::detect::people::{PeopleDetector, PeopleError, PeopleInput};
 use crate::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
 use crate::features::sift::{
     features_from_frame, keypoints_from_frame, Keypoint, SiftError, SiftOptions, SiftSpec, DESCRIPTOR_LEN,
@@ -89,7 +90,7 @@ pub enum StageError {
     Gradient(#[from] crate::features::gradient::GradientError),
     /// The detector refused the frame.
     #[error("detection: {0}")]
-    Detect(#[from] crate::detect::DetectError),
+    Detect(#[from] PeopleError),
     /// The white balance of the detector's mosaic failed (bad gains, or `file` gains on a frame
     /// without any).
     #[error("white balance: {0}")]
@@ -169,7 +170,7 @@ impl StageSpec {
 pub struct Stage {
     spec: StageSpec,
     gradient: MagBinSpec,
-    detector: Option<Arc<Detector>>,
+    detector: Option<Arc<PeopleDetector>>,
     sift: Option<SiftSpec>,
     /// The detector's input in its model's tone (tone tables kept between frames).
     input: Option<Arc<MosaicInput>>,
@@ -178,7 +179,7 @@ pub struct Stage {
 impl Stage {
     /// Validate and build. `detector` is used when `spec.detect` is set; without one, detection
     /// publishes empty lists.
-    pub fn new(spec: StageSpec, detector: Option<Arc<Detector>>) -> Result<Self, StageError> {
+    pub fn new(spec: StageSpec, detector: Option<Arc<PeopleDetector>>) -> Result<Self, StageError> {
         spec.validate()?;
         let gradient = MagBinSpec::new(MagBinOptions {
             operator: Operator::Central,
@@ -202,7 +203,7 @@ impl Stage {
             input: detector
                 .as_ref()
                 .filter(|_| spec.detect)
-                .map(|d| Arc::new(MosaicInput::new(MosaicPrep::for_model(d.model(), spec.wb_gains)))),
+                .map(|d| Arc::new(MosaicInput::new(d.mosaic_prep(spec.wb_gains)))),
             detector: if spec.detect { detector } else { None },
             sift,
         })
@@ -250,7 +251,7 @@ impl Stage {
         let part = even.as_ref().unwrap_or(frame);
         let detections = match &self.detector {
             Some(det) => {
-                let (ww, wh) = (det.hog_spec().win_width(), det.hog_spec().win_height());
+                let (ww, wh) = det.window();
                 if ew < ww || eh < wh {
                     Vec::new()
                 } else {
@@ -258,7 +259,10 @@ impl Stage {
                     input.mosaic_into(part, self.spec.strip_rows, &mut maps.mosaic)?;
                     let img = std::mem::take(&mut maps.mosaic);
                     let image = Image::from_vec(ew, eh, img)?;
-                    let r = det.detect(&crate::features::hog::HogInput::Mosaic(image.view()));
+                    let r = det.detect(&PeopleInput::Mosaic {
+                        image: image.view(),
+                        cfa: part.cfa(),
+                    });
                     maps.mosaic = image.into_vec();
                     let (mut d, _) = r?;
                     d.sort_by(|a, b| b.score.total_cmp(&a.score));
@@ -594,7 +598,7 @@ mod tests {
             nms: NmsMethod::None,
             ..DetectorOptions::default()
         };
-        let det = Arc::new(crate::detect::Detector::new(m, &o).unwrap());
+        let det = Arc::new(PeopleDetector::from(crate::detect::Detector::new(m, &o).unwrap()));
         let spec = StageSpec {
             keypoints: true,
             strip_rows: 4,
@@ -682,7 +686,7 @@ mod tests {
                 strip_rows: 4,
                 ..StageSpec::default()
             };
-            Stage::new(spec, Some(det.clone()))
+            Stage::new(spec, Some(Arc::new(PeopleDetector::from((**det).clone()))))
                 .unwrap()
                 .compute(frame, &mut GradientMaps::default())
         };
@@ -711,6 +715,41 @@ mod tests {
     }
 
     #[test]
+    fn an_acf_detector_reads_the_toned_mosaic_with_the_frames_cfa() {
+        use crate::detect::people::PeopleInput;
+        use crate::raw::tone::mosaic_from_raw_toned;
+        let det = Arc::new(crate::detect::people::every_window_acf());
+        // an odd-sized textured 12-bit frame with its own gains: detections of the even part
+        let (w, h) = (161, 257);
+        let px: Vec<u16> = (0..(w * h) as u32)
+            .map(|i| 64 + ((i.wrapping_mul(2654435761) >> 20) as u16 & 4095).min(4000))
+            .collect();
+        for cfa in [Cfa::Rggb, Cfa::Gbrg] {
+            let f = RawFrame::from_u16(w, h, px.clone(), cfa, 12, Levels::uniform(64, 4095))
+                .unwrap()
+                .with_wb_gains([1.8, 1.0, 1.4]);
+            let spec = StageSpec {
+                strip_rows: 4,
+                ..StageSpec::default()
+            };
+            let stage = Stage::new(spec, Some(det.clone())).unwrap();
+            let got = stage
+                .compute(&f, &mut GradientMaps::default())
+                .unwrap()
+                .detections;
+            let even = f.crop(0, 0, 160, 256).unwrap();
+            let m = mosaic_from_raw_toned(&even, MosaicTone::Srgb, [1.8, 1.0, 1.4]);
+            let mut want = det
+                .detect(&PeopleInput::Mosaic { image: m.view(), cfa })
+                .unwrap()
+                .0;
+            want.sort_by(|a, b| b.score.total_cmp(&a.score));
+            assert!(!got.is_empty(), "{cfa:?}: no boxes");
+            assert_eq!(got, want, "{cfa:?}");
+        }
+    }
+
+    #[test]
     fn tone_tables_are_kept_while_levels_and_gains_stay_and_rebuilt_when_they_change() {
         use crate::detect::{DetectorOptions, Domain, LinearModel};
         use crate::features::hog::HogInput;
@@ -734,7 +773,11 @@ mod tests {
             ..DetectorOptions::default()
         };
         let det = Arc::new(crate::detect::Detector::new(m, &o).unwrap());
-        let stage = Stage::new(StageSpec::default(), Some(det.clone())).unwrap();
+        let stage = Stage::new(
+            StageSpec::default(),
+            Some(Arc::new(PeopleDetector::from((*det).clone()))),
+        )
+        .unwrap();
         let mut maps = GradientMaps::default();
         let kept = || {
             stage

@@ -98,3 +98,18 @@ pub fn run_daemon_ok(
     );
     out
 }
+
+/// The frame records of a daemon `--results` file without their wall-clock group (`"wall"`:
+/// latency), which are the deterministic part.
+pub fn frame_results(results: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(results)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v["type"] == "frame")
+        .map(|mut v| {
+            v.as_object_mut().unwrap().remove("wall");
+            v
+        })
+        .collect()
+}
