@@ -74,7 +74,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     #[test]
-    fn every_path_equals_the_scalar_oracle() {
+    fn kernel_paths_equal_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let data: Vec<f32> = (0..4200)
             .map(|i| {

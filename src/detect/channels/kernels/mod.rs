@@ -90,7 +90,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     #[test]
-    fn every_path_equals_the_scalar_oracle() {
+    fn kernel_paths_equal_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let edges = bin_edges();
         for len in [1usize, 2, 7, 9, 16, 17, 64, 203] {
