@@ -63,7 +63,17 @@ fn the_root_comes_from_the_config_not_the_working_directory_and_listen_follows_i
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("run/iox");
     let (prefix, camera) = (unique("rp"), unique("rc"));
-    let cfg = config(dir.path(), &root, &prefix, &camera, "frames = 20");
+    // Paced (20 frames at 100 frames/s): a 32x32 replay ends within milliseconds, and after the
+    // `another_user_can_neither_subscribe_nor_publish` test in the same process the listener then
+    // missed every message about one time in two (2026-11-27; not yet explained, see the issue
+    // note); paced, the daemon outlives the listener's first polls.
+    let cfg = config(
+        dir.path(),
+        &root,
+        &prefix,
+        &camera,
+        "frames = 20\nlive = true\nfps = 100",
+    );
     // A config file iceoryx2 would read first from the working directory: it must be ignored.
     let decoy = dir.path().join("decoy-root");
     std::fs::create_dir_all(dir.path().join("config")).unwrap();
@@ -291,10 +301,12 @@ fn an_ordinary_user_publishes_and_listens_with_the_default_root() {
         format!(
             "[daemon]\nthreads = 1\nstats_interval_ms = 200\n[compute]\ndetect = false\n\
              [publish]\nservice_prefix = \"{prefix}\"\nsubscriber_buffer = 256\n\
-             [[camera]]\nname = \"{camera}\"\nsource = \"synthetic\"\nwidth = 32\nheight = 32\nframes = 20\n"
+             [[camera]]\nname = \"{camera}\"\nsource = \"synthetic\"\nwidth = 32\nheight = 32\nframes = 20\n\
+             live = true\nfps = 100\n"
         ),
     )
     .unwrap();
+    // Paced, as in `the_root_comes_from_the_config_not_the_working_directory_and_listen_follows_it`.
     let user = |c: &mut Command| {
         if as_root {
             std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
