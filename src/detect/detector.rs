@@ -47,13 +47,14 @@ use super::model::{Domain, LinearModel, ModelError};
 use super::nms::{greedy_nms, group_rectangles};
 use super::pyramid::{resize_then, PyramidError};
 use super::score::{
-    window_scores, window_scores_i8, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8,
+    window_scores, window_scores_i8, RowScorer, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8,
 };
 use super::Detection;
 use crate::features::hog::{
-    block_and_micro_grids_from_gamma_planes, block_grid_from_gamma_planes, block_grid_stage_times,
-    blocks_from_micro_grid, gamma_in_place, gamma_plane_into, micro_grid_from_gamma_planes, BlockGrid, Exec,
-    GammaPlanes, HogError, HogInput, HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
+    approx_block_rows, block_and_micro_grids_from_gamma_planes, block_grid_dims,
+    block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_in_place,
+    gamma_plane_into, micro_grid_from_gamma_planes, ApproxLevel, BlockGrid, Exec, GammaPlanes, HogError,
+    HogInput, HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::{Image, ImageView};
 
@@ -316,8 +317,6 @@ pub struct Detector {
     score_weights_i8: Option<ScoreWeightsI8>,
     /// Level buffers reused across levels and frames.
     pool: ScratchPool,
-    /// Buffers of approximated levels (blocks and scores only), reused the same way.
-    approx_pool: Pool<ApproxScratch>,
     /// Planes of magnified frames (`upsample > 1`), reused the same way.
     source_pool: Pool<Vec<Image<f32>>>,
 }
@@ -336,7 +335,8 @@ struct LevelScratch {
     scores: Vec<f32>,
 }
 
-/// The buffers of one approximated level: its blocks (from the group's micro-cells) and scores.
+/// The buffers of one approximated level in [`Detector::stage_profile`]: its blocks (from the
+/// group's micro-cells) and scores.
 #[derive(Debug, Default)]
 struct ApproxScratch {
     blocks: BlockGrid,
@@ -390,17 +390,6 @@ impl ScratchPool {
         rayon::current_num_threads() + 1
     }
     fn put(&self, s: LevelScratch) {
-        self.put_bounded(s, Self::capacity())
-    }
-}
-
-impl Pool<ApproxScratch> {
-    /// Approximated levels run serially inside, one per worker, plus one per worker that steals
-    /// one while it waits inside an exact level.
-    fn capacity() -> usize {
-        2 * rayon::current_num_threads()
-    }
-    fn put(&self, s: ApproxScratch) {
         self.put_bounded(s, Self::capacity())
     }
 }
@@ -565,7 +554,6 @@ impl Detector {
             score_weights,
             score_weights_i8,
             pool: ScratchPool::default(),
-            approx_pool: Pool::default(),
             source_pool: Pool::default(),
         })
     }
@@ -861,26 +849,70 @@ impl Detector {
         let (d, s) = self.score_level(&sc.blocks, head, exec, &mut sc.scores);
         dets.extend(d);
         stats += s;
-        // The approximated levels only read the micro-cells, so they are independent tasks: in
-        // parallel mode they run side by side (each serially inside), which keeps both workers
-        // busy through a group whose levels are too small to split well. Each level's arithmetic
-        // is the same either way, and results are collected in level order: the same bits.
+        // The approximated levels only read the micro-cells, so they are independent: in
+        // parallel mode they are dealt to one lane per worker (level i to lane i mod lanes), and
+        // each lane sweeps the micro grid once for all its levels, scoring every block row as it
+        // is made (`approx_block_rows`, `RowScorer`: no block grid). Each level's arithmetic is
+        // the same in any lane, and results are collected in level order: the same bits for any
+        // thread count.
+        let levels = &group[1..];
+        let lanes = match exec {
+            Exec::Parallel => rayon::current_num_threads().clamp(1, levels.len().max(1)),
+            Exec::Serial => 1,
+        };
         let micro = &sc.micro;
-        let approx = |lv: &Level| {
-            let mut a = self.approx_pool.take();
+        let lane = |l: usize| -> Vec<(usize, Vec<Detection>, DetectStats)> {
+            let mine: Vec<usize> = (l..levels.len()).step_by(lanes).collect();
+            let geoms: Vec<ApproxLevel> = mine
+                .iter()
+                .map(|&i| ApproxLevel {
+                    width: levels[i].width,
+                    height: levels[i].height,
+                    gain: approx_gain(head, &levels[i]),
+                })
+                .collect();
+            let mut scorers: Vec<RowScorer> = geoms
+                .iter()
+                .map(|g| {
+                    let (nbx, nby) = block_grid_dims(g.width, g.height);
+                    self.row_scorer(nbx, nby)
+                })
+                .collect();
             let t = Instant::now();
-            self.approx_blocks(micro, head, lv, &mut a.blocks);
-            let resample = t.elapsed();
-            let (d, mut s) = self.score_level(&a.blocks, lv, Exec::Serial, &mut a.scores);
-            self.approx_pool.put(a);
-            s.cell_resample = resample;
-            (d, s)
+            let mut svm = Duration::ZERO;
+            approx_block_rows(&self.hog, micro, &geoms, |j, _, row| {
+                let t = Instant::now();
+                scorers[j].push(row);
+                svm += t.elapsed();
+            });
+            let mut scores = Vec::new();
+            let mut out = Vec::with_capacity(mine.len());
+            for (k, (&i, scorer)) in mine.iter().zip(&scorers).enumerate() {
+                let t1 = Instant::now();
+                let (nwx, nwy) = scorer.windows();
+                scores.clear();
+                scores.resize(nwx * nwy, 0.0);
+                scorer.finish(&mut scores);
+                let mut s = DetectStats {
+                    windows: nwx * nwy,
+                    ..Default::default()
+                };
+                s.svm = t1.elapsed();
+                if k == 0 {
+                    // The lane's interleaved fill and scoring, counted once.
+                    s.svm += svm;
+                    s.cell_resample = t.elapsed().saturating_sub(svm);
+                }
+                out.push((i, self.detections_in(&scores, nwx, nwy, &levels[i]), s));
+            }
+            out
         };
-        let rest: Vec<(Vec<Detection>, DetectStats)> = match exec {
-            Exec::Parallel => group[1..].par_iter().map(approx).collect(),
-            Exec::Serial => group[1..].iter().map(approx).collect(),
+        let mut rest: Vec<(usize, Vec<Detection>, DetectStats)> = match exec {
+            Exec::Parallel => (0..lanes).into_par_iter().map(lane).flatten().collect(),
+            Exec::Serial => lane(0),
         };
-        for (d, s) in rest {
+        rest.sort_by_key(|r| r.0);
+        for (_, d, s) in rest {
             dets.extend(d);
             stats += s;
         }
@@ -916,6 +948,12 @@ impl Detector {
         self.window_scores(grid, exec, scores);
         stats.svm = t.elapsed();
         stats.windows = nwx * nwy;
+        (self.detections_in(scores, nwx, nwy, lv), stats)
+    }
+
+    /// The detections among the `nwx x nwy` window `scores` of level `lv` (at or above the hit
+    /// threshold), row-major.
+    fn detections_in(&self, scores: &[f32], nwx: usize, nwy: usize, lv: &Level) -> Vec<Detection> {
         let thr = self.spec.opts.hit_threshold;
         let s = lv.scale;
         let (ww, wh) = (self.hog.win_width() as f64, self.hog.win_height() as f64);
@@ -934,7 +972,7 @@ impl Detector {
                 }
             }
         }
-        (dets, stats)
+        dets
     }
 
     /// Visit every window of the exact pyramid (levels in order, windows row-major) with its level,
@@ -992,6 +1030,16 @@ impl Detector {
         match &self.score_weights_i8 {
             Some(q) => window_scores_i8(q, grid, exec, scores),
             None => window_scores(&self.score_weights, grid, exec, scores),
+        }
+    }
+
+    /// A [`RowScorer`] of an `nbx x nby`-block grid with the configured precision (the same
+    /// scores as [`Self::window_scores`]).
+    fn row_scorer(&self, nbx: usize, nby: usize) -> RowScorer<'_> {
+        let isa = crate::kernels::isa();
+        match &self.score_weights_i8 {
+            Some(q) => RowScorer::i8(q, isa, nbx, nby),
+            None => RowScorer::f32(&self.score_weights, isa, nbx, nby),
         }
     }
 
@@ -1336,7 +1384,9 @@ mod tests {
     }
 
     #[test]
-    fn approximated_level_buffers_are_bounded_and_parallel_equals_serial() {
+    fn approximated_levels_in_lanes_equal_serial_for_any_thread_count() {
+        // Approximated levels are dealt to one lane per worker (1, 2 or 3 lanes for 5 levels a
+        // group): the same hits, in the same order, as serially.
         let o = DetectorOptions {
             hit_threshold: -1e9,
             nms: NmsMethod::None,
@@ -1347,13 +1397,16 @@ mod tests {
         let img = Image::<f32>::from_fn(400, 300, |x, y| ((x * 5 + y * y) % 230) as f32);
         let inp = HogInput::Mosaic(img.view());
         let (serial, _) = d.detect_serial(&inp).unwrap();
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
-        for _ in 0..4 {
-            let (par, st) = pool.install(|| d.detect(&inp)).unwrap();
-            assert_eq!(par, serial);
-            assert!(st.levels > 6 && par.len() == st.windows);
-            let held = d.approx_pool.free.lock().unwrap().len();
-            assert!((1..=6).contains(&held), "{held} approximated-level buffers held");
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for _ in 0..2 {
+                let (par, st) = pool.install(|| d.detect(&inp)).unwrap();
+                assert_eq!(par, serial, "{threads} threads");
+                assert!(st.levels > 6 && par.len() == st.windows);
+            }
         }
     }
 

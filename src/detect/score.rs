@@ -11,8 +11,14 @@
 //! `P_r[k][x] = Σ_i B(x, r)[i] · W[i][k]` (a GEMM, `nbx x 36` times `36 x 105`),
 //!
 //! and a window score is a sum of 105 entries of `P`:
-//! `s(wx, wy) = b + Σ_{by} Σ_{bx} P_{wy+by}[bx·bh+by][wx+bx]`. The second step is a plain
-//! element-wise add of rows of `P` (vectorised over `wx`). The multiply count is the same as the
+//! `s(wx, wy) = b + Σ_{by} Σ_{bx} P_{wy+by}[k(bx, by)][wx+bx]`. The second step is a plain
+//! element-wise add of rows of `P` (vectorised over `wx`). Positions are numbered row by row,
+//! `k = by·bw + bx` (the weights are permuted once from OpenCV's `bx·bh + by`), so a block row
+//! needs one range of positions: row `r` is block row `by = r − wy` of window rows `wy` only, so
+//! near the top and bottom of a level it needs fewer than `bh` of them, and only those products
+//! are computed (`Stream`: 18 % of all products at 1080p, 44 levels, are never summed, most of
+//! them in the small levels). Block rows can also arrive one at a time from a producer that keeps
+//! no grid ([`RowScorer`]). The multiply count is the same as the
 //! direct method (one product per block and block position) but it runs register-blocked, 8 (AVX2,
 //! NEON as two vectors of 4) or 16 (AVX-512) blocks per vector, with no horizontal sums.
 //!
@@ -105,7 +111,7 @@
 //! assert_eq!(q[1 * 3 + 2], sq.score_descriptor(&d));
 //! ```
 
-use std::ops::AddAssign;
+use std::ops::{AddAssign, Range};
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -122,7 +128,9 @@ const SCORE_STRIP_ROWS: usize = 64;
 const PAD_COLUMNS: usize = 16;
 
 /// The model re-laid out for the GEMM: `wt[i·nkp + k]` = weight of value `i` of block position `k`,
-/// zero-padded to `nkp` positions (whole tiles for every kernel).
+/// zero-padded to `nkp` positions (whole tiles for every kernel, plus one: see `gemm_sizes`).
+/// Positions are numbered row by row, `k = by·bw + bx` (OpenCV's descriptor runs column by
+/// column, `bx·bh + by`), so the positions one block row needs form one range (`Stream::push`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoreWeights {
     wt: Vec<f32>,
@@ -137,14 +145,21 @@ pub struct ScoreWeights {
     nkp: usize,
 }
 
+/// The position in OpenCV's descriptor order (`bx·bh + by`) of our block position `k = by·bw + bx`.
+fn descriptor_position(k: usize, bw: usize, bh: usize) -> usize {
+    (k % bw) * bh + k / bw
+}
+
 /// `n` rounded up to a multiple of `m`, `None` on overflow.
 fn round_up(n: usize, m: usize) -> Option<usize> {
     n.div_ceil(m).checked_mul(m)
 }
 
 /// The weight matrix of a window of `bw x bh` blocks of `bl` values: block positions `nk`, their
-/// count padded to whole tiles of every kernel `nkp` (a kernel's last tile may run past `nk`; its
-/// results are not stored), and the matrix length `bl·nkp`, in checked arithmetic.
+/// count padded to whole tiles of every kernel plus one more tile, `nkp` (a kernel's last tile may
+/// run past the positions it was asked for; its results are not stored, and a range of positions
+/// `[k0, k1)` then still reads inside the matrix: `k0 + round_up(k1 − k0) ≤ nk + tile ≤ nkp`), and
+/// the matrix length `bl·nkp`, in checked arithmetic.
 fn gemm_sizes(bw: usize, bh: usize, bl: usize) -> Result<(usize, usize, usize), ScoreError> {
     let refuse = || ScoreError::Geometry {
         blocks_x: bw,
@@ -154,7 +169,7 @@ fn gemm_sizes(bw: usize, bh: usize, bl: usize) -> Result<(usize, usize, usize), 
     let nk = bw.checked_mul(bh).ok_or_else(refuse)?;
     let nkp = round_up(nk, TILE_K_NARROW)
         .zip(round_up(nk, TILE_K_AVX512))
-        .map(|(a, b)| a.max(b))
+        .and_then(|(a, b)| a.max(b).checked_add(TILE_K_NARROW.max(TILE_K_AVX512)))
         .ok_or_else(refuse)?;
     let len = bl.checked_mul(nkp).ok_or_else(refuse)?;
     Ok((nk, nkp, len))
@@ -179,9 +194,10 @@ impl ScoreWeights {
         })?;
         wt.resize(len, 0.0f32);
         for k in 0..nk {
+            let m = descriptor_position(k, bw, bh);
             for i in 0..bl {
-                // k·bl + i < nk·bl ≤ nkp·bl = len: no overflow.
-                wt[i * nkp + k] = weights.get(k * bl + i).copied().unwrap_or(0.0);
+                // m·bl + i < nk·bl ≤ nkp·bl = len: no overflow.
+                wt[i * nkp + k] = weights.get(m * bl + i).copied().unwrap_or(0.0);
             }
         }
         Ok(Self {
@@ -559,8 +575,9 @@ impl ScoreWeightsI8 {
     pub fn score_descriptor(&self, d: &[f32]) -> f32 {
         let mut sum = 0i32;
         for k in 0..self.nk {
+            let m = descriptor_position(k, self.bw, self.bh);
             for i in 0..self.bl {
-                let v = d.get(k * self.bl + i).copied().unwrap_or(0.0);
+                let v = d.get(m * self.bl + i).copied().unwrap_or(0.0);
                 sum += quantise_block_value(v) as i32 * self.weight(i, k) as i32;
             }
         }
@@ -616,15 +633,25 @@ trait RowProducts: Sync {
     fn start(&self) -> Self::Acc;
     /// Fresh (zeroed) buffers for a grid `nbxp` columns wide.
     fn scratch(&self, nbxp: usize) -> Self::Scratch;
-    /// `out[k·nbxp + x]` = product of block `x < nbx` of `row` with the weights of position `k`.
-    fn products(&self, row: &[f32], nbx: usize, nbxp: usize, s: &mut Self::Scratch, out: &mut [Self::Acc]);
+    /// `out[k·nbxp + x]` = product of block `x < nbx` of `row` with the weights of position `k`,
+    /// for the positions `k ∈ ks` (the others are left as they are).
+    fn products(
+        &self,
+        row: &[f32],
+        nbx: usize,
+        nbxp: usize,
+        ks: Range<usize>,
+        s: &mut Self::Scratch,
+        out: &mut [Self::Acc],
+    );
     /// Window sums to scores.
     fn finish(&self, sums: &[Self::Acc], scores: &mut [f32]);
     /// [`add_window_row`] with this path's instruction set.
-    fn add_row(&self, row: &mut [Self::Acc], pr: &[Self::Acc], by: usize, bh: usize, bw: usize, nbxp: usize);
+    fn add_row(&self, row: &mut [Self::Acc], pr: &[Self::Acc], by: usize, bw: usize, nbxp: usize);
 }
 
 /// The f32 path: transposed block rows, f32 products, window sums from the bias.
+#[derive(Clone, Copy)]
 struct F32Rows<'a> {
     w: &'a ScoreWeights,
     kernel: Isa,
@@ -642,26 +669,35 @@ impl RowProducts for F32Rows<'_> {
     fn scratch(&self, nbxp: usize) -> Vec<f32> {
         vec![0.0; self.w.bl * nbxp]
     }
-    fn products(&self, row: &[f32], nbx: usize, nbxp: usize, bt: &mut Vec<f32>, out: &mut [f32]) {
+    fn products(
+        &self,
+        row: &[f32],
+        nbx: usize,
+        nbxp: usize,
+        ks: Range<usize>,
+        bt: &mut Vec<f32>,
+        out: &mut [f32],
+    ) {
         transpose_row(row, self.w.bl, nbx, nbxp, bt);
-        block_products(self.w, bt, nbx, nbxp, self.kernel, out);
+        block_products(self.w, bt, nbx, nbxp, ks, self.kernel, out);
     }
     fn finish(&self, sums: &[f32], scores: &mut [f32]) {
         scores.copy_from_slice(sums);
     }
-    fn add_row(&self, row: &mut [f32], pr: &[f32], by: usize, bh: usize, bw: usize, nbxp: usize) {
+    fn add_row(&self, row: &mut [f32], pr: &[f32], by: usize, bw: usize, nbxp: usize) {
         match self.kernel {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `kernel` is a path this CPU runs (`f32_kernel`), so it has AVX2.
             Isa::Avx2 | Isa::Avx512 => unsafe {
-                super::kernels::avx2::add_window_row_f32(row, pr, by, bh, bw, nbxp)
+                super::kernels::avx2::add_window_row_f32(row, pr, by, bw, nbxp)
             },
-            _ => add_window_row(row, pr, by, bh, bw, nbxp),
+            _ => add_window_row(row, pr, by, bw, nbxp),
         }
     }
 }
 
 /// The 8-bit path: quantised, dword-transposed block rows, exact i32 products and window sums.
+#[derive(Clone, Copy)]
 struct I8Rows<'a> {
     w: &'a ScoreWeightsI8,
     kernel: I8Kernel,
@@ -680,65 +716,152 @@ impl RowProducts for I8Rows<'_> {
     fn scratch(&self, nbxp: usize) -> (Vec<u8>, Vec<u32>) {
         (vec![0; 4 * self.w.ng * nbxp], vec![0; self.w.ng * nbxp])
     }
-    fn products(&self, row: &[f32], nbx: usize, nbxp: usize, s: &mut (Vec<u8>, Vec<u32>), out: &mut [i32]) {
+    fn products(
+        &self,
+        row: &[f32],
+        nbx: usize,
+        nbxp: usize,
+        ks: Range<usize>,
+        s: &mut (Vec<u8>, Vec<u32>),
+        out: &mut [i32],
+    ) {
         let (q, btq) = s;
         quantise_row(row, self.w.bl, nbx, nbxp, self.kernel, q, btq);
-        quant_products(self.w, btq, nbx, nbxp, self.kernel, out);
+        quant_products(self.w, btq, nbx, nbxp, ks, self.kernel, out);
     }
     fn finish(&self, sums: &[i32], scores: &mut [f32]) {
         for (s, &v) in scores.iter_mut().zip(sums) {
             *s = self.w.score_from_sum(v);
         }
     }
-    fn add_row(&self, row: &mut [i32], pr: &[i32], by: usize, bh: usize, bw: usize, nbxp: usize) {
+    fn add_row(&self, row: &mut [i32], pr: &[i32], by: usize, bw: usize, nbxp: usize) {
         match self.kernel {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: every non-scalar x86-64 kernel runs only with AVX2 (`is_runnable`), and
             // `scores_i8_kernel` replaced a kernel this CPU cannot run by the scalar one.
             I8Kernel::Avx2Maddubs | I8Kernel::AvxVnni | I8Kernel::Avx512Vnni => unsafe {
-                super::kernels::avx2::add_window_row_i32(row, pr, by, bh, bw, nbxp)
+                super::kernels::avx2::add_window_row_i32(row, pr, by, bw, nbxp)
             },
-            _ => add_window_row(row, pr, by, bh, bw, nbxp),
+            _ => add_window_row(row, pr, by, bw, nbxp),
         }
     }
 }
 
+/// The window sums of window rows `[first, first + rows)` of a grid `nbx` blocks wide, made from
+/// its block rows `first, first + 1, …` as they are pushed: each row's products are computed once
+/// into a small buffer and added to the window rows they belong to.
+struct Stream<R: RowProducts> {
+    r: R,
+    nbx: usize,
+    nbxp: usize,
+    nwx: usize,
+    first: usize,
+    rows: usize,
+    /// The index of the next block row.
+    next: usize,
+    scratch: R::Scratch,
+    pr: Vec<R::Acc>,
+    sums: Vec<R::Acc>,
+}
+
+impl<R: RowProducts> Stream<R> {
+    /// Window rows `[first, first + rows)` of a grid `nbx` blocks wide (`nbx ≥ bw`).
+    fn new(r: R, nbx: usize, first: usize, rows: usize) -> Self {
+        let (_, bw, _, nk) = r.dims();
+        let nwx = nbx + 1 - bw;
+        // Columns padded with zero blocks to whole vectors of the widest kernel.
+        let nbxp = nbx.div_ceil(PAD_COLUMNS) * PAD_COLUMNS;
+        Self {
+            scratch: r.scratch(nbxp),
+            pr: vec![R::Acc::default(); nk * nbxp],
+            sums: vec![r.start(); rows * nwx],
+            r,
+            nbx,
+            nbxp,
+            nwx,
+            first,
+            rows,
+            next: first,
+        }
+    }
+
+    /// The block rows the window rows need: `[first, first + rows + bh − 1)`.
+    fn needed(&self) -> std::ops::Range<usize> {
+        let bh = self.r.dims().2;
+        self.first..self.first + self.rows + bh - 1
+    }
+
+    /// Add the next block row (`nbx` blocks).
+    fn push(&mut self, row: &[f32]) {
+        let (bl, bw, bh, _) = self.r.dims();
+        assert!(
+            row.len() >= self.nbx * bl,
+            "a block row of {} values, {} blocks of {bl} wanted",
+            row.len(),
+            self.nbx
+        );
+        let row_index = self.next;
+        self.next += 1;
+        // The window rows `wy = row_index − by` inside this stream take block row `by` of their
+        // window from this row: `by` in `[lo, hi]`, the positions `[lo·bw, (hi + 1)·bw)`.
+        let last_wy = self.first + self.rows - 1;
+        let lo = row_index.saturating_sub(last_wy);
+        let hi = (bh - 1).min(row_index.saturating_sub(self.first));
+        if row_index < self.first || lo > hi {
+            return;
+        }
+        self.r.products(
+            row,
+            self.nbx,
+            self.nbxp,
+            lo * bw..(hi + 1) * bw,
+            &mut self.scratch,
+            &mut self.pr,
+        );
+        // Window row wy = row_index − by gets block row `by` of its window from this block row.
+        for by in 0..bh {
+            let Some(wy) = row_index.checked_sub(by) else {
+                break;
+            };
+            if wy < self.first || wy >= self.first + self.rows {
+                continue;
+            }
+            let nwx = self.nwx;
+            self.r.add_row(
+                &mut self.sums[(wy - self.first) * nwx..][..nwx],
+                &self.pr,
+                by,
+                bw,
+                self.nbxp,
+            );
+        }
+    }
+
+    /// The scores (`rows · nwx` values).
+    fn finish(&self, scores: &mut [f32]) {
+        self.r.finish(&self.sums, scores);
+    }
+}
+
 /// Window scores of `grid` with one precision's products (see [`window_scores_with`]).
-fn scores_by_strips<R: RowProducts>(r: &R, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
-    let (bl, bw, bh, nk) = r.dims();
+fn scores_by_strips<R: RowProducts + Copy>(r: &R, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
+    let (bl, bw, bh, _) = r.dims();
     let (nbx, nby) = (grid.blocks_x(), grid.blocks_y());
     if nbx < bw || nby < bh || grid.block_len() != bl {
         return;
     }
     let (nwx, nwy) = (nbx + 1 - bw, nby + 1 - bh);
-    // Columns padded with zero blocks to whole vectors of the widest kernel.
-    let nbxp = nbx.div_ceil(PAD_COLUMNS) * PAD_COLUMNS;
-    // A strip of window rows walks the block rows it needs in ascending order, computes each row's
-    // products once into a small buffer and adds them to the window rows they belong to. Parallel
-    // strips recompute the bh − 1 block rows they share (≈10 % at 1080p) instead of holding every
-    // row's products (13 MB at 1080p); serially the whole grid is one strip. A window's sum has
-    // the same order in any split (block rows ascending, then block columns), so the same bits
-    // (on the 8-bit path the sums are integers: any order gives the same bits).
+    // A strip of window rows walks the block rows it needs in ascending order ([`Stream`]).
+    // Parallel strips recompute the bh − 1 block rows they share (≈10 % at 1080p) instead of
+    // holding every row's products (13 MB at 1080p); serially the whole grid is one strip. A
+    // window's sum has the same order in any split (block rows ascending, then block columns), so
+    // the same bits (on the 8-bit path the sums are integers: any order gives the same bits).
     let strip_work = |(s, chunk): (usize, &mut [f32])| {
-        let first = s * SCORE_STRIP_ROWS;
-        let rows = chunk.len() / nwx;
-        let mut scratch = r.scratch(nbxp);
-        let mut pr = vec![R::Acc::default(); nk * nbxp];
-        let mut sums = vec![r.start(); chunk.len()];
-        for row_index in first..first + rows + bh - 1 {
-            r.products(grid.block_row(row_index), nbx, nbxp, &mut scratch, &mut pr);
-            // Window row wy = row_index − by gets block row `by` of its window from this block row.
-            for by in 0..bh {
-                let Some(wy) = row_index.checked_sub(by) else {
-                    break;
-                };
-                if wy < first || wy >= first + rows {
-                    continue;
-                }
-                r.add_row(&mut sums[(wy - first) * nwx..][..nwx], &pr, by, bh, bw, nbxp);
-            }
+        let mut st = Stream::new(*r, nbx, s * SCORE_STRIP_ROWS, chunk.len() / nwx);
+        for row_index in st.needed() {
+            st.push(grid.block_row(row_index));
         }
-        r.finish(&sums, chunk);
+        st.finish(chunk);
     };
     let scores = &mut scores[..nwx * nwy];
     match exec {
@@ -748,6 +871,98 @@ fn scores_by_strips<R: RowProducts>(r: &R, grid: &BlockGrid, exec: Exec, scores:
             .for_each(strip_work),
         // One strip: nothing to share, so no block row is computed twice.
         Exec::Serial => strip_work((0, scores)),
+    }
+}
+
+/// Window scores of a block grid whose rows arrive one at a time, top to bottom (for example
+/// from [`crate::features::hog::approx_block_rows`], which makes no grid): the same scores, bit
+/// for bit, as [`window_scores`] / [`window_scores_i8`] of the whole grid, on one thread.
+pub struct RowScorer<'w> {
+    kind: RowScorerKind<'w>,
+    nby: usize,
+    pushed: usize,
+}
+
+enum RowScorerKind<'w> {
+    /// Fewer blocks than a window: no scores.
+    Empty,
+    F32(Stream<F32Rows<'w>>),
+    I8(Stream<I8Rows<'w>>),
+}
+
+impl<'w> RowScorer<'w> {
+    /// The f32 scores of an `nbx x nby`-block grid on kernel path `isa` ([`window_scores_with`]).
+    pub fn f32(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize) -> Self {
+        let r = F32Rows {
+            w,
+            kernel: f32_kernel(isa),
+        };
+        Self::with(r, nbx, nby, RowScorerKind::F32)
+    }
+
+    /// The 8-bit scores of an `nbx x nby`-block grid on kernel path `isa`
+    /// ([`window_scores_i8_with`]).
+    pub fn i8(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize) -> Self {
+        let kernel = I8Kernel::for_isa(isa);
+        let kernel = if kernel.is_runnable() {
+            kernel
+        } else {
+            I8Kernel::Scalar
+        };
+        Self::with(I8Rows { w, kernel }, nbx, nby, RowScorerKind::I8)
+    }
+
+    fn with<R: RowProducts>(
+        r: R,
+        nbx: usize,
+        nby: usize,
+        kind: impl FnOnce(Stream<R>) -> RowScorerKind<'w>,
+    ) -> Self {
+        let (_, bw, bh, _) = r.dims();
+        let kind = if nbx < bw || nby < bh {
+            RowScorerKind::Empty
+        } else {
+            kind(Stream::new(r, nbx, 0, nby + 1 - bh))
+        };
+        Self { kind, nby, pushed: 0 }
+    }
+
+    /// Windows across and down.
+    pub fn windows(&self) -> (usize, usize) {
+        match &self.kind {
+            RowScorerKind::Empty => (0, 0),
+            RowScorerKind::F32(s) => (s.nwx, s.rows),
+            RowScorerKind::I8(s) => (s.nwx, s.rows),
+        }
+    }
+
+    /// Add the grid's next block row (`nbx` blocks of the model's block length; panics on a
+    /// shorter row or a row past the `nby`-th, like slicing).
+    pub fn push(&mut self, row: &[f32]) {
+        assert!(
+            self.pushed < self.nby,
+            "more than the grid's {} block rows",
+            self.nby
+        );
+        self.pushed += 1;
+        match &mut self.kind {
+            RowScorerKind::Empty => {}
+            RowScorerKind::F32(s) => s.push(row),
+            RowScorerKind::I8(s) => s.push(row),
+        }
+    }
+
+    /// The scores of every window, row-major ([`RowScorer::windows`]), into `scores` (which must
+    /// hold that many values; extra values are untouched). Call after the last row.
+    pub fn finish(&self, scores: &mut [f32]) {
+        debug_assert_eq!(self.pushed, self.nby, "every block row pushed");
+        let (nwx, nwy) = self.windows();
+        let scores = &mut scores[..nwx * nwy];
+        match &self.kind {
+            RowScorerKind::Empty => {}
+            RowScorerKind::F32(s) => s.finish(scores),
+            RowScorerKind::I8(s) => s.finish(scores),
+        }
     }
 }
 
@@ -761,15 +976,17 @@ fn transpose_row(row: &[f32], bl: usize, nbx: usize, nbxp: usize, bt: &mut [f32]
 }
 
 /// The lengths every product kernel relies on, checked once per call (the kernels' `# Safety`
-/// sections): `nbxp` whole vectors, `nbx ≤ nbxp`, the transposed row `nd·nbxp`, the weights `nd`
-/// rows of `nkp` with `nkp` whole tiles past `nk`, the products `nk·nbxp`.
+/// sections, for the slices [`position_slices`] hands them): `nbxp` whole vectors, `nbx ≤ nbxp`,
+/// the transposed row `nd·nbxp`, the weights `nd` rows of `nkp` with the positions `ks` and the
+/// rest of their last tile inside a row (`ks.start + round_up(ks.len(), tile) ≤ nkp`), the
+/// products `ks.end·nbxp`.
 #[allow(clippy::too_many_arguments)]
 fn check_product_bounds(
     nbx: usize,
     nbxp: usize,
     nd: usize,
     bt_len: usize,
-    nk: usize,
+    ks: &Range<usize>,
     nkp: usize,
     w_len: usize,
     tile: usize,
@@ -779,35 +996,50 @@ fn check_product_bounds(
     assert!(
         nbxp.is_multiple_of(PAD_COLUMNS)
             && nbx <= nbxp
+            && ks.start <= ks.end
             && fits(nd, nbxp, bt_len)
             && fits(nd, nkp, w_len)
-            && round_up(nk, tile).is_some_and(|t| t <= nkp)
-            && fits(nk, nbxp, out_len),
-        "block products out of bounds: {nbx}/{nbxp} columns, {nd} rows ({bt_len}), {nk}/{nkp} positions \
+            && round_up(ks.len(), tile)
+                .and_then(|t| t.checked_add(ks.start))
+                .is_some_and(|t| t <= nkp)
+            && fits(ks.end, nbxp, out_len),
+        "block products out of bounds: {nbx}/{nbxp} columns, {nd} rows ({bt_len}), positions {ks:?} of {nkp} \
          (tile {tile}, weights {w_len}), products {out_len}"
     );
 }
 
-/// `out[k·nbxp + x] = Σ_i bt[i·nbxp + x] · wt[i·nkp + k]` for `k < nk`, `x < nbx` (SIMD kernels also
+/// The weights (`nd` rows of `nkp`, `w`) and products (`out`) seen from position `ks.start`: a
+/// kernel asked for `ks.len()` positions then computes exactly the positions `ks`.
+fn position_slices<'a, W, T>(
+    w: &'a [W],
+    out: &'a mut [T],
+    ks: &Range<usize>,
+    nbxp: usize,
+) -> (&'a [W], &'a mut [T]) {
+    (&w[ks.start..], &mut out[ks.start * nbxp..])
+}
+
+/// `out[k·nbxp + x] = Σ_i bt[i·nbxp + x] · wt[i·nkp + k]` for `k ∈ ks`, `x < nbx` (SIMD kernels also
 /// fill padding columns), fused multiply-adds in order `i = 0..bl` from 0.
-fn block_products(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, kernel: Isa, out: &mut [f32]) {
+fn block_products(
+    w: &ScoreWeights,
+    bt: &[f32],
+    nbx: usize,
+    nbxp: usize,
+    ks: Range<usize>,
+    kernel: Isa,
+    out: &mut [f32],
+) {
     let tile = match kernel {
         Isa::Avx512 => TILE_K_AVX512,
         _ => TILE_K_NARROW,
     };
-    check_product_bounds(
-        nbx,
-        nbxp,
-        w.bl,
-        bt.len(),
-        w.nk,
-        w.nkp,
-        w.wt.len(),
-        tile,
-        out.len(),
-    );
-    let (bl, nk, nkp) = (w.bl, w.nk, w.nkp);
-    let wt = &w.wt[..];
+    check_product_bounds(nbx, nbxp, w.bl, bt.len(), &ks, w.nkp, w.wt.len(), tile, out.len());
+    let (bl, nk, nkp) = (w.bl, ks.len(), w.nkp);
+    if nk == 0 {
+        return;
+    }
+    let (wt, out) = position_slices(&w.wt, out, &ks, nbxp);
     match kernel {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `kernel` is a path this CPU runs (`f32_kernel`): AVX2 and FMA; lengths checked
@@ -819,19 +1051,26 @@ fn block_products(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, kernel:
         #[cfg(target_arch = "aarch64")]
         // SAFETY: NEON is part of every aarch64 CPU; lengths checked above.
         Isa::Neon => unsafe { super::kernels::neon::products_f32(bt, wt, bl, nk, nkp, nbxp, out) },
-        _ => block_products_scalar(w, bt, nbx, nbxp, out),
+        _ => block_products_scalar(w, bt, nbx, nbxp, ks, out),
     }
 }
 
-/// The scalar reference.
-fn block_products_scalar(w: &ScoreWeights, bt: &[f32], nbx: usize, nbxp: usize, out: &mut [f32]) {
-    for k in 0..w.nk {
+/// The scalar reference (`out` seen from position `ks.start`).
+fn block_products_scalar(
+    w: &ScoreWeights,
+    bt: &[f32],
+    nbx: usize,
+    nbxp: usize,
+    ks: Range<usize>,
+    out: &mut [f32],
+) {
+    for (j, k) in ks.enumerate() {
         for x in 0..nbx {
             let mut acc = 0.0f32;
             for i in 0..w.bl {
                 acc = bt[i * nbxp + x].mul_add(w.wt[i * w.nkp + k], acc);
             }
-            out[k * nbxp + x] = acc;
+            out[j * nbxp + x] = acc;
         }
     }
 }
@@ -906,30 +1145,38 @@ fn quantise_row(
     }
 }
 
-/// `out[k·nbxp + x] = Σ_i q_b[i][x] · q_w[i][k]` for `k < nk`, `x < nbx` (SIMD kernels also fill
+/// `out[k·nbxp + x] = Σ_i q_b[i][x] · q_w[i][k]` for `k ∈ ks`, `x < nbx` (SIMD kernels also fill
 /// padding columns), exact in i32.
 fn quant_products(
     w: &ScoreWeightsI8,
     btq: &[u32],
     nbx: usize,
     nbxp: usize,
+    ks: Range<usize>,
     kernel: I8Kernel,
     out: &mut [i32],
 ) {
-    let (nd, wq) = (w.ng, &w.wq[..]);
+    let nd = w.ng;
     check_product_bounds(
         nbx,
         nbxp,
         nd,
         btq.len(),
-        w.nk,
+        &ks,
         w.nkp,
-        wq.len(),
+        w.wq.len(),
         kernel.tile(),
         out.len(),
     );
     debug_assert!(PAD_COLUMNS.is_multiple_of(kernel.lanes()));
-    let (nk, nkp) = (w.nk, w.nkp);
+    let (nk, nkp) = (ks.len(), w.nkp);
+    if nk == 0 {
+        return;
+    }
+    #[cfg(target_arch = "aarch64")]
+    // corr holds nkp values, so ks.start.. holds the positions the kernel reads (checked above).
+    let corr = &w.corr[ks.start..];
+    let (wq, out) = position_slices(&w.wq, out, &ks, nbxp);
     match kernel {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the kernel is runnable (`scores_i8_kernel`): AVX-512F, BW and VNNI; lengths
@@ -956,20 +1203,28 @@ fn quant_products(
         #[cfg(target_arch = "aarch64")]
         // SAFETY: runnable: the dot-product extension; lengths checked above, corr holds nkp ≥ nk.
         I8Kernel::NeonSdot => unsafe {
-            super::kernels::neon::products_bytes_sdot(btq, wq, &w.corr, nd, nk, nkp, nbxp, out)
+            super::kernels::neon::products_bytes_sdot(btq, wq, corr, nd, nk, nkp, nbxp, out)
         },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: NEON is part of every aarch64 CPU; lengths checked above, corr holds nkp ≥ nk.
         I8Kernel::NeonSmull => unsafe {
-            super::kernels::neon::products_bytes_smull(btq, wq, &w.corr, nd, nk, nkp, nbxp, out)
+            super::kernels::neon::products_bytes_smull(btq, wq, corr, nd, nk, nkp, nbxp, out)
         },
-        _ => quant_products_scalar(w, btq, nbx, nbxp, out),
+        _ => quant_products_scalar(w, btq, nbx, nbxp, ks, out),
     }
 }
 
-/// The scalar reference of the 8-bit path: plain i32 arithmetic over the byte layout.
-fn quant_products_scalar(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usize, out: &mut [i32]) {
-    for k in 0..w.nk {
+/// The scalar reference of the 8-bit path: plain i32 arithmetic over the byte layout (`out` seen
+/// from position `ks.start`).
+fn quant_products_scalar(
+    w: &ScoreWeightsI8,
+    btq: &[u32],
+    nbx: usize,
+    nbxp: usize,
+    ks: Range<usize>,
+    out: &mut [i32],
+) {
+    for (j, k) in ks.enumerate() {
         for x in 0..nbx {
             let mut acc = 0i32;
             for g in 0..w.ng {
@@ -979,7 +1234,7 @@ fn quant_products_scalar(w: &ScoreWeightsI8, btq: &[u32], nbx: usize, nbxp: usiz
                     acc += b[t] as i32 * q[t] as i8 as i32;
                 }
             }
-            out[k * nbxp + x] = acc;
+            out[j * nbxp + x] = acc;
         }
     }
 }
@@ -1074,6 +1329,45 @@ mod tests {
     }
 
     #[test]
+    fn kernel_paths_row_scorers_equal_the_grid_scores() {
+        // Rows pushed one at a time give the grid's scores bit for bit, f32 and 8-bit, on every
+        // path; a grid smaller than a window has none.
+        let (spec, grid, wts) = setup(300, 277);
+        let sw = ScoreWeights::new(&spec, &wts, 0.25).unwrap();
+        let sq = ScoreWeightsI8::new(&sw).unwrap();
+        let (nbx, nby) = (grid.blocks_x(), grid.blocks_y());
+        let (nwx, nwy) = grid.windows(&spec);
+        for isa in Isa::available() {
+            let mut want = vec![0.0f32; nwx * nwy];
+            let mut got = vec![0.0f32; nwx * nwy];
+            for i8 in [false, true] {
+                let mut r = if i8 {
+                    window_scores_i8_with(&sq, &grid, Exec::Parallel, isa, &mut want);
+                    RowScorer::i8(&sq, isa, nbx, nby)
+                } else {
+                    window_scores_with(&sw, &grid, Exec::Parallel, isa, &mut want);
+                    RowScorer::f32(&sw, isa, nbx, nby)
+                };
+                assert_eq!(r.windows(), (nwx, nwy));
+                for by in 0..nby {
+                    r.push(grid.block_row(by));
+                }
+                got.fill(f32::NAN);
+                r.finish(&mut got);
+                assert_eq!(bits(&got), bits(&want), "{isa} i8 {i8}");
+            }
+        }
+        let mut small = RowScorer::f32(&sw, Isa::Scalar, 7, 14);
+        assert_eq!(small.windows(), (0, 0));
+        for _ in 0..14 {
+            small.push(&[]);
+        }
+        let mut untouched = [1.5f32; 3];
+        small.finish(&mut untouched);
+        assert_eq!(untouched, [1.5; 3]);
+    }
+
+    #[test]
     fn kernel_paths_i8_products_are_exact_at_the_extremes() {
         // The largest pair sums an L2-normalised block can give, against weights ±127: two values
         // of 1/√2 side by side (q = 127 + 127: 254·127 = 32 258, the edge of AVX2's saturating
@@ -1104,7 +1398,7 @@ mod tests {
                 let (mut q, mut btq, mut out) =
                     (vec![0u8; 20 * 36], vec![0u32; sq.ng * 32], vec![0i32; sq.nk * 32]);
                 quantise_row(&row, 36, 20, 32, k, &mut q, &mut btq);
-                quant_products(&sq, &btq, 20, 32, k, &mut out);
+                quant_products(&sq, &btq, 20, 32, 0..sq.nk, k, &mut out);
                 (0..sq.nk)
                     .flat_map(|k| out[k * 32..][..20].to_vec())
                     .collect::<Vec<i32>>()
@@ -1204,8 +1498,9 @@ mod tests {
         (w[0], w[1], w[2], w[37]) = (-127.0 / 128.0, 0.25, -0.5 / 128.0, 1.5 / 128.0);
         let q = ScoreWeightsI8::new(&ScoreWeights::new(&spec, &w, 0.0).unwrap()).unwrap();
         assert_eq!(q.weight_scale(), 128.0);
+        // w[37] is value 1 of descriptor position 1 (bx 0, by 1): our position by·bw + bx = 7.
         assert_eq!(
-            [q.weight(0, 0), q.weight(1, 0), q.weight(2, 0), q.weight(1, 1)],
+            [q.weight(0, 0), q.weight(1, 0), q.weight(2, 0), q.weight(1, 7)],
             [-127, 32, -1, 2]
         );
         // One block of ones against those weights: (−127 + 32 − 1)·180 / (180·128).
@@ -1353,7 +1648,8 @@ mod tests {
                 "{bw} {bh} {bl}"
             );
         }
-        assert_eq!(gemm_sizes(7, 15, 36), Ok((105, 108, 36 * 108)));
+        // 105 positions: whole tiles of 12 (108), then one tile of the widest kernel (21) more.
+        assert_eq!(gemm_sizes(7, 15, 36), Ok((105, 129, 36 * 129)));
         // The crafted model of the report: a 32 x 6148914691236517216 window of 2 bins, whose
         // descriptor length wraps to 8. Refused here if the HOG spec lets it through.
         let opts = HogOptions {
@@ -1389,7 +1685,7 @@ mod tests {
         let sw = ScoreWeights::new(&spec, &wts, 0.0).unwrap();
         // A transposed row one column short of 16 padded columns.
         let (bt, mut out) = (vec![0.0f32; 36 * 16 - 1], vec![0.0f32; 105 * 16]);
-        block_products(&sw, &bt, 10, 16, crate::kernels::isa(), &mut out);
+        block_products(&sw, &bt, 10, 16, 0..sw.nk, crate::kernels::isa(), &mut out);
     }
 
     /// Block-product speed of every kernel on one block row of a 1080p level 0 (239 blocks),
@@ -1419,7 +1715,7 @@ mod tests {
             let (mut bt, mut out) = (vec![0.0f32; 36 * nbxp], vec![0.0f32; sw.nk * nbxp]);
             let us = time(&mut || {
                 transpose_row(&row, 36, nbx, nbxp, &mut bt);
-                block_products(&sw, &bt, nbx, nbxp, isa, &mut out);
+                block_products(&sw, &bt, nbx, nbxp, 0..sw.nk, isa, &mut out);
                 black_box(&out);
             });
             eprintln!("f32 {isa}: {us:.1} us per block row");
@@ -1432,7 +1728,7 @@ mod tests {
             );
             let us = time(&mut || {
                 quantise_row(&row, 36, nbx, nbxp, k, &mut q, &mut btq);
-                quant_products(&sq, &btq, nbx, nbxp, k, &mut out);
+                quant_products(&sq, &btq, nbx, nbxp, 0..sq.nk, k, &mut out);
                 black_box(&out);
             });
             eprintln!("i8 {k:?}: {us:.1} us per block row");

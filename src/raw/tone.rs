@@ -197,22 +197,28 @@ impl ToneTables {
         dst.par_chunks_mut(rows * w).enumerate().for_each(|(s, chunk)| {
             for (r, row) in chunk.chunks_mut(w).enumerate() {
                 let y = s * rows + r;
-                let t = [&self.tables[(y & 1) * 2], &self.tables[(y & 1) * 2 + 1]];
-                let last = [t[0].len() - 1, t[1].len() - 1];
+                let t = [&self.tables[(y & 1) * 2][..], &self.tables[(y & 1) * 2 + 1][..]];
                 match view {
-                    RawView::U8(v) => {
-                        for (x, (o, &p)) in row.iter_mut().zip(v.row(y)).enumerate() {
-                            *o = t[x & 1][(p as usize).min(last[x & 1])];
-                        }
-                    }
-                    RawView::U16(v) => {
-                        for (x, (o, &p)) in row.iter_mut().zip(v.row(y)).enumerate() {
-                            *o = t[x & 1][(p as usize).min(last[x & 1])];
-                        }
-                    }
+                    RawView::U8(v) => table_row(v.row(y), row, t),
+                    RawView::U16(v) => table_row(v.row(y), row, t),
                 }
             }
         });
+    }
+}
+
+/// One row of [`ToneTables::apply_into`]: even columns read `t[0]`, odd ones `t[1]` (values past
+/// a table's end read its last entry). Pairs of columns, so no per-pixel table select.
+fn table_row<T: Copy + Into<usize>>(src: &[T], dst: &mut [f32], t: [&[f32]; 2]) {
+    let last = [t[0].len() - 1, t[1].len() - 1];
+    let at = |k: usize, p: T| t[k][p.into().min(last[k])];
+    for (o, p) in dst.chunks_exact_mut(2).zip(src.chunks_exact(2)) {
+        o[0] = at(0, p[0]);
+        o[1] = at(1, p[1]);
+    }
+    if dst.len() % 2 == 1 {
+        let x = dst.len() - 1;
+        dst[x] = at(0, src[x]);
     }
 }
 

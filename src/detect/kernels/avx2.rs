@@ -183,15 +183,8 @@ pub(crate) unsafe fn quantise_values(row: &[f32], n: usize, q: &mut [u8]) {
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn add_window_row_f32(
-    row: &mut [f32],
-    pr: &[f32],
-    by: usize,
-    bh: usize,
-    bw: usize,
-    nbxp: usize,
-) {
-    super::add_window_row(row, pr, by, bh, bw, nbxp)
+pub(crate) unsafe fn add_window_row_f32(row: &mut [f32], pr: &[f32], by: usize, bw: usize, nbxp: usize) {
+    super::add_window_row(row, pr, by, bw, nbxp)
 }
 
 /// [`add_window_row_f32`] on the 8-bit path's exact i32 products.
@@ -199,15 +192,8 @@ pub(crate) unsafe fn add_window_row_f32(
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn add_window_row_i32(
-    row: &mut [i32],
-    pr: &[i32],
-    by: usize,
-    bh: usize,
-    bw: usize,
-    nbxp: usize,
-) {
-    super::add_window_row(row, pr, by, bh, bw, nbxp)
+pub(crate) unsafe fn add_window_row_i32(row: &mut [i32], pr: &[i32], by: usize, bw: usize, nbxp: usize) {
+    super::add_window_row(row, pr, by, bw, nbxp)
 }
 
 /// The pyramid's horizontal pass ([`crate::detect::pyramid`]) compiled for AVX2 + FMA: the same

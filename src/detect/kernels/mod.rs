@@ -66,20 +66,20 @@ pub fn quantise_block_value(v: f32) -> u8 {
     ((x + ROUND_MAGIC) - ROUND_MAGIC) as u8
 }
 
-/// `row[x] += pr[(bx·bh + by)·nbxp + bx + x]` for `bx = 0..bw` in that order and every `x`: the
-/// block products of block row `by` of the windows of one window row (the same order for every
-/// element, so f32 sums have the same bits whichever instruction set compiles it).
+/// `row[x] += pr[(by·bw + bx)·nbxp + bx + x]` for `bx = 0..bw` in that order and every `x`: the
+/// block products of block row `by` of the windows of one window row (positions numbered row by
+/// row, `crate::detect::score::ScoreWeights`; the same order for every element, so f32 sums have
+/// the same bits whichever instruction set compiles it).
 #[inline(always)]
 pub(crate) fn add_window_row<T: Copy + AddAssign>(
     row: &mut [T],
     pr: &[T],
     by: usize,
-    bh: usize,
     bw: usize,
     nbxp: usize,
 ) {
     for bx in 0..bw {
-        let src = &pr[(bx * bh + by) * nbxp + bx..][..row.len()];
+        let src = &pr[(by * bw + bx) * nbxp + bx..][..row.len()];
         for (v, &p) in row.iter_mut().zip(src) {
             *v += p;
         }

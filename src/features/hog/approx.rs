@@ -62,6 +62,11 @@
 //!   bits (tested). The register fill took the approximated levels from ≈ 50 to ≈ 32 ms of CPU per
 //!   1080p frame and fused multiply-adds (instead of a multiply, then an add) to ≈ 27; those
 //!   moved window scores by ≤ 2.9e-6 (docs/detection.md).
+//! - The detector does not build the approximated levels one after another: it sweeps the micro
+//!   grid once for several levels ([`approx_block_rows`]), filling each level's cell rows as soon
+//!   as the micro rows they need are read, and scores each block row as it is made, so neither
+//!   the micro grid (9.3 MB at 1080p, read once per level before) nor a level's block grid goes
+//!   through memory per level. Same bits as [`blocks_from_micro_grid`] (tested).
 
 use rayon::prelude::*;
 
@@ -268,7 +273,7 @@ pub(super) fn block_and_micro_grids_with(
             kernel.cells_strip(spec, &p, cy, row, cs)
         }
     };
-    blocks_in_bands_with(spec, ncx, ncy, exec, isa, blocks, scratch, fill);
+    blocks_in_bands_with(spec, ncx, ncy, BAND_BLOCK_ROWS, exec, isa, blocks, scratch, fill);
     // Micro rows below the last whole cell row.
     kernels::micro_rows(isa, &p, nb, size, ncy * per_cell, tail);
     Ok(())
@@ -476,7 +481,135 @@ pub(super) fn blocks_from_micro_grid_with(
     let kernel = FillKernel::for_isa(isa, nb);
     let scratch = |_| FillScratch::new();
     let fill = |cy: usize, row: &mut [f32], s: &mut FillScratch| kernel.fill(micro, &taps, cy, row, s);
-    blocks_in_bands_with(spec, ncx, ncy, exec, isa, dst, scratch, fill);
+    // Serially, one band: each cell row is filled once (bands share a cell row with the next,
+    // which in parallel is the price of independence; a cell row is the same bits either way).
+    let band_rows = match exec {
+        Exec::Parallel => BAND_BLOCK_ROWS,
+        Exec::Serial => ncy,
+    };
+    blocks_in_bands_with(spec, ncx, ncy, band_rows, exec, isa, dst, scratch, fill);
+}
+
+/// One level of [`approx_block_rows`]: the arguments `width`, `height` and `gain` of
+/// [`blocks_from_micro_grid`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ApproxLevel {
+    /// Level width in pixels.
+    pub width: usize,
+    /// Level height in pixels.
+    pub height: usize,
+    /// Cell gain (the detector passes `√(r_x r_y)`).
+    pub gain: f32,
+}
+
+/// Blocks across and down of a `width x height` level (what [`BlockGrid::blocks_x`] and
+/// [`BlockGrid::blocks_y`] of its grid are).
+pub fn block_grid_dims(width: usize, height: usize) -> (usize, usize) {
+    let n = |px: usize| (px / CELL_SIZE).saturating_sub(BLOCK_CELLS - 1);
+    (n(width), n(height))
+}
+
+/// Micro rows per step of [`approx_block_rows`]' sweep (16 pixel rows of the exact level: at
+/// 1080p, 8 micro rows of half floats are 138 KB, which stay in L2 while every level reads them).
+const SWEEP_MICRO_ROWS: usize = 8;
+
+/// One level's state in [`approx_block_rows`].
+struct Sweep {
+    taps: Taps,
+    ncx: usize,
+    ncy: usize,
+    /// The next cell row to fill (the one above it is in the ring).
+    next: usize,
+    /// Two cell rows: cell row `cy` in slot `cy % 2`.
+    ring: Vec<f32>,
+    /// The block row handed to the visitor.
+    row: Vec<f32>,
+    scratch: FillScratch,
+}
+
+/// The block rows of `levels`, each approximated from `micro` exactly as
+/// [`blocks_from_micro_grid`] computes its grid (the same bits), handed to `visit(level, by,
+/// row)`: for each level its rows `by = 0, 1, …` in order (levels interleaved), `row` holding
+/// the level's [`block_grid_dims`] `.0` blocks. No block grid is made, so a caller can consume
+/// (score) each row while it is in cache.
+///
+/// The levels go down the micro grid together: each step fills, for every level, the cell rows
+/// whose micro rows all lie in the first 8·k rows (16·k pixel rows of the exact level). A micro row is then read
+/// by all the levels while it is in cache, instead of the whole grid (9.3 MB at 1080p) once per
+/// level from memory; a cell row is filled once (no bands). Serial, on the calling thread: a
+/// caller splits its levels between threads (the results do not depend on the split).
+pub fn approx_block_rows(
+    spec: &HogSpec,
+    micro: &MicroGrid,
+    levels: &[ApproxLevel],
+    visit: impl FnMut(usize, usize, &[f32]),
+) {
+    approx_block_rows_with(crate::kernels::isa(), spec, micro, levels, visit)
+}
+
+/// [`approx_block_rows`] with the `isa` build of the kernels.
+pub(super) fn approx_block_rows_with(
+    isa: Isa,
+    spec: &HogSpec,
+    micro: &MicroGrid,
+    levels: &[ApproxLevel],
+    mut visit: impl FnMut(usize, usize, &[f32]),
+) {
+    let nb = spec.nbins();
+    // As `blocks_from_micro_grid_with`: an empty grid or one pooled with another bin count has
+    // no blocks of this spec.
+    debug_assert_eq!(micro.nbins, nb);
+    if micro.nmx == 0 || micro.nmy == 0 || micro.nbins != nb {
+        return;
+    }
+    let kernel = FillKernel::for_isa(isa, nb);
+    let cl = cell_len(nb);
+    let bl = spec.block_len();
+    let mut sweeps: Vec<Option<Sweep>> = levels
+        .iter()
+        .map(|lv| {
+            let (ncx, ncy) = (lv.width / CELL_SIZE, lv.height / CELL_SIZE);
+            let (nbx, _) = block_grid_dims(lv.width, lv.height);
+            if ncx < BLOCK_CELLS || ncy < BLOCK_CELLS || bl == 0 {
+                return None;
+            }
+            let mut sw = Sweep {
+                taps: Taps::new(spec, micro, lv.width, lv.height, lv.gain),
+                ncx,
+                ncy,
+                next: 1,
+                ring: vec![0.0; 2 * ncx * cl],
+                row: vec![0.0; nbx * bl],
+                scratch: FillScratch::new(),
+            };
+            kernel.fill(micro, &sw.taps, 0, &mut sw.ring[..ncx * cl], &mut sw.scratch);
+            Some(sw)
+        })
+        .collect();
+    let mut end = 0usize;
+    loop {
+        end = end.saturating_add(SWEEP_MICRO_ROWS);
+        let last = end >= micro.nmy;
+        if last {
+            // Cell rows below the last micro row (no taps: all +0) come with the last step.
+            end = usize::MAX;
+        }
+        for (j, sw) in sweeps.iter_mut().enumerate() {
+            let Some(sw) = sw else { continue };
+            while sw.next < sw.ncy && sw.taps.rows[sw.next].1 <= end {
+                let cy = sw.next;
+                let (a, b) = sw.ring.split_at_mut(sw.ncx * cl);
+                let (top, bottom) = if cy % 2 == 1 { (a, b) } else { (b, a) };
+                kernel.fill(micro, &sw.taps, cy, bottom, &mut sw.scratch);
+                kernels::block_row(isa, spec, sw.ncx, top, bottom, &mut sw.row);
+                visit(j, cy - 1, &sw.row);
+                sw.next += 1;
+            }
+        }
+        if last {
+            return;
+        }
+    }
 }
 
 /// The micro rows (or columns) `[lo, hi)` landing in each of `ncy` cell rows (columns)
@@ -800,6 +933,56 @@ mod tests {
         let mut gc = BlockGrid::empty();
         pool.install(|| blocks_from_micro_grid(&s, &a, 131, 171, 0.7, Exec::Parallel, &mut gc));
         assert_eq!(ga, gc);
+    }
+
+    #[test]
+    fn kernel_paths_swept_block_rows_equal_each_level_s_grid() {
+        // Levels interleaved in one sweep (sizes from 0.95 to a level without blocks) give, row
+        // by row and in order, the grids each level gets alone, on every path.
+        let s = spec();
+        let img = plane(200, 260);
+        let m = micro(&img, MICRO_CELL, Exec::Serial);
+        let levels: Vec<ApproxLevel> = [
+            (190, 247, 0.95),
+            (131, 171, 0.7),
+            (100, 130, 0.5),
+            (41, 60, 0.3),
+            (12, 9, 0.1),
+        ]
+        .iter()
+        .map(|&(width, height, gain)| ApproxLevel { width, height, gain })
+        .collect();
+        for isa in Isa::available() {
+            let mut rows: Vec<Vec<f32>> = vec![Vec::new(); levels.len()];
+            let mut next = vec![0usize; levels.len()];
+            approx_block_rows_with(isa, &s, &m, &levels, |j, by, row| {
+                assert_eq!(by, next[j], "level {j}: rows in order");
+                next[j] += 1;
+                rows[j].extend_from_slice(row);
+            });
+            for (j, lv) in levels.iter().enumerate() {
+                let mut g = BlockGrid::empty();
+                blocks_from_micro_grid_with(
+                    isa,
+                    &s,
+                    &m,
+                    lv.width,
+                    lv.height,
+                    lv.gain,
+                    Exec::Parallel,
+                    &mut g,
+                );
+                assert_eq!(block_grid_dims(lv.width, lv.height), (g.blocks_x(), g.blocks_y()));
+                assert_eq!(next[j], g.blocks_y(), "{isa} level {j}");
+                let same = rows[j].len() == g.data.len()
+                    && rows[j]
+                        .iter()
+                        .zip(&g.data)
+                        .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "{isa} level {j}");
+            }
+            assert!(next[0] > 16 && next[4] == 0);
+        }
     }
 
     /// A spec with `nbins` bins.

@@ -146,18 +146,24 @@ pub(super) fn blocks_in_bands(
     let (ncx, ncy) = (p.width / CELL_SIZE, p.height / CELL_SIZE);
     let scratch = |_| CellScratch::new(p.width);
     let fill = |cy: usize, row: &mut [f32], cs: &mut CellScratch| kernel.cells_strip(spec, p, cy, row, cs);
-    blocks_in_bands_with(spec, ncx, ncy, exec, isa, dst, scratch, fill);
+    // Serially, one band: no cell row is computed twice.
+    let band_rows = match exec {
+        Exec::Parallel => BAND_BLOCK_ROWS,
+        Exec::Serial => ncy,
+    };
+    blocks_in_bands_with(spec, ncx, ncy, band_rows, exec, isa, dst, scratch, fill);
 }
 
-/// The blocks of `ncx x ncy` cells in bands of [`BAND_BLOCK_ROWS`] block rows: `fill(cy, row,
+/// The blocks of `ncx x ncy` cells in bands of `band_rows` (≥ 1) block rows: `fill(cy, row,
 /// scratch)` writes cell row `cy` into `row`, each band keeps two cell rows in a ring. Band `b`
-/// fills cell rows `16b ..= 16b + 16` (the last band up to `ncy − 1`) with its own
-/// `scratch(b)`. Block rows are assembled with the `isa` build of [`block_row`].
+/// fills cell rows `band_rows·b ..= band_rows·(b + 1)` (the last band up to `ncy − 1`) with its
+/// own `scratch(b)`. Block rows are assembled with the `isa` build of [`block_row`].
 #[allow(clippy::too_many_arguments)]
 pub(super) fn blocks_in_bands_with<S>(
     spec: &HogSpec,
     ncx: usize,
     ncy: usize,
+    band_rows: usize,
     exec: Exec,
     isa: Isa,
     dst: &mut BlockGrid,
@@ -168,8 +174,9 @@ pub(super) fn blocks_in_bands_with<S>(
     let Some(row_size) = block_grid_shape(spec, ncx, ncy, dst) else {
         return;
     };
+    let band_rows = band_rows.max(1);
     let band_work = |(b, band): (usize, &mut [f32])| {
-        let by0 = b * BAND_BLOCK_ROWS;
+        let by0 = b * band_rows;
         let mut cs = scratch(b);
         let mut ring = vec![0.0f32; 2 * row_len];
         fill(by0, &mut ring[..row_len], &mut cs);
@@ -180,7 +187,7 @@ pub(super) fn blocks_in_bands_with<S>(
             kernels::block_row(isa, spec, ncx, top, bottom, out);
         }
     };
-    let band = BAND_BLOCK_ROWS * row_size;
+    let band = band_rows * row_size;
     match exec {
         Exec::Parallel => dst.data.par_chunks_mut(band).enumerate().for_each(band_work),
         Exec::Serial => dst.data.chunks_mut(band).enumerate().for_each(band_work),

@@ -178,14 +178,20 @@ fn kernel_paths_cells_and_blocks_equal_the_scalar_oracle() {
                 block_rows_with(&spec, &want, Exec::Parallel, isa, &mut bg);
                 assert!(same_bits(&bg.data, &bw.data), "{isa} nbins {nbins}");
             }
-            // Cells and blocks fused in bands (two bands here), every cell kernel and path.
+            // Cells and blocks fused in bands (two bands here in parallel, one serially), every
+            // cell kernel and path.
             assert!(bw.nby > BAND_BLOCK_ROWS);
             for k in CellKernel::available(&spec) {
                 for isa in Isa::available() {
-                    let mut bf = BlockGrid::empty();
-                    blocks_in_bands(&spec, &planes, Exec::Parallel, k, isa, &mut bf);
-                    assert_eq!((bf.nbx, bf.nby), (bw.nbx, bw.nby));
-                    assert!(same_bits(&bf.data, &bw.data), "bands {k:?} {isa} nbins {nbins}");
+                    for exec in [Exec::Parallel, Exec::Serial] {
+                        let mut bf = BlockGrid::empty();
+                        blocks_in_bands(&spec, &planes, exec, k, isa, &mut bf);
+                        assert_eq!((bf.nbx, bf.nby), (bw.nbx, bw.nby));
+                        assert!(
+                            same_bits(&bf.data, &bw.data),
+                            "bands {k:?} {isa} {exec:?} nbins {nbins}"
+                        );
+                    }
                 }
             }
             // The kernel of each path is the one documented in `kernels`.
