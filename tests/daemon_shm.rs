@@ -4,7 +4,7 @@
 //! publisher on a running daemon's service is refused while `mosaicd listen` keeps working, and a
 //! subscriber gets a whole replay, final stats included, however late it polls while the daemon ends.
 
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufReader, Read};
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStderr, Command, Stdio};
@@ -35,41 +35,35 @@ fn config(dir: &Path, root: &Path, prefix: &str, camera: &str, frames: &str) -> 
 }
 
 /// `mosaicd listen` on `root` for the camera, with `until` (when to stop), once subscribed.
-fn listen(root: &Path, prefix: &str, camera: &str, until: &[&str]) -> std::process::Child {
-    let root = root.to_str().unwrap();
-    let mut args = vec![
-        "--camera", camera, "--prefix", prefix, "--root", root, "--buffer", "256",
-    ];
-    args.extend_from_slice(until);
-    common::spawn_listener(BIN, &args)
+fn listen(root: &Path, prefix: &str, camera: &str, until: &[&str]) -> Child {
+    listen_with_stderr(root, prefix, camera, until).0
 }
 
-/// As [`listen`], keeping the listener's stderr (what it printed after "subscribed" is read from
-/// the returned reader).
-fn listen_keeping_stderr(
+/// As [`listen`], with the reader of the listener's stderr after its "subscribed" line.
+fn listen_with_stderr(
     root: &Path,
     prefix: &str,
     camera: &str,
     until: &[&str],
 ) -> (Child, BufReader<ChildStderr>) {
-    let mut listener = Command::new(BIN)
-        .args([
-            "listen", "--camera", camera, "--prefix", prefix, "--buffer", "256", "--root",
-        ])
-        .arg(root)
-        .args(until)
+    let root = root.to_str().unwrap();
+    let mut args = vec![
+        "--camera", camera, "--prefix", prefix, "--root", root, "--buffer", "256",
+    ];
+    args.extend_from_slice(until);
+    common::spawn_listener_with_stderr(BIN, &args)
+}
+
+/// `mosaicd run --config cfg` in the background (stderr piped).
+fn spawn_daemon(cfg: &Path) -> Child {
+    Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(cfg)
         .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
+        .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
-    let mut err = BufReader::new(listener.stderr.take().unwrap());
-    let mut line = String::new();
-    while err.read_line(&mut line).unwrap() > 0 && !line.contains("subscribed") {
-        line.clear();
-    }
-    assert!(line.contains("subscribed"), "listener did not start: {line}");
-    (listener, err)
+        .unwrap()
 }
 
 /// The detections messages and final stats messages in a listener's output.
@@ -231,14 +225,7 @@ fn only_the_daemon_publishes_a_second_publisher_is_refused() {
     let root = dir.path().join("iox");
     let (prefix, camera) = (unique("pp"), unique("pc"));
     let cfg = config(dir.path(), &root, &prefix, &camera, "live = true\nfps = 50");
-    let mut daemon = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut daemon = spawn_daemon(&cfg);
     // Once a listener receives, the daemon's publishers exist.
     let listener = listen(&root, &prefix, &camera, &["--count", "3", "--timeout-s", "30"]);
     let lout = listener.wait_with_output().unwrap();
@@ -413,18 +400,11 @@ fn a_subscriber_that_polls_only_after_the_replay_still_receives_all_of_it() {
     let (prefix, camera) = (unique("lp"), unique("lc"));
     let cfg = config(dir.path(), &root, &prefix, &camera, "frames = 20");
     let (late, mut late_err) =
-        listen_keeping_stderr(&root, &prefix, &camera, &["--until-final", "--timeout-s", "20"]);
+        listen_with_stderr(&root, &prefix, &camera, &["--until-final", "--timeout-s", "20"]);
     signal(&late, libc::SIGSTOP);
     // A second listener that polls all along tells when the daemon has sent its final stats.
     let prompt = listen(&root, &prefix, &camera, &["--until-final", "--timeout-s", "60"]);
-    let mut daemon = Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&cfg)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut daemon = spawn_daemon(&cfg);
     let pout = prompt.wait_with_output().unwrap();
     assert!(pout.status.success(), "the prompt listener failed");
     assert_eq!(
