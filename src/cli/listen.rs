@@ -6,8 +6,8 @@
 //! `--descriptors` — with the same settings as the
 //! daemon. It stops after `--count`
 //! detections, after the daemon's final stats with `--until-final`, after `--timeout-s`, or on
-//! SIGINT/SIGTERM (not on other signals: a listener stopped with SIGSTOP or Ctrl-Z goes on when
-//! continued). A daemon keeps its publishers after its final stats until its subscribers are gone
+//! SIGINT/SIGTERM. Other signals iceoryx2 catches (SIGCONT when a listener stopped with SIGSTOP
+//! is continued, SIGTSTP, SIGUSR1, ...) do not stop it. A daemon keeps its publishers after its final stats until its subscribers are gone
 //! (bounded, `pipeline::sinks::iceoryx::FINAL_LINGER`), so a listener subscribed while it ran gets
 //! every message up to the final stats even if it polled only after the last frame.
 
