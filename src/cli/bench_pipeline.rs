@@ -110,11 +110,14 @@ fn one_run(a: &BenchPipelineArgs, camera: &str, stage: &Stage) -> anyhow::Result
         Box::new(src),
         pool,
         Arc::new(ReplayClock::default()),
-        vec![IceoryxSink::factory(
+        // No linger at the end: the second run's subscriber never reads, and the timed run
+        // would include the wait for it.
+        vec![IceoryxSink::factory_with_linger(
             camera,
             &publish,
             stage.spec().keypoints,
             stage.spec().keypoint_descriptors,
+            std::time::Duration::ZERO,
         )],
         frames,
     )?;

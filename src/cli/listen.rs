@@ -6,12 +6,17 @@
 //! `--descriptors` — with the same settings as the
 //! daemon. It stops after `--count`
 //! detections, after the daemon's final stats with `--until-final`, after `--timeout-s`, or on
-//! SIGINT/SIGTERM.
+//! SIGINT/SIGTERM. Other signals iceoryx2 catches (SIGCONT when a listener stopped with SIGSTOP
+//! is continued, SIGTSTP, SIGUSR1, ...) do not stop it. A daemon keeps its publishers after its final stats until its subscribers are gone
+//! (bounded, `pipeline::sinks::iceoryx::FINAL_LINGER`), so a listener subscribed while it ran gets
+//! every message up to the final stats even if it polled only after the last frame.
 
 use std::io::Write;
 use std::time::{Duration, Instant};
 
 use serde_json::json;
+
+use iceoryx2::node::NodeWaitFailure;
 
 use mosaicd::config::Iox2Root;
 use mosaicd::publish::messages::{DescriptorsMsg, DetectionsMsg, KeypointsMsg};
@@ -183,7 +188,19 @@ pub fn run(args: ListenArgs) -> anyhow::Result<()> {
         }
         Ok(())
     };
-    while node.wait(CYCLE).is_ok() {
+    loop {
+        match node.wait(CYCLE) {
+            Ok(()) => {}
+            Err(NodeWaitFailure::TerminationRequest) => break,
+            // iceoryx2 catches every non-fatal signal, and any of them (SIGCONT when a stopped
+            // listener goes on, SIGTSTP, SIGUSR1, ...) cuts the sleep short with the same error as
+            // SIGINT. Only SIGINT and SIGTERM stop the listener: a wait of zero says which it was.
+            Err(_) => {
+                if node.wait(Duration::ZERO).is_err() {
+                    break;
+                }
+            }
+        }
         drain_detections(&mut out, &mut received)?;
         if let Some((_, sub)) = &grad {
             while let Some(s) = sub.receive()? {

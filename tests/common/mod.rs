@@ -50,6 +50,15 @@ pub fn max_abs_diff(a: &Image<f32>, b: &Image<f32>) -> f32 {
 /// Start `mosaicd listen` with `args` (stdout piped) and return once it says it is subscribed, so a
 /// daemon started afterwards cannot publish before the subscriber exists.
 pub fn spawn_listener(bin: &str, args: &[&str]) -> std::process::Child {
+    spawn_listener_with_stderr(bin, args).0
+}
+
+/// As [`spawn_listener`], with the reader of the listener's stderr after its "subscribed" line
+/// (dropping it closes the pipe).
+pub fn spawn_listener_with_stderr(
+    bin: &str,
+    args: &[&str],
+) -> (std::process::Child, std::io::BufReader<std::process::ChildStderr>) {
     use std::io::{BufRead, BufReader};
     let mut listener = std::process::Command::new(bin)
         .arg("listen")
@@ -66,7 +75,7 @@ pub fn spawn_listener(bin: &str, args: &[&str]) -> std::process::Child {
     }
     assert!(line.contains("subscribed"), "listener did not start: {line}");
     assert_says_what_it_subscribed_to(&line, args);
-    listener
+    (listener, err)
 }
 
 /// A subscriber's "subscribed to …/{…}" line names every service its flags asked for.
