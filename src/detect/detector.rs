@@ -48,13 +48,14 @@ use super::nms::{greedy_nms, group_rectangles};
 use super::pyramid::{resize_then, PyramidError};
 use super::score::{
     window_scores, window_scores_i8, RowScorer, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8,
+    ScorerBuffers,
 };
 use super::Detection;
 use crate::features::hog::{
     approx_block_rows, block_and_micro_grids_from_gamma_planes, block_grid_dims,
     block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_in_place,
     gamma_plane_into, micro_grid_from_gamma_planes, ApproxLevel, BlockGrid, Exec, GammaPlanes, HogError,
-    HogInput, HogSpec, HogTimings, MicroGrid, CELL_SIZE, MICRO_CELL,
+    HogInput, HogSpec, HogTimings, MicroGrid, SweepBuffers, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::{Image, ImageView};
 
@@ -317,8 +318,29 @@ pub struct Detector {
     score_weights_i8: Option<ScoreWeightsI8>,
     /// Level buffers reused across levels and frames.
     pool: ScratchPool,
+    /// Buffers of the approximated levels' lanes (sweep rings and rows, window sums and products),
+    /// reused the same way.
+    lane_pool: Pool<LaneScratch>,
     /// Planes of magnified frames (`upsample > 1`), reused the same way.
     source_pool: Pool<Vec<Image<f32>>>,
+}
+
+/// The buffers of one lane of approximated levels: the sweep's, one scorer's per level, the scores.
+#[derive(Debug, Default)]
+struct LaneScratch {
+    sweep: SweepBuffers,
+    scorers: Vec<ScorerBuffers>,
+    scores: Vec<f32>,
+}
+
+impl Pool<LaneScratch> {
+    /// Lanes held: one per worker for each of two frames (or groups) in flight.
+    fn capacity() -> usize {
+        2 * rayon::current_num_threads()
+    }
+    fn put(&self, s: LaneScratch) {
+        self.put_bounded(s, Self::capacity())
+    }
 }
 
 /// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
@@ -554,6 +576,7 @@ impl Detector {
             score_weights,
             score_weights_i8,
             pool: ScratchPool::default(),
+            lane_pool: Pool::default(),
             source_pool: Pool::default(),
         })
     }
@@ -871,21 +894,24 @@ impl Detector {
                     gain: approx_gain(head, &levels[i]),
                 })
                 .collect();
+            let mut held = self.lane_pool.take();
+            held.scorers.resize_with(geoms.len(), ScorerBuffers::default);
             let mut scorers: Vec<RowScorer> = geoms
                 .iter()
-                .map(|g| {
+                .zip(held.scorers.iter_mut())
+                .map(|(g, b)| {
                     let (nbx, nby) = block_grid_dims(g.width, g.height);
-                    self.row_scorer(nbx, nby)
+                    self.row_scorer(nbx, nby, std::mem::take(b))
                 })
                 .collect();
             let t = Instant::now();
             let mut svm = Duration::ZERO;
-            approx_block_rows(&self.hog, micro, &geoms, |j, _, row| {
+            approx_block_rows(&self.hog, micro, &geoms, &mut held.sweep, |j, _, row| {
                 let t = Instant::now();
                 scorers[j].push(row);
                 svm += t.elapsed();
             });
-            let mut scores = Vec::new();
+            let mut scores = std::mem::take(&mut held.scores);
             let mut out = Vec::with_capacity(mine.len());
             for (k, (&i, scorer)) in mine.iter().zip(&scorers).enumerate() {
                 let t1 = Instant::now();
@@ -905,6 +931,11 @@ impl Detector {
                 }
                 out.push((i, self.detections_in(&scores, nwx, nwy, &levels[i]), s));
             }
+            for (b, scorer) in held.scorers.iter_mut().zip(scorers) {
+                *b = scorer.into_buffers();
+            }
+            held.scores = scores;
+            self.lane_pool.put(held);
             out
         };
         let mut rest: Vec<(usize, Vec<Detection>, DetectStats)> = match exec {
@@ -1034,12 +1065,12 @@ impl Detector {
     }
 
     /// A [`RowScorer`] of an `nbx x nby`-block grid with the configured precision (the same
-    /// scores as [`Self::window_scores`]).
-    fn row_scorer(&self, nbx: usize, nby: usize) -> RowScorer<'_> {
+    /// scores as [`Self::window_scores`]), in the allocations of `b`.
+    fn row_scorer(&self, nbx: usize, nby: usize, b: ScorerBuffers) -> RowScorer<'_> {
         let isa = crate::kernels::isa();
         match &self.score_weights_i8 {
-            Some(q) => RowScorer::i8(q, isa, nbx, nby),
-            None => RowScorer::f32(&self.score_weights, isa, nbx, nby),
+            Some(q) => RowScorer::i8_in(q, isa, nbx, nby, b),
+            None => RowScorer::f32_in(&self.score_weights, isa, nbx, nby, b),
         }
     }
 
@@ -1406,6 +1437,12 @@ mod tests {
                 let (par, st) = pool.install(|| d.detect(&inp)).unwrap();
                 assert_eq!(par, serial, "{threads} threads");
                 assert!(st.levels > 6 && par.len() == st.windows);
+                // Lane buffers are kept for the next frame, a bounded number of them.
+                let held = d.lane_pool.free.lock().unwrap().len();
+                assert!(
+                    (1..=2 * threads.max(2)).contains(&held),
+                    "{held} lane buffers held"
+                );
             }
         }
     }

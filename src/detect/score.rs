@@ -626,13 +626,13 @@ trait RowProducts: Sync {
     /// Element of the products and window sums (f32, or exact i32).
     type Acc: Copy + Default + AddAssign + Send;
     /// Per-strip buffers of the transposed block row.
-    type Scratch;
+    type Scratch: Default;
     /// Block length, blocks per window (x, y), block positions per window.
     fn dims(&self) -> (usize, usize, usize, usize);
     /// What a window sum starts from.
     fn start(&self) -> Self::Acc;
-    /// Fresh (zeroed) buffers for a grid `nbxp` columns wide.
-    fn scratch(&self, nbxp: usize) -> Self::Scratch;
+    /// `s` made the zeroed buffers of a grid `nbxp` columns wide (its allocation reused).
+    fn reset_scratch(&self, nbxp: usize, s: &mut Self::Scratch);
     /// `out[k·nbxp + x]` = product of block `x < nbx` of `row` with the weights of position `k`,
     /// for the positions `k ∈ ks` (the others are left as they are).
     fn products(
@@ -666,8 +666,9 @@ impl RowProducts for F32Rows<'_> {
     fn start(&self) -> f32 {
         self.w.bias
     }
-    fn scratch(&self, nbxp: usize) -> Vec<f32> {
-        vec![0.0; self.w.bl * nbxp]
+    fn reset_scratch(&self, nbxp: usize, bt: &mut Vec<f32>) {
+        bt.clear();
+        bt.resize(self.w.bl * nbxp, 0.0);
     }
     fn products(
         &self,
@@ -713,8 +714,11 @@ impl RowProducts for I8Rows<'_> {
     fn start(&self) -> i32 {
         0
     }
-    fn scratch(&self, nbxp: usize) -> (Vec<u8>, Vec<u32>) {
-        (vec![0; 4 * self.w.ng * nbxp], vec![0; self.w.ng * nbxp])
+    fn reset_scratch(&self, nbxp: usize, (q, btq): &mut (Vec<u8>, Vec<u32>)) {
+        q.clear();
+        q.resize(4 * self.w.ng * nbxp, 0);
+        btq.clear();
+        btq.resize(self.w.ng * nbxp, 0);
     }
     fn products(
         &self,
@@ -767,14 +771,25 @@ struct Stream<R: RowProducts> {
 impl<R: RowProducts> Stream<R> {
     /// Window rows `[first, first + rows)` of a grid `nbx` blocks wide (`nbx ≥ bw`).
     fn new(r: R, nbx: usize, first: usize, rows: usize) -> Self {
+        Self::with_buffers(r, nbx, first, rows, Default::default())
+    }
+
+    /// [`Stream::new`] in the allocations `b` (whatever they hold).
+    fn with_buffers(r: R, nbx: usize, first: usize, rows: usize, b: StreamBuffers<R>) -> Self {
         let (_, bw, _, nk) = r.dims();
         let nwx = nbx + 1 - bw;
         // Columns padded with zero blocks to whole vectors of the widest kernel.
         let nbxp = nbx.div_ceil(PAD_COLUMNS) * PAD_COLUMNS;
+        let (mut scratch, mut pr, mut sums) = b;
+        r.reset_scratch(nbxp, &mut scratch);
+        // Products are written before they are read (`push`); only the sums start from a value.
+        pr.resize(nk * nbxp, R::Acc::default());
+        sums.clear();
+        sums.resize(rows * nwx, r.start());
         Self {
-            scratch: r.scratch(nbxp),
-            pr: vec![R::Acc::default(); nk * nbxp],
-            sums: vec![r.start(); rows * nwx],
+            scratch,
+            pr,
+            sums,
             r,
             nbx,
             nbxp,
@@ -841,7 +856,19 @@ impl<R: RowProducts> Stream<R> {
     fn finish(&self, scores: &mut [f32]) {
         self.r.finish(&self.sums, scores);
     }
+
+    /// Its allocations, for the next stream.
+    fn into_buffers(self) -> StreamBuffers<R> {
+        (self.scratch, self.pr, self.sums)
+    }
 }
+
+/// The allocations of a [`Stream`]: scratch, products, window sums.
+type StreamBuffers<R> = (
+    <R as RowProducts>::Scratch,
+    Vec<<R as RowProducts>::Acc>,
+    Vec<<R as RowProducts>::Acc>,
+);
 
 /// Window scores of `grid` with one precision's products (see [`window_scores_with`]).
 fn scores_by_strips<R: RowProducts + Copy>(r: &R, grid: &BlockGrid, exec: Exec, scores: &mut [f32]) {
@@ -890,41 +917,72 @@ enum RowScorerKind<'w> {
     I8(Stream<I8Rows<'w>>),
 }
 
+/// The allocations of a [`RowScorer`] ([`RowScorer::into_buffers`]) for the next one: a caller
+/// that scores many levels and frames keeps them instead of allocating (and zeroing) products
+/// and window sums for each.
+#[derive(Debug, Default)]
+pub struct ScorerBuffers {
+    f32: StreamBuffers<F32Rows<'static>>,
+    i8: StreamBuffers<I8Rows<'static>>,
+}
+
 impl<'w> RowScorer<'w> {
     /// The f32 scores of an `nbx x nby`-block grid on kernel path `isa` ([`window_scores_with`]).
     pub fn f32(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize) -> Self {
+        Self::f32_in(w, isa, nbx, nby, ScorerBuffers::default())
+    }
+
+    /// [`RowScorer::f32`] in the allocations of `b`.
+    pub fn f32_in(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
         let r = F32Rows {
             w,
             kernel: f32_kernel(isa),
         };
-        Self::with(r, nbx, nby, RowScorerKind::F32)
+        Self::with(r, nbx, nby, b.f32, RowScorerKind::F32)
     }
 
     /// The 8-bit scores of an `nbx x nby`-block grid on kernel path `isa`
     /// ([`window_scores_i8_with`]).
     pub fn i8(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize) -> Self {
+        Self::i8_in(w, isa, nbx, nby, ScorerBuffers::default())
+    }
+
+    /// [`RowScorer::i8`] in the allocations of `b`.
+    pub fn i8_in(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
         let kernel = I8Kernel::for_isa(isa);
         let kernel = if kernel.is_runnable() {
             kernel
         } else {
             I8Kernel::Scalar
         };
-        Self::with(I8Rows { w, kernel }, nbx, nby, RowScorerKind::I8)
+        Self::with(I8Rows { w, kernel }, nbx, nby, b.i8, RowScorerKind::I8)
     }
 
     fn with<R: RowProducts>(
         r: R,
         nbx: usize,
         nby: usize,
+        b: StreamBuffers<R>,
         kind: impl FnOnce(Stream<R>) -> RowScorerKind<'w>,
     ) -> Self {
         let (_, bw, bh, _) = r.dims();
         let kind = if nbx < bw || nby < bh {
             RowScorerKind::Empty
         } else {
-            kind(Stream::new(r, nbx, 0, nby + 1 - bh))
+            kind(Stream::with_buffers(r, nbx, 0, nby + 1 - bh, b))
         };
         Self { kind, nby, pushed: 0 }
+    }
+
+    /// Its allocations, for the next scorer.
+    pub fn into_buffers(self) -> ScorerBuffers {
+        let mut b = ScorerBuffers::default();
+        match self.kind {
+            RowScorerKind::Empty => {}
+            RowScorerKind::F32(s) => b.f32 = s.into_buffers(),
+            RowScorerKind::I8(s) => b.i8 = s.into_buffers(),
+        }
+        b
     }
 
     /// Windows across and down.

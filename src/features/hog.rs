@@ -127,7 +127,7 @@ pub use crate::raw::tone::{
 };
 pub use approx::{
     approx_block_rows, block_and_micro_grids_from_gamma_planes, block_grid_dims, blocks_from_micro_grid,
-    micro_grid_from_gamma_planes, ApproxLevel, MicroGrid, MICRO_CELL,
+    micro_grid_from_gamma_planes, ApproxLevel, MicroGrid, SweepBuffers, MICRO_CELL,
 };
 pub use blocks::{
     block_grid_from_gamma_planes, blocks_from_cells, normalize_l2hys, BlockGrid, BAND_BLOCK_ROWS,

@@ -542,9 +542,31 @@ pub fn approx_block_rows(
     spec: &HogSpec,
     micro: &MicroGrid,
     levels: &[ApproxLevel],
+    bufs: &mut SweepBuffers,
     visit: impl FnMut(usize, usize, &[f32]),
 ) {
-    approx_block_rows_with(crate::kernels::isa(), spec, micro, levels, visit)
+    approx_block_rows_with(crate::kernels::isa(), spec, micro, levels, bufs, visit)
+}
+
+/// The cell-row rings and block rows of [`approx_block_rows`], kept from call to call by a caller
+/// that sweeps every frame (their contents do not matter: every value is written before it is
+/// read).
+#[derive(Debug, Default)]
+pub struct SweepBuffers {
+    rings: Vec<Vec<f32>>,
+    rows: Vec<Vec<f32>>,
+}
+
+impl SweepBuffers {
+    /// Buffer `j` of `v` with `n` values (grown with zeros if shorter; its values are stale).
+    fn take(v: &mut Vec<Vec<f32>>, j: usize, n: usize) -> Vec<f32> {
+        if v.len() <= j {
+            v.resize_with(j + 1, Vec::new);
+        }
+        let mut b = std::mem::take(&mut v[j]);
+        b.resize(n, 0.0);
+        b
+    }
 }
 
 /// [`approx_block_rows`] with the `isa` build of the kernels.
@@ -553,6 +575,7 @@ pub(super) fn approx_block_rows_with(
     spec: &HogSpec,
     micro: &MicroGrid,
     levels: &[ApproxLevel],
+    bufs: &mut SweepBuffers,
     mut visit: impl FnMut(usize, usize, &[f32]),
 ) {
     let nb = spec.nbins();
@@ -567,7 +590,8 @@ pub(super) fn approx_block_rows_with(
     let bl = spec.block_len();
     let mut sweeps: Vec<Option<Sweep>> = levels
         .iter()
-        .map(|lv| {
+        .enumerate()
+        .map(|(j, lv)| {
             let (ncx, ncy) = (lv.width / CELL_SIZE, lv.height / CELL_SIZE);
             let (nbx, _) = block_grid_dims(lv.width, lv.height);
             if ncx < BLOCK_CELLS || ncy < BLOCK_CELLS || bl == 0 {
@@ -578,8 +602,8 @@ pub(super) fn approx_block_rows_with(
                 ncx,
                 ncy,
                 next: 1,
-                ring: vec![0.0; 2 * ncx * cl],
-                row: vec![0.0; nbx * bl],
+                ring: SweepBuffers::take(&mut bufs.rings, j, 2 * ncx * cl),
+                row: SweepBuffers::take(&mut bufs.rows, j, nbx * bl),
                 scratch: FillScratch::new(),
             };
             kernel.fill(micro, &sw.taps, 0, &mut sw.ring[..ncx * cl], &mut sw.scratch);
@@ -607,7 +631,12 @@ pub(super) fn approx_block_rows_with(
             }
         }
         if last {
-            return;
+            break;
+        }
+    }
+    for (j, sw) in sweeps.into_iter().enumerate() {
+        if let Some(sw) = sw {
+            (bufs.rings[j], bufs.rows[j]) = (sw.ring, sw.row);
         }
     }
 }
@@ -955,11 +984,18 @@ mod tests {
         for isa in Isa::available() {
             let mut rows: Vec<Vec<f32>> = vec![Vec::new(); levels.len()];
             let mut next = vec![0usize; levels.len()];
-            approx_block_rows_with(isa, &s, &m, &levels, |j, by, row| {
-                assert_eq!(by, next[j], "level {j}: rows in order");
-                next[j] += 1;
-                rows[j].extend_from_slice(row);
-            });
+            approx_block_rows_with(
+                isa,
+                &s,
+                &m,
+                &levels,
+                &mut SweepBuffers::default(),
+                |j, by, row| {
+                    assert_eq!(by, next[j], "level {j}: rows in order");
+                    next[j] += 1;
+                    rows[j].extend_from_slice(row);
+                },
+            );
             for (j, lv) in levels.iter().enumerate() {
                 let mut g = BlockGrid::empty();
                 blocks_from_micro_grid_with(
