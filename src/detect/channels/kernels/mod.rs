@@ -5,11 +5,14 @@
 //! |---|---|---|---|
 //! | gradient row: magnitude and orientation bin of one plane | per pixel | 8 pixels | 4 pixels |
 //! | normalised magnitude `m / (n + c)` | per pixel | 8 pixels | 4 pixels |
+//! | `dst += t·src` (the triangle filter's passes) | per value | 8 values | 4 values |
+//! | block aggregation: magnitude and six orientation sums of 4x4 pixels | per block | 8 blocks (4x8 transposition) | 8 blocks (`vld4`) |
 //!
-//! Both kernels are the same IEEE operations in the same order on every path (multiplications
-//! and additions kept separate, never fused; `sqrt` and division correctly rounded), so every
-//! path equals the oracle **bit for bit**. The AVX-512 path runs the AVX2 kernels: these loops
-//! are bound by loads and stores, not by the vector width.
+//! Every kernel is the same IEEE operations in the same order on every path (multiplications
+//! and additions kept separate, never fused; `sqrt` and division correctly rounded; each block
+//! sum adds its pixels row by row, left to right), so every path equals the oracle **bit for
+//! bit**. The AVX-512 path runs the AVX2 kernels: these loops are bound by loads and stores, not
+//! by the vector width.
 
 use crate::kernels::Isa;
 
@@ -84,6 +87,69 @@ pub(crate) fn normalise(isa: Isa, m: &[f32], n: &[f32], c: f32, out: &mut [f32])
     }
 }
 
+/// `dst[i] += t·src[i]` (a product, then a sum: never fused).
+///
+/// # Panics
+/// If `src` is shorter than `dst`.
+pub(crate) fn axpy(isa: Isa, dst: &mut [f32], src: &[f32], t: f32) {
+    assert!(
+        src.len() >= dst.len(),
+        "axpy: {} sources for {} values",
+        src.len(),
+        dst.len()
+    );
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: AVX2 is available on these paths (`Isa::is_available`); lengths checked.
+        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::axpy(dst, src, t) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 target; lengths checked.
+        Isa::Neon => unsafe { neon::axpy(dst, src, t) },
+        _ => scalar::axpy_scalar(dst, src, t, 0),
+    }
+}
+
+/// Block sums of one row of 4x4-pixel blocks: `v` and `bins` hold the 4 pixel rows of `gw`
+/// values (a multiple of 4) one after the other; block `bx` writes `inv ·` its magnitude sum to
+/// `out[bx]` and `inv ·` the sum of its pixels of orientation bin `o` to `out[(1 + o)·ostride +
+/// bx]`. Each sum adds the block's pixels row by row, left to right, from `0.0`. Bins must be
+/// below [`N_ORIENTS`].
+///
+/// # Panics
+/// If `gw` is not a multiple of 4, `v` or `bins` hold fewer than `4·gw` values, `ostride <
+/// gw/4` or `out` is shorter than `6·ostride + gw/4`.
+pub(crate) fn aggregate(
+    isa: Isa,
+    v: &[f32],
+    bins: &[u8],
+    gw: usize,
+    inv: f32,
+    out: &mut [f32],
+    ostride: usize,
+) {
+    let cw = gw / scalar::BLOCK;
+    assert!(
+        gw.is_multiple_of(scalar::BLOCK)
+            && v.len() >= scalar::BLOCK * gw
+            && bins.len() >= scalar::BLOCK * gw
+            && ostride >= cw
+            && out.len() >= N_ORIENTS * ostride + cw,
+        "aggregate: rows of {gw}, {} values, {} bins, output {} with stride {ostride}",
+        v.len(),
+        bins.len(),
+        out.len()
+    );
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: AVX2 is available on these paths (`Isa::is_available`); lengths checked.
+        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::aggregate(v, bins, gw, inv, out, ostride) },
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 target; lengths checked.
+        Isa::Neon => unsafe { neon::aggregate(v, bins, gw, inv, out, ostride) },
+        _ => scalar::aggregate_scalar(v, bins, gw, inv, out, ostride, 0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,6 +182,50 @@ mod tests {
                 let mut got_n = vec![0.0f32; len];
                 normalise(isa, &m, &nn, 0.005, &mut got_n);
                 assert_eq!(bits(&got_n), bits(&want_n), "{isa} normalised, {len}");
+            }
+        }
+    }
+
+    #[test]
+    fn kernel_paths_axpy_and_aggregate_equal_the_scalar_oracle() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for len in [0usize, 1, 7, 8, 9, 31, 203] {
+            let d0: Vec<f32> = (0..len).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let s: Vec<f32> = (0..len + 3).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let mut want = d0.clone();
+            scalar::axpy_scalar(&mut want, &s, 0.37, 0);
+            for isa in Isa::available() {
+                let mut got = d0.clone();
+                axpy(isa, &mut got, &s, 0.37);
+                assert_eq!(bits(&got), bits(&want), "{isa} axpy, {len}");
+            }
+        }
+        // widths of 1 to 21 blocks (the SIMD groups of 8 and their tails), a padded output stride
+        for cw in [1usize, 7, 8, 9, 16, 21] {
+            let gw = 4 * cw;
+            let v: Vec<f32> = (0..4 * gw)
+                .map(|_| match rng.random_range(0..4) {
+                    0 => 0.0,
+                    _ => rng.random_range(0.0..3.0),
+                })
+                .collect();
+            let bins: Vec<u8> = (0..4 * gw)
+                .map(|_| rng.random_range(0..N_ORIENTS as u8))
+                .collect();
+            let ostride = cw + 3;
+            let mut want = vec![-1.0f32; 7 * ostride];
+            scalar::aggregate_scalar(&v, &bins, gw, 1.0 / 16.0, &mut want, ostride, 0);
+            // the oracle is the plain per-block sum
+            let b0: f32 = (0..4)
+                .flat_map(|r| (0..4).map(move |x| r * gw + x))
+                .map(|i| v[i])
+                .sum();
+            assert_eq!(want[0], b0 / 16.0);
+            for isa in Isa::available() {
+                let mut got = vec![-1.0f32; 7 * ostride];
+                aggregate(isa, &v, &bins, gw, 1.0 / 16.0, &mut got, ostride);
+                assert_eq!(bits(&got), bits(&want), "{isa} aggregate, {cw} blocks");
             }
         }
     }

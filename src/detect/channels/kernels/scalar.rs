@@ -56,3 +56,38 @@ pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], fr
         out[x] = m[x] / (n[x] + c);
     }
 }
+
+/// The scalar oracle of `axpy` from index `from` on (also the SIMD tails).
+pub(crate) fn axpy_scalar(dst: &mut [f32], src: &[f32], t: f32, from: usize) {
+    for (d, &s) in dst[from..].iter_mut().zip(&src[from..]) {
+        *d += t * s;
+    }
+}
+
+/// Pixels per block side (the channels' `SHRINK`).
+pub(crate) const BLOCK: usize = 4;
+
+/// The scalar oracle of `aggregate` for blocks `from..` (also the SIMD tails).
+pub(crate) fn aggregate_scalar(
+    v: &[f32],
+    bins: &[u8],
+    gw: usize,
+    inv: f32,
+    out: &mut [f32],
+    ostride: usize,
+    from: usize,
+) {
+    for bx in from..gw / BLOCK {
+        let mut a = [0.0f32; 1 + N_ORIENTS];
+        for r in 0..BLOCK {
+            for x in bx * BLOCK..(bx + 1) * BLOCK {
+                let (val, b) = (v[r * gw + x], bins[r * gw + x]);
+                a[0] += val;
+                a[1 + b as usize] += val;
+            }
+        }
+        for (k, a) in a.iter().enumerate() {
+            out[k * ostride + bx] = a * inv;
+        }
+    }
+}
