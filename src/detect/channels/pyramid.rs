@@ -256,33 +256,43 @@ pub(super) fn pyramid_on(
         .iter()
         .map(|&i| resized_channels(isa, input, plan[i].1, plan[i].2, spec))
         .collect::<Result<_, _>>()?;
-    let mut levels: Vec<Level> = (0..n)
+    let level = |i: usize, channels: Channels| {
+        let (s, lw, lh) = plan[i];
+        Level {
+            scale: s,
+            scale_x: lw as f64 / w as f64,
+            scale_y: lh as f64 / h as f64,
+            exact: i % step == 0,
+            channels,
+        }
+    };
+    let approximated: Vec<Option<Level>> = (0..n)
         .into_par_iter()
-        .map(|i| -> Result<Level, ChannelsError> {
+        .map(|i| -> Result<Option<Level>, ChannelsError> {
+            if i % step == 0 {
+                return Ok(None);
+            }
             let (s, lw, lh) = plan[i];
-            let channels = if i % step == 0 {
-                raw[i / step].clone()
-            } else {
-                // nearest exact level in index (ties: the larger image, as Dollár's split)
-                let r = exact
-                    .iter()
-                    .copied()
-                    .min_by_key(|&e| (e.abs_diff(i), e > i))
-                    .expect("level 0 is exact");
-                let rel = (s / plan[r].0) as f32;
-                resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
-                    rel.powf(-opts.lambda_of(c))
-                })?
-            };
-            Ok(Level {
-                scale: s,
-                scale_x: lw as f64 / w as f64,
-                scale_y: lh as f64 / h as f64,
-                exact: i % step == 0,
-                channels,
-            })
+            // nearest exact level in index (ties: the larger image, as Dollár's split)
+            let r = exact
+                .iter()
+                .copied()
+                .min_by_key(|&e| (e.abs_diff(i), e > i))
+                .expect("level 0 is exact");
+            let rel = (s / plan[r].0) as f32;
+            let c = resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
+                rel.powf(-opts.lambda_of(c))
+            })?;
+            Ok(Some(level(i, c)))
         })
         .collect::<Result<_, _>>()?;
+    // the exact levels' channels move into their levels (no copy)
+    let mut raw = raw.into_iter();
+    let mut levels: Vec<Level> = approximated
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| l.unwrap_or_else(|| level(i, raw.next().expect("one per exact level"))))
+        .collect();
     // Approximated levels must read the unsmoothed exact channels: smooth only now.
     let r = spec.options().output_smooth;
     levels
