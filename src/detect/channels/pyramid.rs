@@ -262,7 +262,7 @@ pub(super) fn pyramid_on(
             scale: s,
             scale_x: lw as f64 / w as f64,
             scale_y: lh as f64 / h as f64,
-            exact: i % step == 0,
+            exact: i.is_multiple_of(step),
             channels,
         }
     };
