@@ -256,6 +256,56 @@ impl ChannelSpec {
     }
 }
 
+/// Float buffers of dropped channel maps and of the channel pass, reused by the next ones: a
+/// 1080p pyramid allocates about 30 MB of channels per frame, and fresh pages cost a page fault
+/// each (a quarter of the channel time before the pool). Holds at most `pool::POOL_MAX_VALUES`
+/// values; a buffer is always filled before it is read, so reuse changes no value.
+mod pool {
+    use std::sync::Mutex;
+
+    /// At most this many `f32` of capacity are kept (128 MB).
+    pub(super) const POOL_MAX_VALUES: usize = 32 << 20;
+
+    static POOL: Mutex<(Vec<Vec<f32>>, usize)> = Mutex::new((Vec::new(), 0));
+
+    /// A buffer of `n` zeros, from the pool when one is large enough (the smallest such).
+    pub(super) fn zeros(n: usize) -> Vec<f32> {
+        let mut v = {
+            let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
+            let best =
+                p.0.iter()
+                    .enumerate()
+                    .filter(|(_, b)| b.capacity() >= n)
+                    .min_by_key(|(_, b)| b.capacity())
+                    .map(|(i, _)| i);
+            match best {
+                Some(i) => {
+                    let b = p.0.swap_remove(i);
+                    p.1 -= b.capacity();
+                    b
+                }
+                None => return vec![0.0; n],
+            }
+        };
+        v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// Give `v` back (dropped instead when the pool is full).
+    pub(super) fn give(v: Vec<f32>) {
+        let c = v.capacity();
+        if c == 0 {
+            return;
+        }
+        let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
+        if p.1 + c <= POOL_MAX_VALUES {
+            p.1 += c;
+            p.0.push(v);
+        }
+    }
+}
+
 /// Ten aggregated channel maps of `width x height` blocks, planar (channel-major, then rows).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Channels {
@@ -264,13 +314,19 @@ pub struct Channels {
     data: Vec<f32>,
 }
 
+impl Drop for Channels {
+    fn drop(&mut self) {
+        pool::give(std::mem::take(&mut self.data));
+    }
+}
+
 impl Channels {
     /// Zeros of `width x height` blocks.
     pub fn zeros(width: usize, height: usize) -> Self {
         Self {
             width,
             height,
-            data: vec![0.0; N_CHANNELS * width * height],
+            data: pool::zeros(N_CHANNELS * width * height),
         }
     }
 
@@ -503,11 +559,12 @@ fn smooth_channels_on(isa: Isa, ch: &mut Channels, r: f32) {
         return;
     }
     let (w, h) = (ch.width, ch.height);
-    let mut out = Vec::new();
+    let mut out = pool::zeros(w * h);
     for c in 0..N_CHANNELS {
         triangle_filter_on(isa, ch.plane(c), w, h, r, 1, &mut out);
         ch.plane_mut(c).copy_from_slice(&out);
     }
+    pool::give(out);
 }
 
 /// The input as planes scaled to `[0, 1]` (one plane, or R, G, B), and the tap step of the input
@@ -726,7 +783,7 @@ fn channels_unsmoothed_on(
                 None => (y0, y1),
             };
             let (ilo, ihi) = (mlo.saturating_sub(1), (mhi + 1).min(h));
-            let mut out = vec![0.0f32; N_CHANNELS * nb * cw];
+            let mut out = pool::zeros(N_CHANNELS * nb * cw);
             SCRATCH.with_borrow_mut(|sc| {
                 let Scratch {
                     inp,
@@ -788,11 +845,12 @@ fn channels_unsmoothed_on(
         })
         .collect();
     let mut out = Channels::zeros(cw, ch);
-    for (by0, band) in &bands {
+    for (by0, band) in bands {
         let len = band.len() / N_CHANNELS;
         for (c, part) in band.chunks_exact(len).enumerate() {
             out.data[c * n + by0 * cw..c * n + by0 * cw + len].copy_from_slice(part);
         }
+        pool::give(band);
     }
     Ok(out)
 }
