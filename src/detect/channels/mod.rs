@@ -474,7 +474,8 @@ impl Triangle {
     }
 
     /// Output row `y` into `out` (`w` values): the vertical pass `tmp = Σ_k t_k · src(y_k)` (source
-    /// rows through `src`, in tap order, from 0), then the horizontal pass.
+    /// rows through `src`, in tap order, from 0), then the horizontal pass (the same sum along the
+    /// row; mirrored taps at the borders).
     fn row<'s>(
         &self,
         isa: Isa,
@@ -484,18 +485,14 @@ impl Triangle {
         out: &mut [f32],
     ) {
         let (w, n) = (out.len(), self.taps.len());
-        tmp.fill(0.0);
-        for (&tk, &sy) in self.taps.iter().zip(self.rows_of(y)) {
-            kernels::axpy(isa, tmp, src(sy), tk);
-        }
+        let rows: Vec<&[f32]> = self.rows_of(y).iter().map(|&sy| src(sy)).collect();
+        kernels::taps_sum(isa, tmp, &rows, &self.taps);
         let (lo, hi) = (self.lo, self.hi);
         if lo < hi {
-            let o = &mut out[lo..hi];
-            o.fill(0.0);
-            for (k, &tk) in self.taps.iter().enumerate() {
-                let off = k * self.step;
-                kernels::axpy(isa, o, &tmp[off..off + (hi - lo)], tk);
-            }
+            let shifted: Vec<&[f32]> = (0..n)
+                .map(|k| &tmp[k * self.step..k * self.step + (hi - lo)])
+                .collect();
+            kernels::taps_sum(isa, &mut out[lo..hi], &shifted, &self.taps);
         }
         for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
             out[x] = self

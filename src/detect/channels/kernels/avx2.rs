@@ -90,26 +90,29 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
     super::scalar::normalise_scalar(m, n, c, out, x);
 }
 
-/// [`super::axpy`] on 8 values at a time.
+/// [`super::taps_sum`] on 8 values at a time.
 ///
 /// # Safety
-/// The CPU has AVX2; `src.len() ≥ dst.len()`.
+/// The CPU has AVX2; every source holds at least `out.len()` values.
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn axpy(dst: &mut [f32], src: &[f32], t: f32) {
-    let len = dst.len();
-    let tv = _mm256_set1_ps(t);
+pub(super) unsafe fn taps_sum(out: &mut [f32], srcs: &[&[f32]], taps: &[f32]) {
+    let len = out.len();
     let mut x = 0;
     while x + 8 <= len {
-        // SAFETY: x + 8 ≤ len ≤ src.len().
-        unsafe {
-            let d = _mm256_loadu_ps(dst.as_ptr().add(x));
-            let s = _mm256_loadu_ps(src.as_ptr().add(x));
-            // a product then a sum, never fused: the scalar oracle's rounding
-            _mm256_storeu_ps(dst.as_mut_ptr().add(x), _mm256_add_ps(d, _mm256_mul_ps(tv, s)));
+        let mut acc = _mm256_setzero_ps();
+        for (src, &t) in srcs.iter().zip(taps) {
+            // SAFETY: x + 8 ≤ len ≤ src.len(). A product then a sum, never fused: the oracle's
+            // rounding.
+            acc = _mm256_add_ps(
+                acc,
+                _mm256_mul_ps(_mm256_set1_ps(t), unsafe { _mm256_loadu_ps(src.as_ptr().add(x)) }),
+            );
         }
+        // SAFETY: x + 8 ≤ len.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(x), acc) };
         x += 8;
     }
-    super::scalar::axpy_scalar(dst, src, t, x);
+    super::scalar::taps_sum_scalar(out, srcs, taps, x);
 }
 
 /// The 4x8 transposition of [`aggregate`]: from four vectors of 8 consecutive pixels (two blocks

@@ -5,7 +5,7 @@
 //! |---|---|---|---|
 //! | gradient row: magnitude and orientation bin of one plane | per pixel | 8 pixels | 4 pixels |
 //! | normalised magnitude `m / (n + c)` | per pixel | 8 pixels | 4 pixels |
-//! | `dst += t·src` (the triangle filter's passes) | per value | 8 values | 4 values |
+//! | `out = Σ_k t_k·src_k` from 0, in tap order (the triangle filter's passes) | per value | 8 values | 4 values |
 //! | block aggregation: magnitude and six orientation sums of 4x4 pixels | per block | 8 blocks (4x8 transposition) | 8 blocks (`vld4`) |
 //!
 //! Every kernel is the same IEEE operations in the same order on every path (multiplications
@@ -87,25 +87,27 @@ pub(crate) fn normalise(isa: Isa, m: &[f32], n: &[f32], c: f32, out: &mut [f32])
     }
 }
 
-/// `dst[i] += t·src[i]` (a product, then a sum: never fused).
+/// `out[i] = (…((0 + t₀·src₀[i]) + t₁·src₁[i]) + …)`: the taps in order, each a product then a
+/// sum (never fused).
 ///
 /// # Panics
-/// If `src` is shorter than `dst`.
-pub(crate) fn axpy(isa: Isa, dst: &mut [f32], src: &[f32], t: f32) {
+/// If `srcs` and `taps` differ in length or a source is shorter than `out`.
+pub(crate) fn taps_sum(isa: Isa, out: &mut [f32], srcs: &[&[f32]], taps: &[f32]) {
     assert!(
-        src.len() >= dst.len(),
-        "axpy: {} sources for {} values",
-        src.len(),
-        dst.len()
+        srcs.len() == taps.len() && srcs.iter().all(|s| s.len() >= out.len()),
+        "taps_sum: {} sources for {} taps, {} values",
+        srcs.len(),
+        taps.len(),
+        out.len()
     );
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: AVX2 is available on these paths (`Isa::is_available`); lengths checked.
-        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::axpy(dst, src, t) },
+        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::taps_sum(out, srcs, taps) },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: NEON is part of every aarch64 target; lengths checked.
-        Isa::Neon => unsafe { neon::axpy(dst, src, t) },
-        _ => scalar::axpy_scalar(dst, src, t, 0),
+        Isa::Neon => unsafe { neon::taps_sum(out, srcs, taps) },
+        _ => scalar::taps_sum_scalar(out, srcs, taps, 0),
     }
 }
 
@@ -187,18 +189,28 @@ mod tests {
     }
 
     #[test]
-    fn kernel_paths_axpy_and_aggregate_equal_the_scalar_oracle() {
+    fn kernel_paths_taps_sum_and_aggregate_equal_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for len in [0usize, 1, 7, 8, 9, 31, 203] {
-            let d0: Vec<f32> = (0..len).map(|_| rng.random_range(-2.0..2.0)).collect();
-            let s: Vec<f32> = (0..len + 3).map(|_| rng.random_range(-2.0..2.0)).collect();
-            let mut want = d0.clone();
-            scalar::axpy_scalar(&mut want, &s, 0.37, 0);
-            for isa in Isa::available() {
-                let mut got = d0.clone();
-                axpy(isa, &mut got, &s, 0.37);
-                assert_eq!(bits(&got), bits(&want), "{isa} axpy, {len}");
+            for n in [1usize, 3, 11] {
+                let srcs: Vec<Vec<f32>> = (0..n)
+                    .map(|_| (0..len + 3).map(|_| rng.random_range(-2.0..2.0)).collect())
+                    .collect();
+                let refs: Vec<&[f32]> = srcs.iter().map(|v| &v[..]).collect();
+                let taps: Vec<f32> = (0..n).map(|_| rng.random_range(0.0..1.0)).collect();
+                let mut want = vec![f32::NAN; len];
+                scalar::taps_sum_scalar(&mut want, &refs, &taps, 0);
+                // the oracle is the plain sum from 0, taps in order
+                if len > 0 {
+                    let s0 = (0..n).fold(0.0f32, |a, k| a + taps[k] * srcs[k][0]);
+                    assert_eq!(want[0].to_bits(), s0.to_bits());
+                }
+                for isa in Isa::available() {
+                    let mut got = vec![f32::NAN; len];
+                    taps_sum(isa, &mut got, &refs, &taps);
+                    assert_eq!(bits(&got), bits(&want), "{isa} taps_sum, {len} values, {n} taps");
+                }
             }
         }
         // widths of 1 to 21 blocks (the SIMD groups of 8 and their tails), a padded output stride

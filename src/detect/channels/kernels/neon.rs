@@ -82,26 +82,29 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
     super::scalar::normalise_scalar(m, n, c, out, x);
 }
 
-/// [`super::axpy`] on 4 values at a time.
+/// [`super::taps_sum`] on 4 values at a time.
 ///
 /// # Safety
-/// `src.len() ≥ dst.len()` (NEON is part of every aarch64 target).
+/// Every source holds at least `out.len()` values (NEON is part of every aarch64 target).
 #[target_feature(enable = "neon")]
-pub(super) unsafe fn axpy(dst: &mut [f32], src: &[f32], t: f32) {
-    let len = dst.len();
-    let tv = vdupq_n_f32(t);
+pub(super) unsafe fn taps_sum(out: &mut [f32], srcs: &[&[f32]], taps: &[f32]) {
+    let len = out.len();
     let mut x = 0;
     while x + 4 <= len {
-        // SAFETY: x + 4 ≤ len ≤ src.len().
-        unsafe {
-            let d = vld1q_f32(dst.as_ptr().add(x));
-            let s = vld1q_f32(src.as_ptr().add(x));
-            // a product then a sum, never fused: the scalar oracle's rounding
-            vst1q_f32(dst.as_mut_ptr().add(x), vaddq_f32(d, vmulq_f32(tv, s)));
+        let mut acc = vdupq_n_f32(0.0);
+        for (src, &t) in srcs.iter().zip(taps) {
+            // SAFETY: x + 4 ≤ len ≤ src.len(). A product then a sum, never fused: the oracle's
+            // rounding.
+            acc = vaddq_f32(
+                acc,
+                vmulq_f32(vdupq_n_f32(t), unsafe { vld1q_f32(src.as_ptr().add(x)) }),
+            );
         }
+        // SAFETY: x + 4 ≤ len.
+        unsafe { vst1q_f32(out.as_mut_ptr().add(x), acc) };
         x += 4;
     }
-    super::scalar::axpy_scalar(dst, src, t, x);
+    super::scalar::taps_sum_scalar(out, srcs, taps, x);
 }
 
 /// [`super::aggregate`] on 8 blocks (32 pixels of each of the 4 rows) at a time: `vld4` splits

@@ -57,10 +57,14 @@ pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], fr
     }
 }
 
-/// The scalar oracle of `axpy` from index `from` on (also the SIMD tails).
-pub(crate) fn axpy_scalar(dst: &mut [f32], src: &[f32], t: f32, from: usize) {
-    for (d, &s) in dst[from..].iter_mut().zip(&src[from..]) {
-        *d += t * s;
+/// The scalar oracle of `taps_sum` from index `from` on (also the SIMD tails).
+pub(crate) fn taps_sum_scalar(out: &mut [f32], srcs: &[&[f32]], taps: &[f32], from: usize) {
+    for (x, o) in out.iter_mut().enumerate().skip(from) {
+        let mut acc = 0.0f32;
+        for (src, &t) in srcs.iter().zip(taps) {
+            acc += t * src[x];
+        }
+        *o = acc;
     }
 }
 
