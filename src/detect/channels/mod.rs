@@ -102,6 +102,8 @@ pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOption
 pub const N_CHANNELS: usize = 10;
 /// Aggregation block in pixels (Dollár's `shrink`): 2x2 super-pixels on a mosaic.
 pub const SHRINK: usize = 4;
+// the aggregation kernels sum blocks of this side
+const _: () = assert!(kernels::BLOCK == SHRINK);
 /// Index of the magnitude channel; the orientation channels follow it.
 pub const MAG_CHANNEL: usize = 3;
 /// Rows per rayon task.
@@ -702,7 +704,7 @@ fn gradient_row<'r>(
 
 /// The ten channels of `input` before the output smoothing (what the pyramid resamples).
 ///
-/// One pass over bands of [`BLOCK_ROWS_PER_TASK`] block rows in parallel: per band, the input
+/// One pass over bands of 16 block rows in parallel: per band, the input
 /// rows (scaled), the gradient of the band's rows and of the normalisation's halo, the
 /// normalisation row by row, the block sums and the colour; every value is the arithmetic of
 /// the module docs in the same order for any band split and thread count.

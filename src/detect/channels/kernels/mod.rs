@@ -17,7 +17,7 @@
 use crate::kernels::Isa;
 
 pub use scalar::N_ORIENTS;
-pub(crate) use scalar::{bin_edges, grad_row_scalar, normalise_scalar, orient_bin, Edges};
+pub(crate) use scalar::{bin_edges, grad_row_scalar, normalise_scalar, orient_bin, Edges, BLOCK};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
