@@ -260,13 +260,17 @@ impl ChannelSpec {
 
 /// Float buffers of dropped channel maps and of the channel pass, reused by the next ones: a
 /// 1080p pyramid allocates about 30 MB of channels per frame, and fresh pages cost a page fault
-/// each (a quarter of the channel time before the pool). Holds at most `pool::POOL_MAX_VALUES`
-/// values; a buffer is always filled before it is read, so reuse changes no value.
+/// each (a quarter of the channel time before the pool). Holds at most `POOL_MAX_VALUES` values
+/// in at most `POOL_MAX_BUFFERS` buffers; a buffer is always filled before it is read, so reuse
+/// changes no value.
 mod pool {
     use std::sync::Mutex;
 
     /// At most this many `f32` of capacity are kept (128 MB).
-    pub(super) const POOL_MAX_VALUES: usize = 32 << 20;
+    const POOL_MAX_VALUES: usize = 32 << 20;
+    /// At most this many buffers are kept (each allocation scans them; a 1080p frame returns
+    /// about 90: 25 levels, the band outputs, the smoothing rows).
+    const POOL_MAX_BUFFERS: usize = 512;
 
     static POOL: Mutex<(Vec<Vec<f32>>, usize)> = Mutex::new((Vec::new(), 0));
 
@@ -301,7 +305,7 @@ mod pool {
             return;
         }
         let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
-        if p.1 + c <= POOL_MAX_VALUES {
+        if p.1 + c <= POOL_MAX_VALUES && p.0.len() < POOL_MAX_BUFFERS {
             p.1 += c;
             p.0.push(v);
         }
