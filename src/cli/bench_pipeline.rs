@@ -50,6 +50,10 @@ pub struct BenchPipelineArgs {
     /// Gradients only (no pedestrian detection).
     #[arg(long)]
     no_detect: bool,
+    /// Detect with this ACF model file instead of HOG (`compute.detector = "acf"` with
+    /// `compute.acf_model`, e.g. models/acf-mosaic.json; the HOG options below do not apply).
+    #[arg(long, conflicts_with = "no_detect")]
+    acf_model: Option<String>,
     /// Detector feature-pyramid approximation (`compute.approx_levels`; 1 = exact; default the
     /// daemon's).
     #[arg(long, default_value_t = mosaicd::detect::DEFAULT_APPROX_LEVELS)]
@@ -154,8 +158,21 @@ fn keypoint_mode(a: &BenchPipelineArgs) -> String {
 pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let mut cfg = Config::default();
     cfg.compute.detect = !a.no_detect;
-    cfg.compute.approx_levels = a.approx_levels;
+    if let Some(m) = &a.acf_model {
+        cfg.compute.detector = "acf".into();
+        cfg.compute.acf_model = m.clone();
+    }
+    let detector = match &a.acf_model {
+        Some(m) => format!("acf {m}"),
+        None => "hog".into(),
+    };
     let svm = ScorePrecision::from(a.svm);
+    let detection = match (&a.acf_model, a.no_detect) {
+        (_, true) => "off".to_string(),
+        (Some(_), false) => format!("on ({detector})"),
+        (None, false) => format!("on (hog, approx {}, svm {})", a.approx_levels, svm),
+    };
+    cfg.compute.approx_levels = a.approx_levels;
     cfg.compute.svm = svm.name().into();
     cfg.compute.keypoints = a.keypoints;
     cfg.compute.keypoint_descriptors = a.descriptors;
@@ -164,8 +181,8 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
-        "pipeline {}x{} {}-bit, detection {} (approx {}, svm {}), keypoints {}, {} threads, {} in flight, {} frames ({}): {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
-        a.width, a.height, a.bit_depth, if a.no_detect { "off" } else { "on" }, a.approx_levels, svm, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames,
+        "pipeline {}x{} {}-bit, detection {detection}, keypoints {}, {} threads, {} in flight, {} frames ({}): {:.2} frames/s, capture->publish latency p50 {:.2} ms p99 {:.2} ms",
+        a.width, a.height, a.bit_depth, keypoint_mode(&a), a.threads, a.max_in_flight, a.frames,
         if a.render_each_frame { "each rendered during the run".to_string() } else { format!("{PRERENDERED} rendered before the run, cycled") }, fps, p50, p99
     );
     println!("{}", mosaicd::kernels::describe());
@@ -198,7 +215,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let commit = option_env!("MOSAICD_COMMIT").unwrap_or("see git log");
     println!(
         "{}",
-        json!({"detect": !a.no_detect, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints,
+        json!({"detect": !a.no_detect, "detector": detector, "approx_levels": a.approx_levels, "svm": svm.name(), "keypoints": a.keypoints,
                "descriptors": a.descriptors, "keypoints_double": a.keypoints_double, "width": a.width, "height": a.height, "bit_depth": a.bit_depth, "threads": a.threads,
                "frames": a.frames, "rendered_each_frame": a.render_each_frame, "fps": fps, "latency_p50_ms": p50, "latency_p99_ms": p99,
                "fps_with_stalled_subscriber": stalled, "commit": commit, "kernels": super::bench_gradients::kernels_json()})

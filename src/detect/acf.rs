@@ -46,7 +46,7 @@ use crate::detect::channels::{
 };
 use crate::geometry::Detection;
 use crate::raw::tone::MosaicTone;
-use kernels::{goes_right, score_run, Tree2};
+use kernels::{goes_right, score_run, PackedTrees, Tree2};
 
 /// The format name in ACF model files.
 pub const FORMAT: &str = "mosaicd-acf";
@@ -281,7 +281,7 @@ pub struct AcfStats {
 /// level's planar channels (relative to the window's top-left block).
 enum LevelTrees<'a> {
     /// Every tree of depth ≤ 2: the packed form of the SIMD kernels.
-    Packed(Vec<Tree2>),
+    Packed(PackedTrees),
     /// Some deeper tree: the flattened nodes, walked one window at a time.
     General {
         starts: &'a [u32],
@@ -417,14 +417,14 @@ impl AcfDetector {
     fn level_trees(&self, ch: &Channels) -> LevelTrees<'_> {
         let (w, h) = (ch.width(), ch.height());
         match &self.packed {
-            Some(p) => LevelTrees::Packed(
+            Some(p) => LevelTrees::Packed(PackedTrees::new(
                 p.iter()
                     .map(|t| Tree2 {
                         off: t.off.map(|f| self.offset(f, w, h)),
                         ..*t
                     })
                     .collect(),
-            ),
+            )),
             None => LevelTrees::General {
                 starts: &self.starts,
                 child: &self.child,

@@ -89,16 +89,21 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::image::ImageView;
+use crate::kernels::Isa;
 use crate::raw::{Cfa, Colour};
 
 pub use kernels::N_ORIENTS;
 use kernels::{bin_edges, orient_bin};
+#[cfg(test)]
+use pyramid::pyramid_on;
 pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.
 pub const N_CHANNELS: usize = 10;
 /// Aggregation block in pixels (Dollár's `shrink`): 2x2 super-pixels on a mosaic.
 pub const SHRINK: usize = 4;
+// the aggregation kernels sum blocks of this side
+const _: () = assert!(kernels::BLOCK == SHRINK);
 /// Index of the magnitude channel; the orientation channels follow it.
 pub const MAG_CHANNEL: usize = 3;
 /// Rows per rayon task.
@@ -253,6 +258,60 @@ impl ChannelSpec {
     }
 }
 
+/// Float buffers of dropped channel maps and of the channel pass, reused by the next ones: a
+/// 1080p pyramid allocates about 30 MB of channels per frame, and fresh pages cost a page fault
+/// each (a quarter of the channel time before the pool). Holds at most `POOL_MAX_VALUES` values
+/// in at most `POOL_MAX_BUFFERS` buffers; a buffer is always filled before it is read, so reuse
+/// changes no value.
+mod pool {
+    use std::sync::Mutex;
+
+    /// At most this many `f32` of capacity are kept (128 MB).
+    const POOL_MAX_VALUES: usize = 32 << 20;
+    /// At most this many buffers are kept (each allocation scans them; a 1080p frame returns
+    /// about 90: 25 levels, the band outputs, the smoothing rows).
+    const POOL_MAX_BUFFERS: usize = 512;
+
+    static POOL: Mutex<(Vec<Vec<f32>>, usize)> = Mutex::new((Vec::new(), 0));
+
+    /// A buffer of `n` zeros, from the pool when one is large enough (the smallest such).
+    pub(super) fn zeros(n: usize) -> Vec<f32> {
+        let mut v = {
+            let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
+            let best =
+                p.0.iter()
+                    .enumerate()
+                    .filter(|(_, b)| b.capacity() >= n)
+                    .min_by_key(|(_, b)| b.capacity())
+                    .map(|(i, _)| i);
+            match best {
+                Some(i) => {
+                    let b = p.0.swap_remove(i);
+                    p.1 -= b.capacity();
+                    b
+                }
+                None => return vec![0.0; n],
+            }
+        };
+        v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// Give `v` back (dropped instead when the pool is full).
+    pub(super) fn give(v: Vec<f32>) {
+        let c = v.capacity();
+        if c == 0 {
+            return;
+        }
+        let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
+        if p.1 + c <= POOL_MAX_VALUES && p.0.len() < POOL_MAX_BUFFERS {
+            p.1 += c;
+            p.0.push(v);
+        }
+    }
+}
+
 /// Ten aggregated channel maps of `width x height` blocks, planar (channel-major, then rows).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Channels {
@@ -261,13 +320,19 @@ pub struct Channels {
     data: Vec<f32>,
 }
 
+impl Drop for Channels {
+    fn drop(&mut self) {
+        pool::give(std::mem::take(&mut self.data));
+    }
+}
+
 impl Channels {
     /// Zeros of `width x height` blocks.
     pub fn zeros(width: usize, height: usize) -> Self {
         Self {
             width,
             height,
-            data: vec![0.0; N_CHANNELS * width * height],
+            data: pool::zeros(N_CHANNELS * width * height),
         }
     }
 
@@ -377,69 +442,132 @@ fn mirror_table(n: usize, r: usize, step: usize) -> Vec<usize> {
     t
 }
 
+/// The separable triangle filter of one radius on `w x h` values, output row by output row.
+struct Triangle {
+    taps: Vec<f32>,
+    /// Mirrored column indices, `taps.len()` per column.
+    xi: Vec<usize>,
+    /// Mirrored row indices, `taps.len()` per row.
+    yi: Vec<usize>,
+    step: usize,
+    /// Interior columns `lo..hi`: every tap inside the row.
+    lo: usize,
+    hi: usize,
+}
+
+impl Triangle {
+    /// `None` for radius 0 or an empty plane.
+    fn new(w: usize, h: usize, radius: f32, step: usize) -> Option<Self> {
+        if radius <= 0.0 || w == 0 || h == 0 {
+            return None;
+        }
+        let taps = triangle_taps(radius);
+        let r = taps.len() / 2;
+        Some(Self {
+            xi: mirror_table(w, r, step),
+            yi: mirror_table(h, r, step),
+            taps,
+            step,
+            lo: r * step,
+            hi: w.saturating_sub(r * step),
+        })
+    }
+
+    /// The source rows output row `y` reads, in tap order.
+    fn rows_of(&self, y: usize) -> &[usize] {
+        let n = self.taps.len();
+        &self.yi[y * n..(y + 1) * n]
+    }
+
+    /// Output row `y` into `out` (`w` values): the vertical pass `tmp = Σ_k t_k · src(y_k)` (source
+    /// rows through `src`, in tap order, from 0), then the horizontal pass (the same sum along the
+    /// row; mirrored taps at the borders).
+    fn row<'s>(
+        &self,
+        isa: Isa,
+        y: usize,
+        src: impl Fn(usize) -> &'s [f32],
+        tmp: &mut [f32],
+        out: &mut [f32],
+    ) {
+        let (w, n) = (out.len(), self.taps.len());
+        let rows: Vec<&[f32]> = self.rows_of(y).iter().map(|&sy| src(sy)).collect();
+        kernels::taps_sum(isa, tmp, &rows, &self.taps);
+        let (lo, hi) = (self.lo, self.hi);
+        if lo < hi {
+            let shifted: Vec<&[f32]> = (0..n)
+                .map(|k| &tmp[k * self.step..k * self.step + (hi - lo)])
+                .collect();
+            kernels::taps_sum(isa, &mut out[lo..hi], &shifted, &self.taps);
+        }
+        for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
+            out[x] = self
+                .taps
+                .iter()
+                .zip(&self.xi[x * n..(x + 1) * n])
+                .map(|(t, &sx)| t * tmp[sx])
+                .sum();
+        }
+    }
+}
+
 /// Separable triangle filter of radius `radius` ([`triangle_taps`]) with taps `step` pixels
 /// apart, borders symmetric within each phase (`step = 2`: within each colour plane). `src` and
 /// `dst` are `w x h`. Rows in parallel; each output row is the vertical pass (a sum of scaled
 /// source rows) followed by the horizontal pass, the same arithmetic for any thread count.
 pub fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize, dst: &mut Vec<f32>) {
+    triangle_filter_on(crate::kernels::isa(), src, w, h, radius, step, dst);
+}
+
+/// [`triangle_filter`] on the kernel path `isa`.
+fn triangle_filter_on(
+    isa: Isa,
+    src: &[f32],
+    w: usize,
+    h: usize,
+    radius: f32,
+    step: usize,
+    dst: &mut Vec<f32>,
+) {
     dst.clear();
-    if radius <= 0.0 || w == 0 || h == 0 {
+    let Some(t) = Triangle::new(w, h, radius, step) else {
         dst.extend_from_slice(src);
         return;
-    }
-    let taps = triangle_taps(radius);
-    let n = taps.len();
-    let r = n / 2;
-    let xi = mirror_table(w, r, step);
-    let yi = mirror_table(h, r, step);
-    // interior columns: every tap inside the row
-    let (lo, hi) = (r * step, w.saturating_sub(r * step));
+    };
     dst.resize(w * h, 0.0);
     dst.par_chunks_mut(w * ROWS_PER_TASK)
         .enumerate()
-        .for_each(|(t, chunk)| {
+        .for_each(|(i, chunk)| {
             let mut tmp = vec![0.0f32; w];
             for (j, row) in chunk.chunks_mut(w).enumerate() {
-                let y = t * ROWS_PER_TASK + j;
-                tmp.fill(0.0);
-                for (k, &tk) in taps.iter().enumerate() {
-                    let sy = yi[y * n + k];
-                    for (a, &b) in tmp.iter_mut().zip(&src[sy * w..(sy + 1) * w]) {
-                        *a += tk * b;
-                    }
-                }
-                if lo < hi {
-                    let out = &mut row[lo..hi];
-                    out.fill(0.0);
-                    for (k, &tk) in taps.iter().enumerate() {
-                        let off = k * step;
-                        for (o, &v) in out.iter_mut().zip(&tmp[off..off + (hi - lo)]) {
-                            *o += tk * v;
-                        }
-                    }
-                }
-                for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
-                    row[x] = taps
-                        .iter()
-                        .zip(&xi[x * n..(x + 1) * n])
-                        .map(|(t, &sx)| t * tmp[sx])
-                        .sum();
-                }
+                t.row(
+                    isa,
+                    i * ROWS_PER_TASK + j,
+                    |sy| &src[sy * w..(sy + 1) * w],
+                    &mut tmp,
+                    row,
+                );
             }
         });
 }
 
 /// Smooth every channel with the triangle filter of radius `r` (step 1, symmetric borders).
 pub fn smooth_channels(ch: &mut Channels, r: f32) {
+    smooth_channels_on(crate::kernels::isa(), ch, r);
+}
+
+/// [`smooth_channels`] on the kernel path `isa`.
+fn smooth_channels_on(isa: Isa, ch: &mut Channels, r: f32) {
     if r <= 0.0 {
         return;
     }
     let (w, h) = (ch.width, ch.height);
-    let mut out = Vec::new();
+    let mut out = pool::zeros(w * h);
     for c in 0..N_CHANNELS {
-        triangle_filter(ch.plane(c), w, h, r, 1, &mut out);
+        triangle_filter_on(isa, ch.plane(c), w, h, r, 1, &mut out);
         ch.plane_mut(c).copy_from_slice(&out);
     }
+    pool::give(out);
 }
 
 /// The input as planes scaled to `[0, 1]` (one plane, or R, G, B), and the tap step of the input
@@ -473,28 +601,63 @@ fn planes_of(input: &ChannelInput) -> (Vec<Vec<f32>>, usize) {
     }
 }
 
+/// Block rows per task of the channel pass (64 pixel rows; each task recomputes the
+/// normalisation's halo of `norm_radius` magnitude rows above and below).
+const BLOCK_ROWS_PER_TASK: usize = 16;
+
+/// Per-thread buffers of the channel pass, reused across tasks and frames (a task writes every
+/// value it reads first): no full-resolution buffer is allocated per frame.
+#[derive(Default)]
+struct Scratch {
+    /// The task's input rows of every plane, scaled to `[0, 1]`.
+    inp: Vec<f32>,
+    /// Gradient magnitude and orientation bin of the task's rows and halo.
+    mag: Vec<f32>,
+    bin: Vec<u8>,
+    /// `(M², gx, gy)` of the plane of largest magnitude (colour inputs).
+    best: Vec<[f32; 3]>,
+    /// The triangle filter's vertical pass, the smoothed magnitude, the normalised block rows.
+    tmp: Vec<f32>,
+    norm: Vec<f32>,
+    v: Vec<f32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// The input rows `lo..hi` of every plane of `src` (rows of `w` values, multiplied by `scale`)
+/// into `buf`, plane after plane.
+fn scaled_rows(src: &[ImageView<'_, f32>], scale: f32, w: usize, lo: usize, hi: usize, buf: &mut Vec<f32>) {
+    buf.clear();
+    for p in src {
+        for y in lo..hi {
+            buf.extend(p.row(y)[..w].iter().map(|v| v * scale));
+        }
+    }
+}
+
 /// Gradient magnitude and orientation bin of row `y` (the first `mrow.len()` columns), the plane
-/// of largest magnitude per pixel (reflect-101 borders).
-fn gradient_row(
-    planes: &[Vec<f32>],
+/// of largest magnitude per pixel (reflect-101 borders); `row(p, y)` is row `y` of plane `p`.
+#[allow(clippy::too_many_arguments)]
+fn gradient_row<'r>(
+    isa: Isa,
+    n_planes: usize,
+    row: impl Fn(usize, usize) -> &'r [f32],
     w: usize,
     h: usize,
     y: usize,
     mrow: &mut [f32],
     brow: &mut [u8],
-    scratch: &mut [[f32; 3]],
+    best: &mut [[f32; 3]],
 ) {
     let edges = bin_edges();
     let yu = if y == 0 { 1.min(h - 1) } else { y - 1 };
     let yd = if y + 1 == h { y.saturating_sub(1) } else { y + 1 };
     let gw = mrow.len();
-    if let [p] = planes {
+    if n_planes == 1 {
         // one plane (mosaic, grey): the interior through the kernels, the border columns here
-        let (up, mid, dn) = (
-            &p[yu * w..(yu + 1) * w],
-            &p[y * w..(y + 1) * w],
-            &p[yd * w..(yd + 1) * w],
-        );
+        let (up, mid, dn) = (row(0, yu), row(0, y), row(0, yd));
         let one = |x: usize, xl: usize, xr: usize| {
             let gx = (mid[xr] - mid[xl]) * 0.5;
             let gy = (dn[x] - up[x]) * 0.5;
@@ -504,7 +667,7 @@ fn gradient_row(
         let inner_end = gw.min(w - 1);
         if inner_end > 1 {
             kernels::grad_row(
-                crate::kernels::isa(),
+                isa,
                 up,
                 mid,
                 dn,
@@ -518,12 +681,8 @@ fn gradient_row(
         }
         return;
     }
-    for (pi, p) in planes.iter().enumerate() {
-        let (up, mid, dn) = (
-            &p[yu * w..(yu + 1) * w],
-            &p[y * w..(y + 1) * w],
-            &p[yd * w..(yd + 1) * w],
-        );
+    for pi in 0..n_planes {
+        let (up, mid, dn) = (row(pi, yu), row(pi, y), row(pi, yd));
         let put = |x: usize, xl: usize, xr: usize, best: &mut [f32; 3]| {
             let gx = (mid[xr] - mid[xl]) * 0.5;
             let gy = (dn[x] - up[x]) * 0.5;
@@ -532,23 +691,38 @@ fn gradient_row(
                 *best = [m2, gx, gy];
             }
         };
-        put(0, 1.min(w - 1), 1.min(w - 1), &mut scratch[0]);
+        put(0, 1.min(w - 1), 1.min(w - 1), &mut best[0]);
         let inner_end = gw.min(w - 1);
-        for (x, best) in scratch.iter_mut().enumerate().take(inner_end).skip(1) {
-            put(x, x - 1, x + 1, best);
+        for (x, b) in best.iter_mut().enumerate().take(inner_end).skip(1) {
+            put(x, x - 1, x + 1, b);
         }
         if gw == w && w > 1 {
-            put(w - 1, w - 2, w - 2, &mut scratch[w - 1]);
+            put(w - 1, w - 2, w - 2, &mut best[w - 1]);
         }
     }
-    for ((m, b), s) in mrow.iter_mut().zip(brow.iter_mut()).zip(scratch.iter()) {
+    for ((m, b), s) in mrow.iter_mut().zip(brow.iter_mut()).zip(best.iter()) {
         *m = s[0].sqrt();
         *b = orient_bin(s[1], s[2], &edges);
     }
 }
 
 /// The ten channels of `input` before the output smoothing (what the pyramid resamples).
+///
+/// One pass over bands of 16 block rows in parallel: per band, the input
+/// rows (scaled), the gradient of the band's rows and of the normalisation's halo, the
+/// normalisation row by row, the block sums and the colour; every value is the arithmetic of
+/// the module docs in the same order for any band split and thread count.
 pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+    channels_unsmoothed_on(crate::kernels::isa(), input, spec)
+}
+
+/// [`channels_unsmoothed`] on the kernel path `isa`.
+fn channels_unsmoothed_on(
+    isa: Isa,
+    input: &ChannelInput,
+    spec: &ChannelSpec,
+) -> Result<Channels, ChannelsError> {
+    const S: f32 = 1.0 / 255.0;
     let (w, h) = input.dimensions();
     if w < SHRINK || h < SHRINK {
         return Err(ChannelsError::TooSmall {
@@ -564,148 +738,218 @@ pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<C
         }
     }
     let o = spec.options();
-    let (mut planes, step) = planes_of(input);
-    if o.input_smooth > 0.0 {
-        let mut tmp = Vec::new();
-        for p in planes.iter_mut() {
-            triangle_filter(p, w, h, o.input_smooth, step, &mut tmp);
-            std::mem::swap(p, &mut tmp);
+    // The planes as read: a float mosaic or grey image itself, scaled while read; otherwise (and
+    // with input smoothing) owned planes already scaled.
+    let owned: Vec<Vec<f32>>;
+    let (src, scale): (Vec<ImageView<'_, f32>>, f32) = match input {
+        ChannelInput::Mosaic { image: v, .. } | ChannelInput::GreyF32(v) if o.input_smooth <= 0.0 => {
+            (vec![*v], S)
         }
-    }
-    let (cw, ch) = (w / SHRINK, h / SHRINK);
-    let n = cw * ch;
-    // Gradient magnitude and orientation bin at full resolution (only the aggregated area).
-    let (gw, gh) = (cw * SHRINK, ch * SHRINK);
-    let mut mag = vec![0.0f32; gw * gh];
-    let mut bin = vec![0u8; gw * gh];
-    mag.par_chunks_mut(gw * ROWS_PER_TASK)
-        .zip(bin.par_chunks_mut(gw * ROWS_PER_TASK))
-        .enumerate()
-        .for_each(|(t, (mrows, brows))| {
-            let mut scratch = vec![[0.0f32; 3]; gw];
-            for (j, (mrow, brow)) in mrows.chunks_mut(gw).zip(brows.chunks_mut(gw)).enumerate() {
-                gradient_row(&planes, w, h, t * ROWS_PER_TASK + j, mrow, brow, &mut scratch);
-            }
-        });
-    let mut norm = Vec::new();
-    if o.norm_radius > 0.0 {
-        triangle_filter(&mag, gw, gh, o.norm_radius, 1, &mut norm);
-    }
-    // Per block row: magnitude and six orientation sums (normalised), then L, U, V.
-    let inv = 1.0 / (SHRINK * SHRINK) as f32;
-    let isa = crate::kernels::isa();
-    let grad_rows: Vec<Vec<f32>> = (0..ch)
-        .into_par_iter()
-        .map(|by| {
-            let mut acc = vec![0.0f32; cw * (1 + N_ORIENTS)];
-            let mut vrow = vec![0.0f32; gw];
-            for y in by * SHRINK..(by + 1) * SHRINK {
-                let row = y * gw..(y + 1) * gw;
-                let (m, b) = (&mag[row.clone()], &bin[row.clone()]);
-                let v: &[f32] = if norm.is_empty() {
-                    m
-                } else {
-                    kernels::normalise(isa, m, &norm[row], o.norm_const, &mut vrow);
-                    &vrow
-                };
-                for (x, (&v, &b)) in v.iter().zip(b).enumerate() {
-                    let a = &mut acc[(x / SHRINK) * (1 + N_ORIENTS)..];
-                    a[0] += v;
-                    a[1 + b as usize] += v;
+        _ => {
+            let (mut planes, step) = planes_of(input);
+            if o.input_smooth > 0.0 {
+                let mut tmp = Vec::new();
+                for p in planes.iter_mut() {
+                    triangle_filter_on(isa, p, w, h, o.input_smooth, step, &mut tmp);
+                    std::mem::swap(p, &mut tmp);
                 }
             }
-            acc
+            owned = planes;
+            let views = owned
+                .iter()
+                .map(|p| ImageView::new(p, w, h, w).expect("a plane holds w · h values"))
+                .collect();
+            (views, 1.0)
+        }
+    };
+    let np = src.len();
+    let (cw, ch) = (w / SHRINK, h / SHRINK);
+    let n = cw * ch;
+    // Gradients only over the aggregated area; the normalisation filters that `gw x gh` field.
+    let (gw, gh) = (cw * SHRINK, ch * SHRINK);
+    let norm = Triangle::new(gw, gh, o.norm_radius, 1);
+    let inv = 1.0 / (SHRINK * SHRINK) as f32;
+    let colour = ColourSites::of(input);
+    let bands: Vec<(usize, Vec<f32>)> = (0..ch)
+        .step_by(BLOCK_ROWS_PER_TASK)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|by0| {
+            let by1 = (by0 + BLOCK_ROWS_PER_TASK).min(ch);
+            let nb = by1 - by0;
+            let (y0, y1) = (by0 * SHRINK, by1 * SHRINK);
+            // magnitude rows the band's normalisation reads, and the input rows of those
+            let (mlo, mhi) = match &norm {
+                Some(t) => (y0..y1)
+                    .flat_map(|y| t.rows_of(y).iter().copied())
+                    .fold((y0, y1), |(lo, hi), r| (lo.min(r), hi.max(r + 1))),
+                None => (y0, y1),
+            };
+            let (ilo, ihi) = (mlo.saturating_sub(1), (mhi + 1).min(h));
+            let mut out = pool::zeros(N_CHANNELS * nb * cw);
+            SCRATCH.with_borrow_mut(|sc| {
+                let Scratch {
+                    inp,
+                    mag,
+                    bin,
+                    best,
+                    tmp,
+                    norm: nrow,
+                    v,
+                } = sc;
+                scaled_rows(&src, scale, w, ilo, ihi, inp);
+                let ni = ihi - ilo;
+                let row = |p: usize, y: usize| &inp[(p * ni + y - ilo) * w..(p * ni + y - ilo + 1) * w];
+                let nm = mhi - mlo;
+                mag.resize(nm * gw, 0.0);
+                bin.resize(nm * gw, 0);
+                best.resize(if np > 1 { gw } else { 0 }, [0.0; 3]);
+                for y in mlo..mhi {
+                    let r = (y - mlo) * gw..(y - mlo + 1) * gw;
+                    gradient_row(isa, np, row, w, h, y, &mut mag[r.clone()], &mut bin[r], best);
+                }
+                tmp.resize(gw, 0.0);
+                nrow.resize(gw, 0.0);
+                v.resize(SHRINK * gw, 0.0);
+                for by in by0..by1 {
+                    let j = by - by0;
+                    let first = (by * SHRINK - mlo) * gw;
+                    let vals: &[f32] = match &norm {
+                        Some(t) => {
+                            for r in 0..SHRINK {
+                                let y = by * SHRINK + r;
+                                let mrow = |sy: usize| &mag[(sy - mlo) * gw..(sy - mlo + 1) * gw];
+                                t.row(isa, y, mrow, tmp, nrow);
+                                kernels::normalise(
+                                    isa,
+                                    mrow(y),
+                                    nrow,
+                                    o.norm_const,
+                                    &mut v[r * gw..(r + 1) * gw],
+                                );
+                            }
+                            v
+                        }
+                        None => &mag[first..first + SHRINK * gw],
+                    };
+                    kernels::aggregate(
+                        isa,
+                        vals,
+                        &bin[first..first + SHRINK * gw],
+                        gw,
+                        inv,
+                        &mut out[(MAG_CHANNEL * nb + j) * cw..],
+                        nb * cw,
+                    );
+                    colour.block_row(np, row, cw, by, &mut out[j * cw..], nb * cw);
+                }
+            });
+            (by0, out)
         })
         .collect();
-    let colour_rows: Vec<Vec<[f32; 3]>> = (0..ch)
-        .into_par_iter()
-        .map(|by| colour_block_row(input, &planes, w, cw, by))
-        .collect();
     let mut out = Channels::zeros(cw, ch);
-    for (by, (g, c)) in grad_rows.iter().zip(&colour_rows).enumerate() {
-        for bx in 0..cw {
-            let i = by * cw + bx;
-            for (k, &v) in c[bx].iter().enumerate() {
-                out.data[k * n + i] = v;
-            }
-            for k in 0..=N_ORIENTS {
-                out.data[(MAG_CHANNEL + k) * n + i] = g[bx * (1 + N_ORIENTS) + k] * inv;
-            }
+    for (by0, band) in bands {
+        let len = band.len() / N_CHANNELS;
+        for (c, part) in band.chunks_exact(len).enumerate() {
+            out.data[c * n + by0 * cw..c * n + by0 * cw + len].copy_from_slice(part);
         }
+        pool::give(band);
     }
     Ok(out)
 }
 
-/// Block means of L, U, V along block row `by`: per 2x2 super-pixel on a mosaic, per pixel
-/// otherwise.
-fn colour_block_row(
-    input: &ChannelInput,
-    planes: &[Vec<f32>],
-    w: usize,
-    cw: usize,
-    by: usize,
-) -> Vec<[f32; 3]> {
-    let mut out = vec![[0.0f32; 3]; cw];
-    let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
-        for k in 0..3 {
-            acc[k] += luv[k];
+/// Where the colour of a block comes from: the 2x2 super-pixels of a mosaic (the offsets of R,
+/// the two Gs and B within one), or every pixel.
+#[derive(Clone, Copy)]
+enum ColourSites {
+    Mosaic {
+        r: (usize, usize),
+        g: [(usize, usize); 2],
+        b: (usize, usize),
+    },
+    Pixels,
+}
+
+impl ColourSites {
+    fn of(input: &ChannelInput) -> Self {
+        let ChannelInput::Mosaic { cfa, .. } = input else {
+            return ColourSites::Pixels;
+        };
+        let (mut r, mut b, mut g, mut ng) = ((0, 0), (0, 0), [(0, 0); 2], 0);
+        for (dx, dy) in [(0usize, 0usize), (1, 0), (0, 1), (1, 1)] {
+            match cfa.colour_at(dx, dy) {
+                Colour::Red => r = (dx, dy),
+                Colour::Blue => b = (dx, dy),
+                Colour::Green => {
+                    g[ng] = (dx, dy);
+                    ng += 1;
+                }
+            }
         }
-    };
-    match input {
-        ChannelInput::Mosaic { cfa, .. } => {
-            let p = &planes[0];
-            let mut r_off = (0, 0);
-            let mut b_off = (0, 0);
-            let mut g_off = [(0, 0); 2];
-            let mut ng = 0;
-            for (dx, dy) in [(0usize, 0usize), (1, 0), (0, 1), (1, 1)] {
-                match cfa.colour_at(dx, dy) {
-                    Colour::Red => r_off = (dx, dy),
-                    Colour::Blue => b_off = (dx, dy),
-                    Colour::Green => {
-                        g_off[ng] = (dx, dy);
-                        ng += 1;
+        ColourSites::Mosaic { r, g, b }
+    }
+
+    /// Block means of L, U, V along block row `by` (per 2x2 super-pixel on a mosaic, per pixel
+    /// otherwise) into `out[k·stride + bx]`; `row(p, y)` is row `y` of plane `p` (one plane, or R,
+    /// G, B), scaled to `[0, 1]`.
+    fn block_row<'r>(
+        self,
+        n_planes: usize,
+        row: impl Fn(usize, usize) -> &'r [f32],
+        cw: usize,
+        by: usize,
+        out: &mut [f32],
+        stride: usize,
+    ) {
+        let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
+            for k in 0..3 {
+                acc[k] += luv[k];
+            }
+        };
+        match self {
+            ColourSites::Mosaic { r: ro, g: go, b: bo } => {
+                let at = |x: usize, y: usize| row(0, y)[x];
+                let sp = SHRINK / 2; // super-pixels per block side
+                let inv_sp = 1.0 / (sp * sp) as f32;
+                for bx in 0..cw {
+                    let mut acc = [0.0f32; 3];
+                    for sy in 0..sp {
+                        for sx in 0..sp {
+                            let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
+                            let r = at(x0 + ro.0, y0 + ro.1);
+                            let g = 0.5 * (at(x0 + go[0].0, y0 + go[0].1) + at(x0 + go[1].0, y0 + go[1].1));
+                            let b = at(x0 + bo.0, y0 + bo.1);
+                            add(&mut acc, luv_from_rgb(r, g, b));
+                        }
+                    }
+                    for (k, a) in acc.iter().enumerate() {
+                        out[k * stride + bx] = a * inv_sp;
                     }
                 }
             }
-            let at = |x: usize, y: usize| p[y * w + x];
-            let sp = SHRINK / 2; // super-pixels per block side
-            let inv_sp = 1.0 / (sp * sp) as f32;
-            for (bx, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0f32; 3];
-                for sy in 0..sp {
-                    for sx in 0..sp {
-                        let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
-                        let r = at(x0 + r_off.0, y0 + r_off.1);
-                        let g = 0.5
-                            * (at(x0 + g_off[0].0, y0 + g_off[0].1) + at(x0 + g_off[1].0, y0 + g_off[1].1));
-                        let b = at(x0 + b_off.0, y0 + b_off.1);
-                        add(&mut acc, luv_from_rgb(r, g, b));
+            ColourSites::Pixels => {
+                let inv = 1.0 / (SHRINK * SHRINK) as f32;
+                for bx in 0..cw {
+                    let mut acc = [0.0f32; 3];
+                    for y in by * SHRINK..(by + 1) * SHRINK {
+                        for x in bx * SHRINK..(bx + 1) * SHRINK {
+                            let luv = match n_planes {
+                                1 => {
+                                    let g = row(0, y)[x];
+                                    luv_from_rgb(g, g, g)
+                                }
+                                _ => luv_from_rgb(row(0, y)[x], row(1, y)[x], row(2, y)[x]),
+                            };
+                            add(&mut acc, luv);
+                        }
+                    }
+                    for (k, a) in acc.iter().enumerate() {
+                        out[k * stride + bx] = a * inv;
                     }
                 }
-                *o = acc.map(|v| v * inv_sp);
-            }
-        }
-        _ => {
-            let inv = 1.0 / (SHRINK * SHRINK) as f32;
-            for (bx, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0f32; 3];
-                for y in by * SHRINK..(by + 1) * SHRINK {
-                    for x in bx * SHRINK..(bx + 1) * SHRINK {
-                        let i = y * w + x;
-                        let luv = match planes {
-                            [g] => luv_from_rgb(g[i], g[i], g[i]),
-                            [r, g, b] => luv_from_rgb(r[i], g[i], b[i]),
-                            _ => unreachable!("one or three planes"),
-                        };
-                        add(&mut acc, luv);
-                    }
-                }
-                *o = acc.map(|v| v * inv);
             }
         }
     }
-    out
 }
 
 /// The ten aggregated, smoothed channels of `input` (see the module docs).

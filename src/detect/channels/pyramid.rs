@@ -27,9 +27,11 @@ use rayon::prelude::*;
 use crate::detect::pyramid::{resize_bilinear, resize_mosaic};
 use crate::image::{Image, ImageView};
 
+use crate::kernels::Isa;
+
 use super::{
-    channels_unsmoothed, smooth_channels, ChannelInput, ChannelSpec, Channels, ChannelsError, MAG_CHANNEL,
-    N_CHANNELS, SHRINK,
+    channels_unsmoothed_on, smooth_channels_on, ChannelInput, ChannelSpec, Channels, ChannelsError,
+    MAG_CHANNEL, N_CHANNELS, SHRINK,
 };
 
 /// Pyramid options, named after Dollár's `chnsPyramid`.
@@ -155,24 +157,27 @@ fn resize_input(input: &ChannelInput, w: usize, h: usize) -> Result<Resized, Cha
 /// The unsmoothed channels of `input` resized to `w x h` pixels (the input itself, not a copy,
 /// at its own size).
 fn resized_channels(
+    isa: Isa,
     input: &ChannelInput,
     w: usize,
     h: usize,
     spec: &ChannelSpec,
 ) -> Result<Channels, ChannelsError> {
     if input.dimensions() == (w, h) {
-        return channels_unsmoothed(input, spec);
+        return channels_unsmoothed_on(isa, input, spec);
     }
     match (resize_input(input, w, h)?, input) {
-        (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed(
+        (Resized::Mosaic(m), ChannelInput::Mosaic { cfa, .. }) => channels_unsmoothed_on(
+            isa,
             &ChannelInput::Mosaic {
                 image: m.view(),
                 cfa: *cfa,
             },
             spec,
         ),
-        (Resized::Grey(g), _) => channels_unsmoothed(&ChannelInput::GreyF32(g.view()), spec),
-        (Resized::Rgb(p), _) => channels_unsmoothed(
+        (Resized::Grey(g), _) => channels_unsmoothed_on(isa, &ChannelInput::GreyF32(g.view()), spec),
+        (Resized::Rgb(p), _) => channels_unsmoothed_on(
+            isa,
             &ChannelInput::RgbF32([p[0].view(), p[1].view(), p[2].view()]),
             spec,
         ),
@@ -203,6 +208,16 @@ fn resample_channels(
 
 /// The channel pyramid of `input` (see the module docs).
 pub fn pyramid(
+    input: &ChannelInput,
+    spec: &ChannelSpec,
+    opts: &PyramidOptions,
+) -> Result<ChannelPyramid, ChannelsError> {
+    pyramid_on(crate::kernels::isa(), input, spec, opts)
+}
+
+/// [`pyramid()`] on the channel kernels' path `isa` (the resizes run on the process's path).
+pub(super) fn pyramid_on(
+    isa: Isa,
     input: &ChannelInput,
     spec: &ChannelSpec,
     opts: &PyramidOptions,
@@ -239,40 +254,50 @@ pub fn pyramid(
     // level is the same arithmetic for any thread count.
     let raw: Vec<Channels> = exact
         .iter()
-        .map(|&i| resized_channels(input, plan[i].1, plan[i].2, spec))
+        .map(|&i| resized_channels(isa, input, plan[i].1, plan[i].2, spec))
         .collect::<Result<_, _>>()?;
-    let mut levels: Vec<Level> = (0..n)
+    let level = |i: usize, channels: Channels| {
+        let (s, lw, lh) = plan[i];
+        Level {
+            scale: s,
+            scale_x: lw as f64 / w as f64,
+            scale_y: lh as f64 / h as f64,
+            exact: i.is_multiple_of(step),
+            channels,
+        }
+    };
+    let approximated: Vec<Option<Level>> = (0..n)
         .into_par_iter()
-        .map(|i| -> Result<Level, ChannelsError> {
+        .map(|i| -> Result<Option<Level>, ChannelsError> {
+            if i % step == 0 {
+                return Ok(None);
+            }
             let (s, lw, lh) = plan[i];
-            let channels = if i % step == 0 {
-                raw[i / step].clone()
-            } else {
-                // nearest exact level in index (ties: the larger image, as Dollár's split)
-                let r = exact
-                    .iter()
-                    .copied()
-                    .min_by_key(|&e| (e.abs_diff(i), e > i))
-                    .expect("level 0 is exact");
-                let rel = (s / plan[r].0) as f32;
-                resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
-                    rel.powf(-opts.lambda_of(c))
-                })?
-            };
-            Ok(Level {
-                scale: s,
-                scale_x: lw as f64 / w as f64,
-                scale_y: lh as f64 / h as f64,
-                exact: i % step == 0,
-                channels,
-            })
+            // nearest exact level in index (ties: the larger image, as Dollár's split)
+            let r = exact
+                .iter()
+                .copied()
+                .min_by_key(|&e| (e.abs_diff(i), e > i))
+                .expect("level 0 is exact");
+            let rel = (s / plan[r].0) as f32;
+            let c = resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
+                rel.powf(-opts.lambda_of(c))
+            })?;
+            Ok(Some(level(i, c)))
         })
         .collect::<Result<_, _>>()?;
+    // the exact levels' channels move into their levels (no copy)
+    let mut raw = raw.into_iter();
+    let mut levels: Vec<Level> = approximated
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| l.unwrap_or_else(|| level(i, raw.next().expect("one per exact level"))))
+        .collect();
     // Approximated levels must read the unsmoothed exact channels: smooth only now.
     let r = spec.options().output_smooth;
     levels
         .par_iter_mut()
-        .for_each(|l| smooth_channels(&mut l.channels, r));
+        .for_each(|l| smooth_channels_on(isa, &mut l.channels, r));
     Ok(ChannelPyramid { levels })
 }
 
@@ -308,7 +333,8 @@ pub fn measure_lambdas(
     let mut cnt = vec![[0usize; 3]; n];
     for img in images {
         let (w, h) = img.dimensions();
-        let base = means(&channels_unsmoothed(img, spec)?);
+        let isa = crate::kernels::isa();
+        let base = means(&channels_unsmoothed_on(isa, img, spec)?);
         for k in 1..=n {
             let s = 2f64.powf(-(k as f64) / per_octave as f64);
             let lw = (w as f64 * s / SHRINK as f64).round() as usize * SHRINK;
@@ -316,7 +342,7 @@ pub fn measure_lambdas(
             if lw < SHRINK || lh < SHRINK {
                 continue;
             }
-            let m = means(&resized_channels(img, lw, lh, spec)?);
+            let m = means(&resized_channels(isa, img, lw, lh, spec)?);
             for t in 0..3 {
                 if base[t] > 0.0 && m[t] > 0.0 {
                     sum[k - 1][t] += m[t] / base[t];

@@ -354,3 +354,58 @@ fn lambdas_measured_on_scenes() {
     assert!(l[0].abs() < 0.1, "{l:?}");
     assert!(l[1] > 0.0 && l[2] > 0.0, "{l:?}");
 }
+
+#[test]
+fn kernel_paths_give_the_same_channels_and_pyramid() {
+    // every input kind, every option that changes the pass (input smoothing, the normalisation
+    // radius, none), sizes that are not multiples of a block or of a band: all paths of this CPU
+    // give the scalar oracle's values bit for bit
+    let rgb = scene(206, 150);
+    let m = mosaic_of(&rgb, Cfa::Gbrg);
+    let grey = rgb.map(|p| p[1]);
+    let greyf = rgb.map(|p| p[0] as f32 * 0.7 + 3.0);
+    let inputs = [
+        ChannelInput::Mosaic {
+            image: m.view(),
+            cfa: Cfa::Gbrg,
+        },
+        ChannelInput::Rgb8(rgb.view()),
+        ChannelInput::GreyU8(grey.view()),
+        ChannelInput::GreyF32(greyf.view()),
+    ];
+    let specs = [
+        ChannelSpec::default(),
+        raw_spec(),
+        ChannelSpec::new(ChannelOptions {
+            input_smooth: 1.0,
+            ..ChannelOptions::default()
+        })
+        .unwrap(),
+        ChannelSpec::new(ChannelOptions {
+            norm_radius: 2.0,
+            output_smooth: 1.0,
+            ..ChannelOptions::default()
+        })
+        .unwrap(),
+    ];
+    let opts = PyramidOptions {
+        min_size: (16, 32),
+        ..PyramidOptions::default()
+    };
+    let bits = |p: &ChannelPyramid| -> Vec<u32> {
+        p.levels
+            .iter()
+            .flat_map(|l| l.channels.as_slice().iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    for spec in &specs {
+        for input in &inputs {
+            let want = pyramid_on(crate::kernels::Isa::Scalar, input, spec, &opts).unwrap();
+            assert_eq!(want.levels.len(), 18);
+            for isa in crate::kernels::Isa::available() {
+                let got = pyramid_on(isa, input, spec, &opts).unwrap();
+                assert!(bits(&got) == bits(&want), "{isa}: {spec:?}");
+            }
+        }
+    }
+}

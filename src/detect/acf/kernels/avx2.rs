@@ -23,7 +23,10 @@ pub(super) unsafe fn score_run(
         // SAFETY: the caller guarantees every window's reads are in bounds; lane j reads
         // window g·8 + j < n.
         let x = unsafe { data.as_ptr().add(base0 + g * 8) };
+        // `h` runs on in every lane (one addition per tree: the only long dependency chain);
+        // a lane's score is frozen in `score` at the tree that rejects it
         let mut h = _mm256_setzero_ps();
+        let mut score = _mm256_setzero_ps();
         let mut cnt = _mm256_setzero_si256();
         let mut alive = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
         for (t, &r) in trees.iter().zip(reject) {
@@ -42,14 +45,18 @@ pub(super) unsafe fn score_run(
             let lo = _mm256_blendv_ps(_mm256_set1_ps(t.hs[0]), _mm256_set1_ps(t.hs[1]), m1);
             let hi = _mm256_blendv_ps(_mm256_set1_ps(t.hs[2]), _mm256_set1_ps(t.hs[3]), m1);
             let leaf = _mm256_blendv_ps(lo, hi, m0);
-            h = _mm256_blendv_ps(h, _mm256_add_ps(h, leaf), alive);
+            h = _mm256_add_ps(h, leaf);
             cnt = _mm256_sub_epi32(cnt, _mm256_castps_si256(alive));
-            let dead = _mm256_cmp_ps::<_CMP_LE_OQ>(h, _mm256_set1_ps(r));
+            // rejected by this tree: alive and h ≤ r
+            let dead = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(h, _mm256_set1_ps(r)), alive);
+            score = _mm256_blendv_ps(score, h, dead);
             alive = _mm256_andnot_ps(dead, alive);
             if _mm256_movemask_ps(alive) == 0 {
                 break;
             }
         }
+        // lanes never rejected score the sum of every tree
+        let h = _mm256_blendv_ps(score, h, alive);
         // SAFETY: g·8 + 8 ≤ n = scores.len() = counts.len().
         unsafe {
             _mm256_storeu_ps(scores.as_mut_ptr().add(g * 8), h);

@@ -25,7 +25,10 @@ pub(super) unsafe fn score_run(
         // SAFETY: the caller guarantees every window's reads are in bounds; lane j reads
         // window g·16 + j < n.
         let x = unsafe { data.as_ptr().add(base0 + g * 16) };
+        // `h` runs on in every lane (one addition per tree: the only long dependency chain);
+        // a lane's score is frozen in `score` at the tree that rejects it
         let mut h = _mm512_setzero_ps();
+        let mut score = _mm512_setzero_ps();
         let mut cnt = _mm512_setzero_si512();
         let mut alive: __mmask16 = 0xffff;
         for (t, &r) in trees.iter().zip(reject) {
@@ -44,14 +47,18 @@ pub(super) unsafe fn score_run(
             let lo = _mm512_mask_blend_ps(m1, _mm512_set1_ps(t.hs[0]), _mm512_set1_ps(t.hs[1]));
             let hi = _mm512_mask_blend_ps(m1, _mm512_set1_ps(t.hs[2]), _mm512_set1_ps(t.hs[3]));
             let leaf = _mm512_mask_blend_ps(m0, lo, hi);
-            h = _mm512_mask_add_ps(h, alive, h, leaf);
+            h = _mm512_add_ps(h, leaf);
             cnt = _mm512_mask_add_epi32(cnt, alive, cnt, one);
-            // still alive: not (h ≤ r)
-            alive = _mm512_mask_cmp_ps_mask::<_CMP_NLE_UQ>(alive, h, _mm512_set1_ps(r));
+            // still alive: alive and not (h ≤ r); the others alive before were rejected here
+            let still = _mm512_mask_cmp_ps_mask::<_CMP_NLE_UQ>(alive, h, _mm512_set1_ps(r));
+            score = _mm512_mask_mov_ps(score, alive ^ still, h);
+            alive = still;
             if alive == 0 {
                 break;
             }
         }
+        // lanes never rejected score the sum of every tree
+        let h = _mm512_mask_mov_ps(score, alive, h);
         // SAFETY: g·16 + 16 ≤ n = scores.len() = counts.len().
         unsafe {
             _mm512_storeu_ps(scores.as_mut_ptr().add(g * 16), h);

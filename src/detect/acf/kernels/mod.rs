@@ -26,6 +26,21 @@ mod avx512;
 mod neon;
 mod scalar;
 
+/// Packed trees with the largest offset any node reads (computed once: the bound every
+/// [`score_run`] checks).
+pub(crate) struct PackedTrees {
+    trees: Vec<Tree2>,
+    max_off: usize,
+}
+
+impl PackedTrees {
+    /// Pack `trees`.
+    pub(crate) fn new(trees: Vec<Tree2>) -> Self {
+        let max_off = trees.iter().flat_map(|t| t.off).max().unwrap_or(0) as usize;
+        Self { trees, max_off }
+    }
+}
+
 /// Score the `scores.len()` windows whose first values are at `data[base0 + i]`: `scores[i]` is
 /// the running score when the window was rejected (the first tree `k` after which it is
 /// `≤ reject[k]`) or after the last tree, `counts[i]` the trees evaluated.
@@ -34,20 +49,20 @@ mod scalar;
 /// If a node reads outside `data` or the slices disagree in length.
 pub(crate) fn score_run(
     isa: Isa,
-    trees: &[Tree2],
+    packed: &PackedTrees,
     reject: &[f32],
     data: &[f32],
     base0: usize,
     scores: &mut [f32],
     counts: &mut [u32],
 ) {
+    let (trees, max_off) = (&packed.trees[..], packed.max_off);
     let n = scores.len();
     assert_eq!(counts.len(), n, "one count per score");
     assert_eq!(reject.len(), trees.len(), "one rejection threshold per tree");
     if n == 0 {
         return;
     }
-    let max_off = trees.iter().flat_map(|t| t.off).max().unwrap_or(0) as usize;
     assert!(
         base0 + n - 1 + max_off < data.len(),
         "window run {base0}+{n} reads offset {max_off} beyond {} values",
@@ -98,9 +113,10 @@ mod tests {
             for (base0, n) in [(0usize, 37usize), (5, 64), (100, 3), (900, 0), (11, 1000)] {
                 let mut want = (vec![0.0f32; n], vec![0u32; n]);
                 score_run_scalar(&trees, &reject, &data, base0, &mut want.0, &mut want.1);
+                let packed = PackedTrees::new(trees.clone());
                 for isa in Isa::available() {
                     let mut got = (vec![0.0f32; n], vec![0u32; n]);
-                    score_run(isa, &trees, &reject, &data, base0, &mut got.0, &mut got.1);
+                    score_run(isa, &packed, &reject, &data, base0, &mut got.0, &mut got.1);
                     assert_eq!(got.1, want.1, "{isa} counts, run {base0}+{n}");
                     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&got.0), bits(&want.0), "{isa} scores, run {base0}+{n}");
@@ -116,6 +132,14 @@ mod tests {
             off: [0, 0, 10],
             ..Tree2::default()
         };
-        score_run(Isa::Scalar, &[t], &[0.0], &[0.0; 10], 0, &mut [0.0], &mut [0]);
+        score_run(
+            Isa::Scalar,
+            &PackedTrees::new(vec![t]),
+            &[0.0],
+            &[0.0; 10],
+            0,
+            &mut [0.0],
+            &mut [0],
+        );
     }
 }

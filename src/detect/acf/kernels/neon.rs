@@ -24,7 +24,10 @@ pub(super) unsafe fn score_run(
         // SAFETY: the caller guarantees every window's reads are in bounds; lane j reads
         // window g·4 + j < n.
         let x = unsafe { data.as_ptr().add(base0 + g * 4) };
+        // `h` runs on in every lane (one addition per tree: the only long dependency chain);
+        // a lane's score is frozen in `score` at the tree that rejects it
         let mut h = vdupq_n_f32(0.0);
+        let mut score = vdupq_n_f32(0.0);
         let mut cnt = vdupq_n_u32(0);
         let mut alive = vdupq_n_u32(u32::MAX);
         for (t, &r) in trees.iter().zip(reject) {
@@ -44,14 +47,18 @@ pub(super) unsafe fn score_run(
             let lo = vbslq_f32(m1, vdupq_n_f32(t.hs[1]), vdupq_n_f32(t.hs[0]));
             let hi = vbslq_f32(m1, vdupq_n_f32(t.hs[3]), vdupq_n_f32(t.hs[2]));
             let leaf = vbslq_f32(m0, hi, lo);
-            h = vbslq_f32(alive, vaddq_f32(h, leaf), h);
+            h = vaddq_f32(h, leaf);
             cnt = vsubq_u32(cnt, alive); // alive lanes are all ones: −(−1) = +1
-            let dead = vcleq_f32(h, vdupq_n_f32(r));
+                                         // rejected by this tree: alive and h ≤ r
+            let dead = vandq_u32(vcleq_f32(h, vdupq_n_f32(r)), alive);
+            score = vbslq_f32(dead, h, score);
             alive = vbicq_u32(alive, dead);
             if vmaxvq_u32(alive) == 0 {
                 break;
             }
         }
+        // lanes never rejected score the sum of every tree
+        let h = vbslq_f32(alive, h, score);
         // SAFETY: g·4 + 4 ≤ n = scores.len() = counts.len().
         unsafe {
             vst1q_f32(scores.as_mut_ptr().add(g * 4), h);

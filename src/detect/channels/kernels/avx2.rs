@@ -89,3 +89,100 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
     }
     super::scalar::normalise_scalar(m, n, c, out, x);
 }
+
+/// [`super::taps_sum`] on 8 values at a time.
+///
+/// # Safety
+/// The CPU has AVX2; every source holds at least `out.len()` values.
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn taps_sum(out: &mut [f32], srcs: &[&[f32]], taps: &[f32]) {
+    let len = out.len();
+    let mut x = 0;
+    while x + 8 <= len {
+        let mut acc = _mm256_setzero_ps();
+        for (src, &t) in srcs.iter().zip(taps) {
+            // SAFETY: x + 8 ≤ len ≤ src.len(). A product then a sum, never fused: the oracle's
+            // rounding.
+            acc = _mm256_add_ps(
+                acc,
+                _mm256_mul_ps(_mm256_set1_ps(t), unsafe { _mm256_loadu_ps(src.as_ptr().add(x)) }),
+            );
+        }
+        // SAFETY: x + 8 ≤ len.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(x), acc) };
+        x += 8;
+    }
+    super::scalar::taps_sum_scalar(out, srcs, taps, x);
+}
+
+/// The 4x8 transposition of [`aggregate`]: from four vectors of 8 consecutive pixels (two blocks
+/// each), the vectors of pixel `j = 0..4` of the 8 blocks, lanes in block order
+/// `0, 2, 4, 6, 1, 3, 5, 7`.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn transpose4x8(a: __m256, b: __m256, c: __m256, d: __m256) -> [__m256; 4] {
+    let t0 = _mm256_unpacklo_ps(a, b);
+    let t1 = _mm256_unpackhi_ps(a, b);
+    let t2 = _mm256_unpacklo_ps(c, d);
+    let t3 = _mm256_unpackhi_ps(c, d);
+    [
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+    ]
+}
+
+/// [`super::aggregate`] on 8 blocks (32 pixels of each of the 4 rows) at a time: the pixels are
+/// transposed so that each lane is one block, then added in the oracle's order (rows, then
+/// pixels left to right); an orientation sum adds `+0.0` for the pixels of other bins, which
+/// leaves it unchanged (the sums are never `−0.0`).
+///
+/// # Safety
+/// The CPU has AVX2; the lengths checked by [`super::aggregate`].
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out: &mut [f32], ostride: usize) {
+    use super::scalar::BLOCK;
+    let cw = gw / BLOCK;
+    let invv = _mm256_set1_ps(inv);
+    // lane i of a transposed vector holds block [0, 2, 4, 6, 1, 3, 5, 7][i]; this puts them back
+    let unperm = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7);
+    let ob: [__m256i; 6] = std::array::from_fn(|o| _mm256_set1_epi32(o as i32));
+    let mut bx = 0;
+    while bx + 8 <= cw {
+        let mut acc = [_mm256_setzero_ps(); 7];
+        for r in 0..BLOCK {
+            let p = r * gw + bx * BLOCK;
+            // SAFETY: p + 32 ≤ r·gw + cw·4 = (r + 1)·gw ≤ 4·gw ≤ v.len(), bins.len().
+            let (vals, bs) = unsafe {
+                let vals = transpose4x8(
+                    _mm256_loadu_ps(v.as_ptr().add(p)),
+                    _mm256_loadu_ps(v.as_ptr().add(p + 8)),
+                    _mm256_loadu_ps(v.as_ptr().add(p + 16)),
+                    _mm256_loadu_ps(v.as_ptr().add(p + 24)),
+                );
+                let b = |q: usize| {
+                    _mm256_castsi256_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
+                        bins.as_ptr().add(p + 8 * q).cast(),
+                    )))
+                };
+                (vals, transpose4x8(b(0), b(1), b(2), b(3)))
+            };
+            for (d, b) in vals.iter().zip(bs) {
+                acc[0] = _mm256_add_ps(acc[0], *d);
+                let b = _mm256_castps_si256(b);
+                for o in 0..6 {
+                    let m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(b, ob[o]));
+                    acc[1 + o] = _mm256_add_ps(acc[1 + o], _mm256_and_ps(m, *d));
+                }
+            }
+        }
+        for (k, a) in acc.iter().enumerate() {
+            let r = _mm256_permutevar8x32_ps(_mm256_mul_ps(*a, invv), unperm);
+            // SAFETY: k·ostride + bx + 8 ≤ 6·ostride + cw ≤ out.len() (checked by the caller).
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(k * ostride + bx), r) };
+        }
+        bx += 8;
+    }
+    super::scalar::aggregate_scalar(v, bins, gw, inv, out, ostride, bx);
+}

@@ -81,3 +81,85 @@ pub(super) unsafe fn normalise(m: &[f32], n: &[f32], c: f32, out: &mut [f32]) {
     }
     super::scalar::normalise_scalar(m, n, c, out, x);
 }
+
+/// [`super::taps_sum`] on 4 values at a time.
+///
+/// # Safety
+/// Every source holds at least `out.len()` values (NEON is part of every aarch64 target).
+#[target_feature(enable = "neon")]
+pub(super) unsafe fn taps_sum(out: &mut [f32], srcs: &[&[f32]], taps: &[f32]) {
+    let len = out.len();
+    let mut x = 0;
+    while x + 4 <= len {
+        let mut acc = vdupq_n_f32(0.0);
+        for (src, &t) in srcs.iter().zip(taps) {
+            // SAFETY: x + 4 ≤ len ≤ src.len(). A product then a sum, never fused: the oracle's
+            // rounding.
+            acc = vaddq_f32(
+                acc,
+                vmulq_f32(vdupq_n_f32(t), unsafe { vld1q_f32(src.as_ptr().add(x)) }),
+            );
+        }
+        // SAFETY: x + 4 ≤ len.
+        unsafe { vst1q_f32(out.as_mut_ptr().add(x), acc) };
+        x += 4;
+    }
+    super::scalar::taps_sum_scalar(out, srcs, taps, x);
+}
+
+/// [`super::aggregate`] on 8 blocks (32 pixels of each of the 4 rows) at a time: `vld4` splits
+/// the pixels so that each lane is one block, then they are added in the oracle's order (rows,
+/// then pixels left to right); an orientation sum adds `+0.0` for the pixels of other bins,
+/// which leaves it unchanged (the sums are never `−0.0`).
+///
+/// # Safety
+/// The lengths checked by [`super::aggregate`] (NEON is part of every aarch64 target).
+#[target_feature(enable = "neon")]
+pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out: &mut [f32], ostride: usize) {
+    use super::scalar::BLOCK;
+    let cw = gw / BLOCK;
+    let invv = vdupq_n_f32(inv);
+    let mut bx = 0;
+    while bx + 8 <= cw {
+        // two halves of 4 blocks
+        let mut acc = [[vdupq_n_f32(0.0); 7]; 2];
+        for r in 0..BLOCK {
+            let p = r * gw + bx * BLOCK;
+            // SAFETY: p + 32 ≤ r·gw + cw·4 = (r + 1)·gw ≤ 4·gw ≤ v.len(), bins.len().
+            let (lo, hi, b) = unsafe {
+                (
+                    vld4q_f32(v.as_ptr().add(p)),
+                    vld4q_f32(v.as_ptr().add(p + 16)),
+                    vld4_u8(bins.as_ptr().add(p)),
+                )
+            };
+            let vals = [[lo.0, lo.1, lo.2, lo.3], [hi.0, hi.1, hi.2, hi.3]];
+            for (j, bj) in [b.0, b.1, b.2, b.3].into_iter().enumerate() {
+                let w = vmovl_u8(bj);
+                let bh = [vmovl_u16(vget_low_u16(w)), vmovl_high_u16(w)];
+                for h in 0..2 {
+                    let d = vals[h][j];
+                    acc[h][0] = vaddq_f32(acc[h][0], d);
+                    for o in 0..6 {
+                        let m = vceqq_u32(bh[h], vdupq_n_u32(o as u32));
+                        let dm = vreinterpretq_f32_u32(vandq_u32(m, vreinterpretq_u32_f32(d)));
+                        acc[h][1 + o] = vaddq_f32(acc[h][1 + o], dm);
+                    }
+                }
+            }
+        }
+        for (h, acc) in acc.iter().enumerate() {
+            for (k, a) in acc.iter().enumerate() {
+                // SAFETY: k·ostride + bx + 8 ≤ 6·ostride + cw ≤ out.len() (checked by the caller).
+                unsafe {
+                    vst1q_f32(
+                        out.as_mut_ptr().add(k * ostride + bx + 4 * h),
+                        vmulq_f32(*a, invv),
+                    )
+                };
+            }
+        }
+        bx += 8;
+    }
+    super::scalar::aggregate_scalar(v, bins, gw, inv, out, ostride, bx);
+}

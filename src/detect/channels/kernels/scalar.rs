@@ -56,3 +56,42 @@ pub(crate) fn normalise_scalar(m: &[f32], n: &[f32], c: f32, out: &mut [f32], fr
         out[x] = m[x] / (n[x] + c);
     }
 }
+
+/// The scalar oracle of `taps_sum` from index `from` on (also the SIMD tails).
+pub(crate) fn taps_sum_scalar(out: &mut [f32], srcs: &[&[f32]], taps: &[f32], from: usize) {
+    for (x, o) in out.iter_mut().enumerate().skip(from) {
+        let mut acc = 0.0f32;
+        for (src, &t) in srcs.iter().zip(taps) {
+            acc += t * src[x];
+        }
+        *o = acc;
+    }
+}
+
+/// Pixels per block side (the channels' `SHRINK`).
+pub(crate) const BLOCK: usize = 4;
+
+/// The scalar oracle of `aggregate` for blocks `from..` (also the SIMD tails).
+pub(crate) fn aggregate_scalar(
+    v: &[f32],
+    bins: &[u8],
+    gw: usize,
+    inv: f32,
+    out: &mut [f32],
+    ostride: usize,
+    from: usize,
+) {
+    for bx in from..gw / BLOCK {
+        let mut a = [0.0f32; 1 + N_ORIENTS];
+        for r in 0..BLOCK {
+            for x in bx * BLOCK..(bx + 1) * BLOCK {
+                let (val, b) = (v[r * gw + x], bins[r * gw + x]);
+                a[0] += val;
+                a[1 + b as usize] += val;
+            }
+        }
+        for (k, a) in a.iter().enumerate() {
+            out[k * ostride + bx] = a * inv;
+        }
+    }
+}
