@@ -94,8 +94,6 @@ use crate::raw::{Cfa, Colour};
 
 pub use kernels::N_ORIENTS;
 use kernels::{bin_edges, orient_bin};
-#[cfg(test)]
-use pyramid::pyramid_on;
 pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.

@@ -1,4 +1,5 @@
 use super::*;
+use super::pyramid::pyramid_on;
 use crate::image::Image;
 
 fn raw_spec() -> ChannelSpec {
