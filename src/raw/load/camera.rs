@@ -79,10 +79,19 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     let bytes = read_at_most(path, max_camera_raw_bytes(limits), "a camera raw file")?;
-    if let Some(info) = kodak_radc::identify(&bytes) {
-        return load_kodak_radc(path, &bytes, &info);
+    camera_raw_from_bytes(&bytes, path)
+}
+
+/// Decode the bytes of a camera raw file already in memory: everything [`load_camera_raw`] does
+/// after its read (it calls this), with the same checks and errors; `path` names the source in
+/// errors and in the frame's metadata. The caller bounds the bytes' length
+/// ([`max_camera_raw_bytes`] is the file loader's bound).
+pub fn camera_raw_from_bytes(bytes: &[u8], path: &Path) -> Result<RawFrame, RawError> {
+    let limits = FrameLimits::process();
+    if let Some(info) = kodak_radc::identify(bytes) {
+        return load_kodak_radc(path, bytes, &info);
     }
-    if is_x3f(&bytes) {
+    if is_x3f(bytes) {
         return Err(format_err(
             path,
             "Sigma X3F is not supported: rawloader 0.37 decodes no X3F image, and X3F holds three \
@@ -90,14 +99,14 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
                 .into(),
         ));
     }
-    if let Some((offset, len)) = mrw_length_wrap(&bytes) {
+    if let Some((offset, len)) = mrw_length_wrap(bytes) {
         return Err(RawError::MrwLength {
             path: path.to_path_buf(),
             offset,
             len,
         });
     }
-    let visits = rawloader_ifd_visits(&bytes, MAX_TIFF_IFD_VISITS);
+    let visits = rawloader_ifd_visits(bytes, MAX_TIFF_IFD_VISITS);
     if visits > MAX_TIFF_IFD_VISITS {
         return Err(RawError::TiffWalk {
             path: path.to_path_buf(),
@@ -105,7 +114,7 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
             limit: MAX_TIFF_IFD_VISITS,
         });
     }
-    if let Some((w, h)) = sony_srf_size(&bytes) {
+    if let Some((w, h)) = sony_srf_size(bytes) {
         let (width, height) = (u64::from(w), u64::from(h));
         let needed = width
             .saturating_mul(height)
@@ -125,7 +134,7 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
             });
         }
     }
-    let raw = decode_quietly(&bytes).map_err(|e| {
+    let raw = decode_quietly(bytes).map_err(|e| {
         let e = e.to_string();
         let first = e.lines().next().unwrap_or_default().trim().to_string();
         if first.contains("find a decoder") {
