@@ -150,6 +150,9 @@ FUZZ_MAX_LEN := ml=65536; [ $$t = camera_raw ] && ml=262144;
 # model_files ran 29x faster), removed after the run.
 FUZZ_SCRATCH ?= $(if $(wildcard /dev/shm/.),/dev/shm/mosaicd-fuzz-scratch,$(FUZZ_TARGET_DIR)/scratch)
 fuzz fuzz-smoke: export MOSAICD_FUZZ_SCRATCH := $(FUZZ_SCRATCH)
+# One core per run: the parallel V4L2 unpacker and rawloader use the global rayon pool, which
+# would otherwise start a thread per core (v4l2_unpack used 1.3 cores).
+fuzz fuzz-smoke: export RAYON_NUM_THREADS := 1
 
 # --target keeps RUSTFLAGS off build scripts and proc macros.
 fuzz-build:
