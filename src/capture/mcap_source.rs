@@ -17,10 +17,13 @@
 //! centuries (`[0, u64::MAX, 5]`) replays, and stops, promptly.
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
-//! used, the data section, the summary: at open) and record lengths limited to the file size and
-//! to [`crate::record::read::record_length_limit`], which the frame-size limit
-//! ([`crate::raw::limits`]) sets: a chunk claiming more is refused before it is decompressed, and
-//! a frame message larger than the limit ([`RawError::TooLarge`]) before its pixels are copied.
+//! used, the data section, the summary: at open) and record lengths limited to
+//! [`crate::record::read::record_length_limit`], which the frame-size limit
+//! ([`crate::raw::limits`]) sets (the summary's records also to the file size): a chunk claiming
+//! more is refused before it is decompressed, and a frame message larger than the limit
+//! ([`RawError::TooLarge`]) before its pixels are copied. Within that limit, the `mcap` reader
+//! zero-fills a buffer of the length a record header declares before it reads the record, so a
+//! file of a few bytes can cost that much memory for a moment (docs/fuzzing.md, finding 5).
 //! * A **truncated** file (a recording cut by a crash or a full disk, or a writer killed in the
 //!   middle of a chunk) yields every message of its complete chunks, then
 //!   [`CaptureError::Truncated`].
