@@ -496,3 +496,32 @@ fn a_looped_replay_from_memory_starts_again() {
     assert_eq!(values, vec![0, 1, 2, 0, 1, 2, 0]);
     assert_eq!(src.describe(), "mcap:memory.mcap");
 }
+
+/// The fuzzer's 79-byte MCAP (10^7-run campaign, docs/fuzzing.md finding 6): an Attachment record
+/// whose body is shorter than its header, which mcap 0.26 slices without a check. The panic
+/// killed the source thread, and `mosaicd replay` then waited until a signal. Now the replay ends
+/// with a corruption error naming the record.
+#[test]
+fn an_attachment_shorter_than_its_header_is_a_clear_error_not_a_panic() {
+    let seed =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/mcap_source/attachment-short-body.mcap");
+    let (frames, err) = replay(&seed);
+    assert_eq!(frames, 0);
+    match err {
+        Some(CaptureError::Corrupt {
+            source: Damage::ReaderPanic { message },
+            ..
+        }) => assert!(
+            message.contains("range") || message.contains("index"),
+            "{message}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    let out = Command::new(BIN)
+        .args(["replay", seed.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("malformed record"), "{stderr}");
+}

@@ -418,7 +418,26 @@ impl Source for McapSource {
             return Ok(None);
         }
         loop {
-            let m = match self.reader.next() {
+            // mcap 0.26 panics on some malformed records (an Attachment whose body is shorter than
+            // its header): caught here, the reader is not used again.
+            let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.reader.next()));
+            let next = match next {
+                Ok(n) => n,
+                Err(panic) => {
+                    self.finished = true;
+                    let message = panic
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_default();
+                    return Err(CaptureError::Corrupt {
+                        path: self.path.clone(),
+                        frames: self.delivered,
+                        source: Damage::ReaderPanic { message },
+                    });
+                }
+            };
+            let m = match next {
                 Some(Ok(m)) => m,
                 Some(Err(e)) => {
                     self.finished = true;
