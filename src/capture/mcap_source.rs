@@ -420,7 +420,11 @@ impl Source for McapSource {
         loop {
             // mcap 0.26 panics on some malformed records (an Attachment whose body is shorter than
             // its header): caught here, the reader is not used again.
-            let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.reader.next()));
+            // Quietly: the panic hook would print it (and a fuzzer's would abort).
+            let reader = &mut self.reader;
+            let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                crate::quiet_panic::call_quietly("/mcap-", || reader.next())
+            }));
             let next = match next {
                 Ok(n) => n,
                 Err(panic) => {

@@ -2,7 +2,6 @@
 //! through `rawloader`.
 
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 use super::common::{bits_for, format_err, meta_for, read_at_most, too_large};
 use super::tiff_walk::{
@@ -30,33 +29,13 @@ pub fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
     limits.max_sample_bytes().saturating_add(CAMERA_RAW_SLACK_BYTES)
 }
 
-/// Serialises the panic-hook swap of [`decode_quietly`].
-static HOOK_SWAP: Mutex<()> = Mutex::new(());
-
-/// `rawloader::decode` with the panics it catches kept off stderr.
-///
-/// rawloader wraps its decoders in `catch_unwind` and turns a panic into an error ("Caught a
-/// panic while decoding"), but the process's panic hook has printed "panicked at ..." to stderr by
-/// then. For the duration of the call (serialised by a mutex), the hook is one that stays silent
-/// for panics raised in rawloader's own code (logged at debug level instead) and hands every other
-/// panic, from any thread, to the previous hook; the previous hook is restored afterwards.
+/// `rawloader::decode` with the panics it catches kept off stderr
+/// ([`crate::quiet_panic::call_quietly`]): rawloader wraps its decoders in `catch_unwind` and
+/// turns a panic into an error ("Caught a panic while decoding").
 fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoaderError> {
-    let _serial = HOOK_SWAP.lock().unwrap_or_else(|p| p.into_inner());
-    let previous: Arc<dyn Fn(&std::panic::PanicHookInfo<'_>) + Send + Sync> =
-        Arc::from(std::panic::take_hook());
-    let chained = Arc::clone(&previous);
-    std::panic::set_hook(Box::new(move |info| {
-        let in_rawloader = info.location().is_some_and(|l| l.file().contains("rawloader"));
-        if in_rawloader {
-            tracing::debug!(panic = %info, "rawloader panicked (caught: the file is refused)");
-        } else {
-            chained(info);
-        }
-    }));
-    let out = rawloader::decode(&mut std::io::Cursor::new(bytes));
-    let _ = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| previous(info)));
-    out
+    crate::quiet_panic::call_quietly("rawloader", || {
+        rawloader::decode(&mut std::io::Cursor::new(bytes))
+    })
 }
 
 /// Load a camera raw file: a Kodak DC40/DC50 KDC (identified by its TIFF make and model, see
