@@ -31,6 +31,7 @@ pub mod pipeline;
 pub mod pool;
 pub mod progress;
 pub mod publish;
+pub mod quiet_panic;
 pub mod raw;
 pub mod record;
 pub mod srgb;

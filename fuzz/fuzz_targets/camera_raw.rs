@@ -1,11 +1,11 @@
 //! Camera raw files: the Kodak RADC decoder (by TIFF make and model) and rawloader, whose caught
-//! panics must stay caught (and off stderr).
+//! panics must stay caught (and off stderr). From memory: the file loader `load_camera_raw` is
+//! its `stat` and bounded read, then this same `camera_raw_from_bytes`.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::raw::load::load_camera_raw;
+use mosaicd::raw::load::camera_raw_from_bytes;
 
 fuzz_target!(|data: &[u8]| {
-    let path = mosaicd_fuzz::scratch_file("in.kdc", data);
-    let _ = load_camera_raw(&path);
+    let _ = camera_raw_from_bytes(data, "fuzz.kdc".as_ref());
 });

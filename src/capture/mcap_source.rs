@@ -17,10 +17,13 @@
 //! centuries (`[0, u64::MAX, 5]`) replays, and stops, promptly.
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
-//! used, the data section, the summary: at open) and record lengths limited to the file size and
-//! to [`crate::record::read::record_length_limit`], which the frame-size limit
-//! ([`crate::raw::limits`]) sets: a chunk claiming more is refused before it is decompressed, and
-//! a frame message larger than the limit ([`RawError::TooLarge`]) before its pixels are copied.
+//! used, the data section, the summary: at open) and record lengths limited to
+//! [`crate::record::read::record_length_limit`], which the frame-size limit
+//! ([`crate::raw::limits`]) sets (the summary's records also to the file size): a chunk claiming
+//! more is refused before it is decompressed, and a frame message larger than the limit
+//! ([`RawError::TooLarge`]) before its pixels are copied. Within that limit, the `mcap` reader
+//! zero-fills a buffer of the length a record header declares before it reads the record, so a
+//! file of a few bytes can cost that much memory for a moment (docs/fuzzing.md, finding 5).
 //! * A **truncated** file (a recording cut by a crash or a full disk, or a writer killed in the
 //!   middle of a chunk) yields every message of its complete chunks, then
 //!   [`CaptureError::Truncated`].
@@ -53,7 +56,7 @@
 //! ```
 
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -110,11 +113,19 @@ impl Default for McapSourceOptions {
     }
 }
 
-type Reader = mcap::io::MessageReader<ChunkGuard<BufReader<File>>>;
+type Reader = mcap::io::MessageReader<ChunkGuard<Box<dyn Read + Send>>>;
+
+/// Where a replay reads its recording from: the file at its path (opened again for each loop),
+/// or bytes in memory ([`McapSource::from_bytes`]).
+enum Recording {
+    File,
+    Memory(Arc<[u8]>),
+}
 
 /// Replays the raw frames of a recording (see the [module overview](self)).
 pub struct McapSource {
     path: PathBuf,
+    recording: Recording,
     opts: McapSourceOptions,
     reader: Reader,
     /// The topic locked onto (given, from the summary, or from the first raw message).
@@ -154,14 +165,39 @@ impl std::fmt::Debug for McapSource {
     }
 }
 
-fn open_reader(path: &Path) -> Result<Reader, CaptureError> {
-    let io = |source| CaptureError::Io {
-        context: format!("cannot open recording {}", path.display()),
+fn open_error(path: &Path) -> impl Fn(std::io::Error) -> CaptureError {
+    let context = format!("cannot open recording {}", path.display());
+    move |source| CaptureError::Io {
+        context: context.clone(),
         source,
+    }
+}
+
+/// Options that no recording can make valid.
+fn check_options(opts: &McapSourceOptions) -> Result<(), CaptureError> {
+    if let Pacing::Recorded { speed } = opts.pacing {
+        if !(speed > 0.0 && speed.is_finite()) {
+            return Err(CaptureError::Option {
+                name: "pacing.speed",
+                value: speed.to_string(),
+                why: "a finite number > 0",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The streaming reader over the whole recording, from its start.
+fn open_reader(path: &Path, recording: &Recording) -> Result<Reader, CaptureError> {
+    let inner: Box<dyn Read + Send> = match recording {
+        Recording::File => {
+            let file = File::open(path).map_err(open_error(path))?;
+            Box::new(BufReader::with_capacity(READ_BUFFER, file))
+        }
+        Recording::Memory(bytes) => Box::new(Cursor::new(Arc::clone(bytes))),
     };
-    let file = File::open(path).map_err(io)?;
     Ok(mcap::io::MessageReader::new_with_options(
-        ChunkGuard::new(BufReader::with_capacity(READ_BUFFER, file)),
+        ChunkGuard::new(inner),
         strict_reader_options(),
     ))
 }
@@ -172,28 +208,45 @@ impl McapSource {
     /// summary (truncated, unfinished) opens and is read up to the damage.
     pub fn open(path: impl AsRef<Path>, opts: McapSourceOptions) -> Result<Self, CaptureError> {
         let path = path.as_ref().to_path_buf();
-        if let Pacing::Recorded { speed } = opts.pacing {
-            if !(speed > 0.0 && speed.is_finite()) {
-                return Err(CaptureError::Option {
-                    name: "pacing.speed",
-                    value: speed.to_string(),
-                    why: "a finite number > 0",
-                });
-            }
-        }
+        check_options(&opts)?;
+        let mut file = File::open(&path).map_err(open_error(&path))?;
+        let len = file.metadata().map_err(open_error(&path))?.len();
+        Self::open_from(&mut file, len, path, Recording::File, opts)
+    }
+
+    /// [`McapSource::open`] for a recording already in memory: the same checks, errors and
+    /// frames; `origin` stands for the file's path in errors, warnings and
+    /// [`Source::describe`]. A looped replay starts again from the same bytes.
+    pub fn from_bytes(
+        bytes: impl Into<Arc<[u8]>>,
+        origin: impl AsRef<Path>,
+        opts: McapSourceOptions,
+    ) -> Result<Self, CaptureError> {
+        let bytes: Arc<[u8]> = bytes.into();
+        check_options(&opts)?;
+        let len = bytes.len() as u64;
+        let mut cursor = Cursor::new(Arc::clone(&bytes));
+        let origin = origin.as_ref().to_path_buf();
+        Self::open_from(&mut cursor, len, origin, Recording::Memory(bytes), opts)
+    }
+
+    /// The checks of [`McapSource::open`] on `r` (holding `len` bytes: the magic, then the footer
+    /// and summary of a finished file), then the reader over the frames.
+    fn open_from<R: Read + Seek>(
+        r: &mut R,
+        len: u64,
+        path: PathBuf,
+        recording: Recording,
+        opts: McapSourceOptions,
+    ) -> Result<Self, CaptureError> {
         let corrupt = |e: mcap::McapError| CaptureError::Corrupt {
             path: path.clone(),
             frames: 0,
             source: Damage::Mcap(e),
         };
-        let io = |source| CaptureError::Io {
-            context: format!("cannot open recording {}", path.display()),
-            source,
-        };
-        let mut file = File::open(&path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
+        let io = open_error(&path);
         let mut magic = [0u8; 8];
-        let head = file.read(&mut magic).map_err(io)?;
+        let head = r.read(&mut magic).map_err(&io)?;
         if head < magic.len() || magic != mcap::MAGIC {
             return Err(corrupt(mcap::McapError::BadMagic));
         }
@@ -201,13 +254,13 @@ impl McapSource {
         let mut topic = opts.topic.clone();
         let mut tail = [0u8; 8];
         let finished_file = len >= 16 && {
-            use std::io::{Seek, SeekFrom};
-            file.seek(SeekFrom::End(-8)).map_err(io)?;
-            file.read_exact(&mut tail).map_err(io)?;
+            use std::io::SeekFrom;
+            r.seek(SeekFrom::End(-8)).map_err(&io)?;
+            r.read_exact(&mut tail).map_err(&io)?;
             tail == mcap::MAGIC
         };
         if finished_file {
-            if let Some(summary) = read_summary(&mut file).map_err(corrupt)? {
+            if let Some(summary) = read_summary(r).map_err(corrupt)? {
                 let raw: Vec<&str> = summary
                     .channels
                     .values()
@@ -236,9 +289,10 @@ impl McapSource {
         } else {
             tracing::warn!(path = %path.display(), "recording has no footer (truncated or unfinished); reading what is complete");
         }
-        let reader = open_reader(&path)?;
+        let reader = open_reader(&path, &recording)?;
         Ok(Self {
             path,
+            recording,
             opts,
             reader,
             topic,
@@ -364,7 +418,30 @@ impl Source for McapSource {
             return Ok(None);
         }
         loop {
-            let m = match self.reader.next() {
+            // mcap 0.26 panics on some malformed records (an Attachment whose body is shorter than
+            // its header): caught here, the reader is not used again.
+            // Quietly: the panic hook would print it (and a fuzzer's would abort).
+            let reader = &mut self.reader;
+            let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                crate::quiet_panic::call_quietly("/mcap-", || reader.next())
+            }));
+            let next = match next {
+                Ok(n) => n,
+                Err(panic) => {
+                    self.finished = true;
+                    let message = panic
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_default();
+                    return Err(CaptureError::Corrupt {
+                        path: self.path.clone(),
+                        frames: self.delivered,
+                        source: Damage::ReaderPanic { message },
+                    });
+                }
+            };
+            let m = match next {
                 Some(Ok(m)) => m,
                 Some(Err(e)) => {
                     self.finished = true;
@@ -386,7 +463,7 @@ impl Source for McapSource {
                             .saturating_add(interval);
                         self.pass_first = None;
                         self.pass_frames = 0;
-                        match open_reader(&self.path) {
+                        match open_reader(&self.path, &self.recording) {
                             Ok(r) => self.reader = r,
                             Err(e) => {
                                 // The file went away between passes: the replay ends here.

@@ -202,6 +202,14 @@ pub enum Damage {
     /// (which would overflow: see [`ChunkOverrun`]).
     #[error(transparent)]
     ChunkOverrun(#[from] ChunkOverrun),
+    /// A record on which the `mcap` reader panicked (caught; the replay ends there). mcap 0.26
+    /// slices an Attachment record's body without checking its length (docs/fuzzing.md,
+    /// finding 6).
+    #[error("the mcap reader failed on a malformed record: {message}")]
+    ReaderPanic {
+        /// The panic's message.
+        message: String,
+    },
 }
 
 /// A producer of raw frames.

@@ -2,7 +2,6 @@
 //! through `rawloader`.
 
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 use super::common::{bits_for, format_err, meta_for, read_at_most, too_large};
 use super::tiff_walk::{
@@ -30,33 +29,13 @@ pub fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
     limits.max_sample_bytes().saturating_add(CAMERA_RAW_SLACK_BYTES)
 }
 
-/// Serialises the panic-hook swap of [`decode_quietly`].
-static HOOK_SWAP: Mutex<()> = Mutex::new(());
-
-/// `rawloader::decode` with the panics it catches kept off stderr.
-///
-/// rawloader wraps its decoders in `catch_unwind` and turns a panic into an error ("Caught a
-/// panic while decoding"), but the process's panic hook has printed "panicked at ..." to stderr by
-/// then. For the duration of the call (serialised by a mutex), the hook is one that stays silent
-/// for panics raised in rawloader's own code (logged at debug level instead) and hands every other
-/// panic, from any thread, to the previous hook; the previous hook is restored afterwards.
+/// `rawloader::decode` with the panics it catches kept off stderr
+/// ([`crate::quiet_panic::call_quietly`]): rawloader wraps its decoders in `catch_unwind` and
+/// turns a panic into an error ("Caught a panic while decoding").
 fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoaderError> {
-    let _serial = HOOK_SWAP.lock().unwrap_or_else(|p| p.into_inner());
-    let previous: Arc<dyn Fn(&std::panic::PanicHookInfo<'_>) + Send + Sync> =
-        Arc::from(std::panic::take_hook());
-    let chained = Arc::clone(&previous);
-    std::panic::set_hook(Box::new(move |info| {
-        let in_rawloader = info.location().is_some_and(|l| l.file().contains("rawloader"));
-        if in_rawloader {
-            tracing::debug!(panic = %info, "rawloader panicked (caught: the file is refused)");
-        } else {
-            chained(info);
-        }
-    }));
-    let out = rawloader::decode(&mut std::io::Cursor::new(bytes));
-    let _ = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| previous(info)));
-    out
+    crate::quiet_panic::call_quietly("rawloader", || {
+        rawloader::decode(&mut std::io::Cursor::new(bytes))
+    })
 }
 
 /// Load a camera raw file: a Kodak DC40/DC50 KDC (identified by its TIFF make and model, see
@@ -79,10 +58,19 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     let bytes = read_at_most(path, max_camera_raw_bytes(limits), "a camera raw file")?;
-    if let Some(info) = kodak_radc::identify(&bytes) {
-        return load_kodak_radc(path, &bytes, &info);
+    camera_raw_from_bytes(&bytes, path)
+}
+
+/// Decode the bytes of a camera raw file already in memory: everything [`load_camera_raw`] does
+/// after its read (it calls this), with the same checks and errors; `path` names the source in
+/// errors and in the frame's metadata. The caller bounds the bytes' length
+/// ([`max_camera_raw_bytes`] is the file loader's bound).
+pub fn camera_raw_from_bytes(bytes: &[u8], path: &Path) -> Result<RawFrame, RawError> {
+    let limits = FrameLimits::process();
+    if let Some(info) = kodak_radc::identify(bytes) {
+        return load_kodak_radc(path, bytes, &info);
     }
-    if is_x3f(&bytes) {
+    if is_x3f(bytes) {
         return Err(format_err(
             path,
             "Sigma X3F is not supported: rawloader 0.37 decodes no X3F image, and X3F holds three \
@@ -90,14 +78,14 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
                 .into(),
         ));
     }
-    if let Some((offset, len)) = mrw_length_wrap(&bytes) {
+    if let Some((offset, len)) = mrw_length_wrap(bytes) {
         return Err(RawError::MrwLength {
             path: path.to_path_buf(),
             offset,
             len,
         });
     }
-    let visits = rawloader_ifd_visits(&bytes, MAX_TIFF_IFD_VISITS);
+    let visits = rawloader_ifd_visits(bytes, MAX_TIFF_IFD_VISITS);
     if visits > MAX_TIFF_IFD_VISITS {
         return Err(RawError::TiffWalk {
             path: path.to_path_buf(),
@@ -105,7 +93,7 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
             limit: MAX_TIFF_IFD_VISITS,
         });
     }
-    if let Some((w, h)) = sony_srf_size(&bytes) {
+    if let Some((w, h)) = sony_srf_size(bytes) {
         let (width, height) = (u64::from(w), u64::from(h));
         let needed = width
             .saturating_mul(height)
@@ -125,7 +113,7 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
             });
         }
     }
-    let raw = decode_quietly(&bytes).map_err(|e| {
+    let raw = decode_quietly(bytes).map_err(|e| {
         let e = e.to_string();
         let first = e.lines().next().unwrap_or_default().trim().to_string();
         if first.contains("find a decoder") {

@@ -64,18 +64,18 @@ mod png;
 mod rgb;
 mod tiff_walk;
 
-pub use camera::{load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
+pub use camera::{camera_raw_from_bytes, load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
 pub use common::{Container, Endian, InputOptions, LoadedInput, MosaicFormat};
 pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFormat};
-pub use pgm::{load_pgm_mosaic, pgm_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
+pub use pgm::{load_pgm_mosaic, pgm_from_bytes, pgm_mosaic_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
 pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
-pub use rgb::{decode_image, load_rgb8};
+pub use rgb::{decode_image, decode_image_bytes, load_rgb8};
 pub use tiff_walk::{
     is_x3f, mrw_length_wrap, rawloader_ifd_visits, sony_srf_size, MAX_TIFF_IFD_VISITS, SRF_DATA_OFFSET,
 };
 
 use common::need_cfa;
-use png::png_header;
+use png::{png_header, png_header_from, png_mosaic_from_image};
 use rgb::rgb_input;
 
 fn ext_of(path: &Path) -> String {
@@ -93,13 +93,52 @@ fn ext_of(path: &Path) -> String {
 ///   RGGB), keeping the RGB image (a grey BMP decodes to equal R, G and B);
 /// - anything else → camera raw through rawloader.
 pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    load_from(Src::File(path), opts)
+}
+
+/// [`load_input`] for a file already in memory: `origin` stands for its path (its extension
+/// chooses the loader, and it names the source in errors and in the frame's metadata); the same
+/// parsers, checks and errors, without the file loaders' `stat` and read. The caller bounds the
+/// bytes' length (the file loaders refuse a file larger than its format can need:
+/// [`RawError::FileTooLarge`]).
+pub fn load_input_bytes(bytes: &[u8], origin: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    load_from(Src::Memory { bytes, origin }, opts)
+}
+
+/// Where [`load_from`] reads: a file (`stat`ed and bounded by each loader) or bytes in memory.
+#[derive(Clone, Copy)]
+enum Src<'a> {
+    File(&'a Path),
+    Memory { bytes: &'a [u8], origin: &'a Path },
+}
+
+impl Src<'_> {
+    fn origin(&self) -> &Path {
+        match *self {
+            Src::File(p) => p,
+            Src::Memory { origin, .. } => origin,
+        }
+    }
+
+    fn decode_image(&self) -> Result<image::DynamicImage, RawError> {
+        match *self {
+            Src::File(p) => decode_image(p),
+            Src::Memory { bytes, origin } => decode_image_bytes(bytes, origin),
+        }
+    }
+}
+
+/// The dispatch of [`load_input`] and [`load_input_bytes`].
+fn load_from(src: Src<'_>, opts: &InputOptions) -> Result<LoadedInput, RawError> {
+    let path = src.origin();
     let ext = ext_of(path);
+    let mosaic = |frame| Ok(LoadedInput { frame, rgb: None });
     let headerless = (opts.width.is_some() || opts.height.is_some()) || ext == "raw" || ext == "bin";
     if headerless {
         let fmt = headerless_format(path, opts)?;
-        return Ok(LoadedInput {
-            frame: load_headerless(path, &fmt)?,
-            rgb: None,
+        return mosaic(match src {
+            Src::File(p) => load_headerless(p, &fmt)?,
+            Src::Memory { bytes, origin } => frame_from_bytes(bytes, &fmt, origin)?,
         });
     }
     let mosaic_fmt = |kind: &str| -> Result<MosaicFormat, RawError> {
@@ -111,35 +150,41 @@ pub fn load_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawEr
         })
     };
     match ext.as_str() {
-        "pgm" => Ok(LoadedInput {
-            frame: load_pgm_mosaic(path, &mosaic_fmt("a PGM mosaic")?)?,
-            rgb: None,
-        }),
-        "png" => match png_header(path)? {
-            (true, meta) => {
-                // Flags override what the file says about itself.
-                let fmt = match meta {
-                    Some(m) => MosaicFormat {
-                        cfa: opts.cfa.unwrap_or(m.cfa),
-                        bit_depth: Some(opts.bit_depth.unwrap_or(m.bit_depth)),
-                        black: opts.black.unwrap_or(m.levels.black),
-                        white: Some(opts.white.unwrap_or(m.levels.white)),
-                    },
-                    None => mosaic_fmt("a grey PNG mosaic")?,
-                };
-                Ok(LoadedInput {
-                    frame: load_png_mosaic(path, &fmt)?,
-                    rgb: None,
-                })
+        "pgm" => {
+            let fmt = mosaic_fmt("a PGM mosaic")?;
+            mosaic(match src {
+                Src::File(p) => load_pgm_mosaic(p, &fmt)?,
+                Src::Memory { bytes, origin } => pgm_mosaic_from_bytes(bytes, &fmt, origin)?,
+            })
+        }
+        "png" => {
+            let header = match src {
+                Src::File(p) => png_header(p)?,
+                Src::Memory { bytes, origin } => png_header_from(std::io::Cursor::new(bytes), origin)?,
+            };
+            match header {
+                (true, meta) => {
+                    // Flags override what the file says about itself.
+                    let fmt = match meta {
+                        Some(m) => MosaicFormat {
+                            cfa: opts.cfa.unwrap_or(m.cfa),
+                            bit_depth: Some(opts.bit_depth.unwrap_or(m.bit_depth)),
+                            black: opts.black.unwrap_or(m.levels.black),
+                            white: Some(opts.white.unwrap_or(m.levels.white)),
+                        },
+                        None => mosaic_fmt("a grey PNG mosaic")?,
+                    };
+                    mosaic(png_mosaic_from_image(src.decode_image()?, &fmt, path)?)
+                }
+                (false, _) => rgb_input(src.decode_image()?, opts, path),
             }
-            (false, _) => rgb_input(path, opts),
-        },
+        }
         // BMP: the decoder expands 8-bit (palette) files to RGB, so a grey BMP (the USC sets)
         // samples into a mosaic of its own grey values, whatever the pattern.
-        "jpg" | "jpeg" | "bmp" => rgb_input(path, opts),
-        _ => Ok(LoadedInput {
-            frame: load_camera_raw(path)?,
-            rgb: None,
+        "jpg" | "jpeg" | "bmp" => rgb_input(src.decode_image()?, opts, path),
+        _ => mosaic(match src {
+            Src::File(p) => load_camera_raw(p)?,
+            Src::Memory { bytes, origin } => camera_raw_from_bytes(bytes, origin)?,
         }),
     }
 }

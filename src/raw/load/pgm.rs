@@ -124,8 +124,14 @@ pub fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawE
         .max_sample_bytes()
         .saturating_add(MAX_PGM_HEADER_BYTES);
     let bytes = read_at_most(path, max, "a PGM")?;
-    let (w, h, maxval, pixels) = pgm_from_bytes(&bytes, path)?;
-    mosaic_frame(w, h, pixels, bits_for(maxval as u32), fmt, path)
+    pgm_mosaic_from_bytes(&bytes, fmt, path)
+}
+
+/// A binary PGM (`P5`) mosaic from bytes already in memory: what [`load_pgm_mosaic`] does after
+/// its read (it calls this). `origin` names the source in errors and in the frame's metadata.
+pub fn pgm_mosaic_from_bytes(bytes: &[u8], fmt: &MosaicFormat, origin: &Path) -> Result<RawFrame, RawError> {
+    let (w, h, maxval, pixels) = pgm_from_bytes(bytes, origin)?;
+    mosaic_frame(w, h, pixels, bits_for(maxval as u32), fmt, origin)
 }
 
 /// Write a frame as a binary PGM (`P5`) with maxval `2^bit_depth - 1` (big-endian 16-bit samples

@@ -9,15 +9,24 @@ use crate::raw::{Cfa, Levels, RawError, RawFrame, RawPixels};
 
 /// Load a 1-channel 8- or 16-bit PNG as a mosaic.
 pub fn load_png_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawError> {
-    let img = decode_image(path)?;
+    png_mosaic_from_image(decode_image(path)?, fmt, path)
+}
+
+/// A decoded 1-channel 8- or 16-bit image as a mosaic (any other colour type is an error naming
+/// `origin`).
+pub(super) fn png_mosaic_from_image(
+    img: image::DynamicImage,
+    fmt: &MosaicFormat,
+    origin: &Path,
+) -> Result<RawFrame, RawError> {
     let (w, h) = (img.width() as usize, img.height() as usize);
     match img {
-        image::DynamicImage::ImageLuma8(g) => mosaic_frame(w, h, RawPixels::U8(g.into_raw()), 8, fmt, path),
+        image::DynamicImage::ImageLuma8(g) => mosaic_frame(w, h, RawPixels::U8(g.into_raw()), 8, fmt, origin),
         image::DynamicImage::ImageLuma16(g) => {
-            mosaic_frame(w, h, RawPixels::U16(g.into_raw()), 16, fmt, path)
+            mosaic_frame(w, h, RawPixels::U16(g.into_raw()), 16, fmt, origin)
         }
         other => Err(format_err(
-            path,
+            origin,
             format!(
                 "a mosaic PNG must be 1-channel 8- or 16-bit grey, this one is {:?}",
                 other.color()
@@ -110,23 +119,33 @@ pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
 /// [`PNG_TEXT_KEY`] description when it has one (a malformed description is an error).
 pub(super) fn png_header(path: &Path) -> Result<(bool, Option<PngMosaicMeta>), RawError> {
     let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
-    let decoder = png::Decoder::new(std::io::BufReader::new(file));
+    png_header_from(std::io::BufReader::new(file), path)
+}
+
+/// [`png_header`] of a PNG read from `r`; `origin` names the source in errors.
+pub(super) fn png_header_from<R: std::io::BufRead + std::io::Seek>(
+    r: R,
+    origin: &Path,
+) -> Result<(bool, Option<PngMosaicMeta>), RawError> {
+    let decoder = png::Decoder::new(r);
     let reader = decoder
         .read_info()
-        .map_err(|e| format_err(path, format!("cannot read PNG header: {e}")))?;
+        .map_err(|e| format_err(origin, format!("cannot read PNG header: {e}")))?;
     let info = reader.info();
     let grey = matches!(info.color_type, png::ColorType::Grayscale);
-    let meta =
-        match info
-            .uncompressed_latin1_text
-            .iter()
-            .find(|t| t.keyword == PNG_TEXT_KEY)
-        {
-            None => None,
-            Some(t) => Some(PngMosaicMeta::parse(&t.text).ok_or_else(|| {
-                format_err(path, format!("malformed {PNG_TEXT_KEY} text chunk {:?}", t.text))
-            })?),
-        };
+    let meta = match info
+        .uncompressed_latin1_text
+        .iter()
+        .find(|t| t.keyword == PNG_TEXT_KEY)
+    {
+        None => None,
+        Some(t) => Some(PngMosaicMeta::parse(&t.text).ok_or_else(|| {
+            format_err(
+                origin,
+                format!("malformed {PNG_TEXT_KEY} text chunk {:?}", t.text),
+            )
+        })?),
+    };
     Ok((grey, meta))
 }
 

@@ -10,43 +10,76 @@ use crate::raw::{Cfa, FrameLimits, RawError};
 /// Decode a PNG, JPEG or BMP file (format from the extension, as `image::open`) within the
 /// frame-size limit: the header's width and height are checked against
 /// [`FrameLimits::process`] before any pixel is decoded, and the decoder's own allocations are
-/// capped ([`FrameLimits::image_limits`]). Every image decode in mosaicd goes through here.
+/// capped ([`FrameLimits::image_limits`]). Every image decode in mosaicd goes through here or
+/// through [`decode_image_bytes`].
 pub fn decode_image(path: &Path) -> Result<image::DynamicImage, RawError> {
+    let reader = image::ImageReader::open(path).map_err(|e| io_err(path, e))?;
+    decode_within_limits(reader, path)
+}
+
+/// [`decode_image`] for an image already in memory: the format is the one `origin`'s extension
+/// names (as for a file), the same limits apply, and `origin` names the source in errors.
+pub fn decode_image_bytes(bytes: &[u8], origin: &Path) -> Result<image::DynamicImage, RawError> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+    if let Ok(format) = image::ImageFormat::from_path(origin) {
+        reader.set_format(format);
+    }
+    decode_within_limits(reader, origin)
+}
+
+/// The decode of [`decode_image`] and [`decode_image_bytes`]: limits first, then the header's
+/// size, then the pixels.
+fn decode_within_limits<R: std::io::BufRead + std::io::Seek>(
+    mut reader: image::ImageReader<R>,
+    origin: &Path,
+) -> Result<image::DynamicImage, RawError> {
     let limits = FrameLimits::process();
     let decode_err = |e: image::ImageError| match e {
-        image::ImageError::IoError(io) => io_err(path, io),
-        other => format_err(path, format!("cannot decode image: {other}")),
+        image::ImageError::IoError(io) => io_err(origin, io),
+        other => format_err(origin, format!("cannot decode image: {other}")),
     };
-    let mut reader = image::ImageReader::open(path).map_err(|e| io_err(path, e))?;
     reader.limits(limits.image_limits());
     let decoder = reader.into_decoder().map_err(decode_err)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
-    limits.check(w as u64, h as u64).map_err(|l| too_large(path, l))?;
+    limits
+        .check(w as u64, h as u64)
+        .map_err(|l| too_large(origin, l))?;
     image::DynamicImage::from_decoder(decoder).map_err(decode_err)
 }
 
 /// Load an 8-bit RGB (or RGBA, alpha dropped) PNG, JPEG or BMP.
 pub fn load_rgb8(path: &Path) -> Result<Image<[u8; 3]>, RawError> {
-    let img = decode_image(path)?;
+    rgb8_from_image(decode_image(path)?, path)
+}
+
+/// An 8-bit RGB (or RGBA, alpha dropped) decoded image as an [`Image`]; any other colour type is
+/// an error naming `origin`.
+fn rgb8_from_image(img: image::DynamicImage, origin: &Path) -> Result<Image<[u8; 3]>, RawError> {
     let rgb = match img {
         image::DynamicImage::ImageRgb8(i) => i,
         image::DynamicImage::ImageRgba8(i) => image::DynamicImage::ImageRgba8(i).to_rgb8(),
         other => {
             return Err(format_err(
-                path,
+                origin,
                 format!("expected an 8-bit RGB image, found {:?}", other.color()),
             ))
         }
     };
     let (w, h) = (rgb.width() as usize, rgb.height() as usize);
     let px: Vec<[u8; 3]> = rgb.pixels().map(|p| p.0).collect();
-    Image::from_vec(w, h, px).map_err(|e| format_err(path, format!("{e}")))
+    Image::from_vec(w, h, px).map_err(|e| format_err(origin, format!("{e}")))
 }
 
-pub(super) fn rgb_input(path: &Path, opts: &InputOptions) -> Result<LoadedInput, RawError> {
-    let rgb = load_rgb8(path)?;
+/// A decoded colour image resampled into the mosaic of `opts.cfa` (default RGGB), keeping the RGB
+/// image.
+pub(super) fn rgb_input(
+    img: image::DynamicImage,
+    opts: &InputOptions,
+    origin: &Path,
+) -> Result<LoadedInput, RawError> {
+    let rgb = rgb8_from_image(img, origin)?;
     let mut frame = frame_from_rgb8(&rgb, opts.cfa.unwrap_or(Cfa::Rggb))?;
-    frame.meta = meta_for(path);
+    frame.meta = meta_for(origin);
     Ok(LoadedInput {
         frame,
         rgb: Some(rgb),
