@@ -66,6 +66,28 @@ fn approx_gain(head: &Level, lv: &Level) -> f32 {
     ((lv.width * lv.height) as f64 / (head.width * head.height) as f64).sqrt() as f32
 }
 
+/// The approximated `levels` of a group (exact level `head`) dealt to `lanes` lanes, each lane's
+/// level indices ascending: largest first, each to the lane with the least work so far, work
+/// taken as `0.35 + area ratio` (the fill's pass over every micro-cell costs the same for any level,
+/// about a third of a full-size level's fill, blocks and products; the rest scales with the
+/// level's area). Depends only on the geometry, so the same for every frame; results do not
+/// depend on it (each level's arithmetic is its own).
+fn deal_levels(head: &Level, levels: &[Level], lanes: usize) -> Vec<Vec<usize>> {
+    let lanes = lanes.max(1);
+    let area = (head.width * head.height).max(1) as f64;
+    let mut load = vec![0.0f64; lanes];
+    let mut dealt = vec![Vec::new(); lanes];
+    // Levels come largest first.
+    for (i, lv) in levels.iter().enumerate() {
+        let l = (0..lanes)
+            .min_by(|&a, &b| load[a].total_cmp(&load[b]))
+            .expect("at least one lane");
+        load[l] += 0.35 + (lv.width * lv.height) as f64 / area;
+        dealt[l].push(i);
+    }
+    dealt
+}
+
 /// Errors of the detector.
 #[derive(Debug, thiserror::Error)]
 pub enum DetectError {
@@ -873,7 +895,7 @@ impl Detector {
         dets.extend(d);
         stats += s;
         // The approximated levels only read the micro-cells, so they are independent: in
-        // parallel mode they are dealt to one lane per worker (level i to lane i mod lanes), and
+        // parallel mode they are dealt to one lane per worker (balanced, `deal_levels`), and
         // each lane sweeps the micro grid once for all its levels, scoring every block row as it
         // is made (`approx_block_rows`, `RowScorer`: no block grid). Each level's arithmetic is
         // the same in any lane, and results are collected in level order: the same bits for any
@@ -884,8 +906,9 @@ impl Detector {
             Exec::Serial => 1,
         };
         let micro = &sc.micro;
+        let dealt = deal_levels(head, levels, lanes);
         let lane = |l: usize| -> Vec<(usize, Vec<Detection>, DetectStats)> {
-            let mine: Vec<usize> = (l..levels.len()).step_by(lanes).collect();
+            let mine = &dealt[l];
             let geoms: Vec<ApproxLevel> = mine
                 .iter()
                 .map(|&i| ApproxLevel {
@@ -1412,6 +1435,39 @@ mod tests {
         let c = d.clone();
         assert_eq!(held(&c).0, 0);
         assert_eq!(c.detect(&inp).unwrap().0, first.0);
+    }
+
+    #[test]
+    fn levels_are_dealt_to_lanes_by_work() {
+        let lv = |k: i32| {
+            let r = 1.05f64.powi(-k);
+            Level {
+                scale: 1.0 / r,
+                width: (1920.0 * r) as usize,
+                height: (1080.0 * r) as usize,
+            }
+        };
+        let levels: Vec<Level> = (1..14).map(lv).collect();
+        let head = lv(0);
+        let work = |ix: &[usize]| {
+            ix.iter()
+                .map(|&i| 0.35 + (levels[i].width * levels[i].height) as f64 / (1920.0 * 1080.0))
+                .sum::<f64>()
+        };
+        for lanes in 1..=4 {
+            let d = deal_levels(&head, &levels, lanes);
+            let mut all: Vec<usize> = d.concat();
+            all.sort();
+            assert_eq!(all, (0..13).collect::<Vec<_>>(), "every level once");
+            assert!(d.iter().all(|l| l.windows(2).all(|w| w[0] < w[1])), "ascending");
+            let loads: Vec<f64> = d.iter().map(|l| work(l)).collect();
+            let (lo, hi) = (
+                loads.iter().cloned().fold(f64::MAX, f64::min),
+                loads.iter().cloned().fold(0.0, f64::max),
+            );
+            // Within the smallest level's work of each other.
+            assert!(hi - lo <= work(&[12]) + 1e-9, "{lanes} lanes: {loads:?}");
+        }
     }
 
     #[test]

@@ -1,5 +1,5 @@
-use super::*;
 use super::pyramid::pyramid_on;
+use super::*;
 use crate::image::Image;
 
 fn raw_spec() -> ChannelSpec {
