@@ -411,6 +411,15 @@ impl I8Kernel {
         }
     }
 
+    /// This kernel if this CPU runs it, else the scalar reference.
+    fn or_scalar(self) -> Self {
+        if self.is_runnable() {
+            self
+        } else {
+            Self::Scalar
+        }
+    }
+
     /// Whether this CPU has every feature the kernel uses.
     fn is_runnable(self) -> bool {
         let f = features();
@@ -613,11 +622,7 @@ pub fn window_scores_i8_with(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, i
 
 /// [`window_scores_i8`] with one 8-bit kernel (the scalar one if this CPU cannot run it).
 fn scores_i8_kernel(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, kernel: I8Kernel, scores: &mut [f32]) {
-    let kernel = if kernel.is_runnable() {
-        kernel
-    } else {
-        I8Kernel::Scalar
-    };
+    let kernel = kernel.or_scalar();
     scores_by_strips(&I8Rows { w, kernel }, grid, exec, scores)
 }
 
@@ -949,12 +954,7 @@ impl<'w> RowScorer<'w> {
 
     /// [`RowScorer::i8`] in the allocations of `b`.
     pub fn i8_in(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
-        let kernel = I8Kernel::for_isa(isa);
-        let kernel = if kernel.is_runnable() {
-            kernel
-        } else {
-            I8Kernel::Scalar
-        };
+        let kernel = I8Kernel::for_isa(isa).or_scalar();
         Self::with(I8Rows { w, kernel }, nbx, nby, b.i8, RowScorerKind::I8)
     }
 

@@ -70,7 +70,7 @@
 
 use rayon::prelude::*;
 
-use super::blocks::{block_grid_shape, blocks_in_bands, blocks_in_bands_with};
+use super::blocks::{block_grid_shape, blocks_in_bands, blocks_in_bands_with, blocks_of};
 use super::cells::{cell_len, cell_slot, live_profiles};
 use super::gradient::{gradient_row, CellScratch, RowScratch};
 use super::input::{planes_of, Planes};
@@ -505,8 +505,7 @@ pub struct ApproxLevel {
 /// Blocks across and down of a `width x height` level (what [`BlockGrid::blocks_x`] and
 /// [`BlockGrid::blocks_y`] of its grid are).
 pub fn block_grid_dims(width: usize, height: usize) -> (usize, usize) {
-    let n = |px: usize| (px / CELL_SIZE).saturating_sub(BLOCK_CELLS - 1);
-    (n(width), n(height))
+    (blocks_of(width / CELL_SIZE), blocks_of(height / CELL_SIZE))
 }
 
 /// Micro rows per step of [`approx_block_rows`]' sweep (16 pixel rows of the exact level: at

@@ -215,11 +215,15 @@ pub(super) fn block_rows_with(spec: &HogSpec, cg: &CellGrid, exec: Exec, isa: Is
     }
 }
 
+/// Blocks along a run of `cells` cells (a block is 2 cells, at a stride of one).
+pub(super) fn blocks_of(cells: usize) -> usize {
+    cells.saturating_sub(BLOCK_CELLS - 1)
+}
+
 /// Size `dst` for the blocks of `ncx x ncy` cells; the length of one block row, or `None` when
 /// there are no blocks.
 pub(super) fn block_grid_shape(spec: &HogSpec, ncx: usize, ncy: usize, dst: &mut BlockGrid) -> Option<usize> {
-    let nbx = ncx.saturating_sub(BLOCK_CELLS - 1);
-    let nby = ncy.saturating_sub(BLOCK_CELLS - 1);
+    let (nbx, nby) = (blocks_of(ncx), blocks_of(ncy));
     let bl = spec.block_len();
     dst.nbx = nbx;
     dst.nby = nby;
