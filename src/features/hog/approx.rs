@@ -508,6 +508,44 @@ pub fn block_grid_dims(width: usize, height: usize) -> (usize, usize) {
     (blocks_of(width / CELL_SIZE), blocks_of(height / CELL_SIZE))
 }
 
+/// Why the approximated pyramid (`approx_levels` > 1) is not faster than the exact one on kernel
+/// path `isa` for `nbins` bins, naming what the CPU path lacks; `None` where it is faster or was
+/// not measured slower.
+///
+/// Only the portable fill on x86-64 is: the baseline build has no FMA (each of the fill's fused
+/// multiply-adds is a library call, 40 % of the frame's CPU) and no F16C (the micro grid's half
+/// floats are converted in software). Measured on the scalar path (1920x1080 12-bit, 2 threads,
+/// commit 3a80598, docs/detection.md "Speed settings on every path"): `approx_levels = 14` took
+/// 3.4–4.5 s per frame against 3.1–4.4 s exact with the 8-bit SVM, and 9.3–9.6 s against 8.2–8.5 s
+/// with f32. NEON's fill runs in registers with native `fmla`; AVX2 and AVX-512 in registers or
+/// the portable code compiled with FMA and F16C.
+pub fn approx_slow_reason(isa: Isa, nbins: usize) -> Option<String> {
+    (cfg!(target_arch = "x86_64") && FillKernel::for_isa(isa, nbins) == FillKernel::Scalar).then(|| {
+        format!(
+            "approx_levels > 1 is not faster than exact (approx_levels = 1) on the {isa} kernel path: its \
+             build has no FMA or F16C, so the approximated levels' fused multiply-adds are library calls \
+             (the fast fill needs avx2, fma and f16c; CPU features: {})",
+            crate::kernels::features().names()
+        )
+    })
+}
+
+/// Whether the start-up warning of [`warn_if_approx_slow`] was given.
+static WARNED_APPROX_SLOW: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Logs [`approx_slow_reason`] for this process's kernel path at `warn`, once per process, when
+/// `approx_levels` > 1 asks for the approximated pyramid.
+pub fn warn_if_approx_slow(approx_levels: usize, nbins: usize) {
+    let isa = crate::kernels::isa();
+    if approx_levels > 1 {
+        if let Some(why) = approx_slow_reason(isa, nbins) {
+            if !WARNED_APPROX_SLOW.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                tracing::warn!(kernels = %isa, approx_levels, "{why}");
+            }
+        }
+    }
+}
+
 /// Micro rows per step of [`approx_block_rows`]' sweep (16 pixel rows of the exact level: at
 /// 1080p, 8 micro rows of half floats are 138 KB, which stay in L2 while every level reads them).
 const SWEEP_MICRO_ROWS: usize = 8;
@@ -863,6 +901,36 @@ fn fill_cell_row_nb(
 mod tests {
     use super::*;
     use crate::features::hog::{blocks_from_cells, cell_grid_from_gamma_planes, CellGrid, HogOptions};
+
+    #[test]
+    fn the_approximated_pyramid_is_called_slow_only_on_the_portable_x86_fill() {
+        for isa in Isa::ALL {
+            for nbins in [9, 18, 40] {
+                let why = approx_slow_reason(isa, nbins);
+                let portable = FillKernel::for_isa(isa, nbins) == FillKernel::Scalar;
+                assert_eq!(
+                    why.is_some(),
+                    cfg!(target_arch = "x86_64") && portable,
+                    "{isa} {nbins}"
+                );
+                if let Some(why) = why {
+                    assert!(why.contains("approx_levels = 1") && why.contains("fma"), "{why}");
+                }
+            }
+        }
+        // The AVX2 and AVX-512 fills (registers, or the portable code built with FMA and F16C)
+        // and NEON's are never called slow where the CPU has them.
+        for isa in [Isa::Avx2, Isa::Avx512, Isa::Neon] {
+            if isa.is_available() {
+                assert_eq!(approx_slow_reason(isa, 9), None, "{isa}");
+                assert_eq!(approx_slow_reason(isa, 40), None, "{isa}");
+            }
+        }
+        assert_eq!(
+            approx_slow_reason(Isa::Scalar, 9).is_some(),
+            cfg!(target_arch = "x86_64")
+        );
+    }
     use crate::image::Image;
 
     fn spec() -> HogSpec {
