@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use mosaicd::capture::{CaptureError, Damage, McapSource, McapSourceOptions, Source};
+use mosaicd::capture::{CaptureError, Damage, McapSource, McapSourceOptions, RecordPastEnd, Source};
 use mosaicd::raw::load::{load_input, InputOptions};
 use mosaicd::raw::{Cfa, FrameMeta, Levels, RawError, RawFrame};
 use mosaicd::record::schema::{
@@ -95,11 +95,38 @@ fn replay(path: &Path) -> (u64, Option<CaptureError>) {
 /// 0.26 subtracts the record's size from what is left without a check: "attempt to subtract with
 /// overflow" with overflow checks on (debug builds, the fuzzer), a misleading truncation error
 /// without. A guard under the reader (`capture::mcap_guard`) stops it first, in both builds.
+/// The fuzzer's chunk also declares 1,828 bytes where the file holds 106 after its header, which
+/// the guard now stops first (finding 5: a truncation); with its length set to what the file holds,
+/// the same chunk reaches the overrun check.
 #[test]
 fn records_that_overrun_an_uncompressed_chunk_are_a_clear_error_not_an_overflow() {
     let seed =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/mcap_source/chunk-records-overrun.mcap");
     let (n, e) = replay(&seed);
+    assert_eq!(n, 0);
+    match &e {
+        Some(CaptureError::Truncated {
+            frames: 0,
+            source: mcap::McapError::Io(io),
+            ..
+        }) => assert_eq!(
+            io.get_ref().and_then(|e| e.downcast_ref::<RecordPastEnd>()),
+            Some(&RecordPastEnd {
+                record: 38,
+                opcode: 0x06,
+                len: 1828,
+                left: 106,
+                file_len: 153
+            })
+        ),
+        e => panic!("want a RecordPastEnd, got {e:?}"),
+    }
+    let mut fitted = std::fs::read(&seed).unwrap();
+    fitted[39..47].copy_from_slice(&106u64.to_le_bytes());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fitted.mcap");
+    std::fs::write(&path, &fitted).unwrap();
+    let (n, e) = replay(&path);
     assert_eq!(n, 0);
     let e = e.unwrap();
     match &e {
@@ -120,7 +147,6 @@ fn records_that_overrun_an_uncompressed_chunk_are_a_clear_error_not_an_overflow(
     );
 
     // Recordings of every compression replay in full through the guard.
-    let dir = tempfile::tempdir().unwrap();
     for compression in [Compression::None, Compression::Zstd, Compression::Lz4] {
         let path = dir.path().join(format!("{compression:?}.mcap"));
         let opts = RecorderOptions {

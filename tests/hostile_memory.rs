@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use mosaicd::capture::{CaptureError, McapSource, McapSourceOptions, RecordPastEnd, Source};
 use mosaicd::raw::load::{load_camera_raw, load_headerless, Container, Endian, RawFormat};
 use mosaicd::raw::{Cfa, Levels, RawError};
 
@@ -58,4 +59,35 @@ fn hostile_files_are_refused_without_reading_them() {
     let (r, grew) = peak_growth_mib(|| load_camera_raw(&nef));
     assert!(matches!(r, Err(RawError::FileTooLarge { .. })), "{r:?}");
     assert!(grew < 64, "camera raw: peak grew {grew} MiB");
+    // docs/fuzzing.md, finding 5: the mcap reader zero-fills a buffer of the length a record
+    // declares. The committed seed is 33 bytes: the magic and a Schema record declaring
+    // 100,000,000 bytes, of which 16 are there (within the record-length limit, about 192 MiB).
+    // Before the guard bounded records by the file, this cost a peak of about 95 MiB more; now the
+    // replay stops before the record's header, reported as a truncation naming it.
+    let seed = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/mcap_source/record-past-end.mcap");
+    let (r, grew) = peak_growth_mib(|| {
+        let mut src = McapSource::open(&seed, McapSourceOptions::default()).unwrap();
+        src.next_frame()
+    });
+    assert!(grew < 16, "mcap record past the end: peak grew {grew} MiB");
+    match r {
+        Err(CaptureError::Truncated {
+            frames: 0,
+            source: mcap::McapError::Io(io),
+            ..
+        }) => {
+            let p = io.get_ref().and_then(|e| e.downcast_ref::<RecordPastEnd>());
+            assert_eq!(
+                p,
+                Some(&RecordPastEnd {
+                    record: 8,
+                    opcode: 0x03,
+                    len: 100_000_000,
+                    left: 16,
+                    file_len: 33
+                })
+            );
+        }
+        other => panic!("{other:?}"),
+    }
 }

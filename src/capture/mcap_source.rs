@@ -21,12 +21,15 @@
 //! [`crate::record::read::record_length_limit`], which the frame-size limit
 //! ([`crate::raw::limits`]) sets (the summary's records also to the file size): a chunk claiming
 //! more is refused before it is decompressed, and a frame message larger than the limit
-//! ([`RawError::TooLarge`]) before its pixels are copied. Within that limit, the `mcap` reader
-//! zero-fills a buffer of the length a record header declares before it reads the record, so a
-//! file of a few bytes can cost that much memory for a moment (docs/fuzzing.md, finding 5).
+//! ([`RawError::TooLarge`]) before its pixels are copied. Each record is also bounded by the
+//! file: the `mcap` reader zero-fills a buffer of the length a record header declares before it
+//! reads the record, so a guard under it (`capture/mcap_guard.rs`) stops the stream before the
+//! header of any record that would run past the end of the file (a file of a few bytes claiming a
+//! 150 MB record had cost 158 MB: docs/fuzzing.md, finding 5).
 //! * A **truncated** file (a recording cut by a crash or a full disk, or a writer killed in the
 //!   middle of a chunk) yields every message of its complete chunks, then
-//!   [`CaptureError::Truncated`].
+//!   [`CaptureError::Truncated`] (the cut record named by a [`crate::capture::RecordPastEnd`] when
+//!   its header is whole).
 //! * A **corrupt** file is refused: a bad magic, footer or summary fails [`McapSource::open`]; damage
 //!   inside the data yields [`CaptureError::Corrupt`] when reached and no frame from the damaged
 //!   chunk. Nothing panics. Records that overrun an uncompressed chunk, which the `mcap` reader
@@ -60,7 +63,7 @@ use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::mcap_guard::{ChunkGuard, ChunkOverrun};
+use super::mcap_guard::{ChunkOverrun, RecordGuard};
 use super::{CaptureError, Clock, Damage, MonotonicClock, Source, SourceKind, Stop};
 use crate::raw::{FrameLimits, RawError, RawFrame};
 use crate::wire::read::{read_summary, strict_reader_options};
@@ -113,7 +116,7 @@ impl Default for McapSourceOptions {
     }
 }
 
-type Reader = mcap::io::MessageReader<ChunkGuard<Box<dyn Read + Send>>>;
+type Reader = mcap::io::MessageReader<RecordGuard<Box<dyn Read + Send>>>;
 
 /// Where a replay reads its recording from: the file at its path (opened again for each loop),
 /// or bytes in memory ([`McapSource::from_bytes`]).
@@ -187,17 +190,19 @@ fn check_options(opts: &McapSourceOptions) -> Result<(), CaptureError> {
     Ok(())
 }
 
-/// The streaming reader over the whole recording, from its start.
+/// The streaming reader over the whole recording, from its start, behind the guard that bounds
+/// every record by the file's length (known here: `stat` for a file).
 fn open_reader(path: &Path, recording: &Recording) -> Result<Reader, CaptureError> {
-    let inner: Box<dyn Read + Send> = match recording {
+    let (inner, len): (Box<dyn Read + Send>, u64) = match recording {
         Recording::File => {
             let file = File::open(path).map_err(open_error(path))?;
-            Box::new(BufReader::with_capacity(READ_BUFFER, file))
+            let len = file.metadata().map_err(open_error(path))?.len();
+            (Box::new(BufReader::with_capacity(READ_BUFFER, file)), len)
         }
-        Recording::Memory(bytes) => Box::new(Cursor::new(Arc::clone(bytes))),
+        Recording::Memory(bytes) => (Box::new(Cursor::new(Arc::clone(bytes))), bytes.len() as u64),
     };
     Ok(mcap::io::MessageReader::new_with_options(
-        ChunkGuard::new(inner),
+        RecordGuard::new(inner, len),
         strict_reader_options(),
     ))
 }
@@ -334,7 +339,9 @@ impl McapSource {
             }
         }
         // UnexpectedEoc: the last chunk's header was never completed (the writer was killed
-        // mid-chunk; its placeholder header has no CRC): also an interrupted recording.
+        // mid-chunk; its placeholder header has no CRC): also an interrupted recording. So is a
+        // record that runs past the end of the file, stopped by the guard (`RecordPastEnd`, an
+        // I/O error of kind UnexpectedEof).
         let truncated = match &e {
             mcap::McapError::UnexpectedEof | mcap::McapError::UnexpectedEoc => true,
             mcap::McapError::Io(io) => io.kind() == std::io::ErrorKind::UnexpectedEof,

@@ -18,7 +18,7 @@ pub mod v4l2_formats;
 
 pub use crate::clock::{Clock, FakeClock, MonotonicClock, Stop};
 pub use files::{FileSource, FileSourceOptions};
-pub use mcap_guard::ChunkOverrun;
+pub use mcap_guard::{ChunkOverrun, RecordPastEnd};
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 
 /// How frames from a source may be treated when compute falls behind.
