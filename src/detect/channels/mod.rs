@@ -959,14 +959,24 @@ impl ColourSites {
         let (g, b) = rest.split_at_mut(m);
         match self {
             ColourSites::Mosaic { r: ro, g: go, b: bo } => {
-                let at = |x: usize, y: usize| row(0, y)[x];
+                // each colour's site in a super-pixel [top-left, top-right, bottom-left,
+                // bottom-right]
+                let site = |(dx, dy): (usize, usize)| dy * 2 + dx;
+                let (kr, kg0, kg1, kb) = (site(ro), site(go[0]), site(go[1]), site(bo));
                 for sy in 0..rows {
                     let y0 = by * SHRINK + 2 * sy;
-                    for sx in 0..per {
-                        let (i, x0) = (sy * per + sx, 2 * sx);
-                        r[i] = at(x0 + ro.0, y0 + ro.1);
-                        g[i] = 0.5 * (at(x0 + go[0].0, y0 + go[0].1) + at(x0 + go[1].0, y0 + go[1].1));
-                        b[i] = at(x0 + bo.0, y0 + bo.1);
+                    let (top, bot) = (&row(0, y0)[..2 * per], &row(0, y0 + 1)[..2 * per]);
+                    let span = sy * per..(sy + 1) * per;
+                    let sites = top.chunks_exact(2).zip(bot.chunks_exact(2));
+                    let dst = r[span.clone()]
+                        .iter_mut()
+                        .zip(&mut g[span.clone()])
+                        .zip(&mut b[span]);
+                    for ((t, d), ((ri, gi), bi)) in sites.zip(dst) {
+                        let s = [t[0], t[1], d[0], d[1]];
+                        *ri = s[kr];
+                        *gi = 0.5 * (s[kg0] + s[kg1]);
+                        *bi = s[kb];
                     }
                 }
             }
@@ -986,14 +996,23 @@ impl ColourSites {
         kernels::luv_row(isa, [r, g, b], [&mut *l, &mut *u, &mut *v]);
         let inv = 1.0 / (side * side) as f32;
         for (k, c) in [&*l, &*u, &*v].into_iter().enumerate() {
-            for bx in 0..cw {
+            let o = &mut out[k * stride..k * stride + cw];
+            if let ColourSites::Mosaic { .. } = self {
+                // 2x2 super-pixels per block: the two rows' pairs, from 0
+                let (c0, c1) = c.split_at(per);
+                for ((o, a), b) in o.iter_mut().zip(c0.chunks_exact(2)).zip(c1.chunks_exact(2)) {
+                    *o = (0.0 + a[0] + a[1] + b[0] + b[1]) * inv;
+                }
+                continue;
+            }
+            for (bx, o) in o.iter_mut().enumerate() {
                 let mut acc = 0.0f32;
                 for j in 0..rows {
                     for x in bx * side..(bx + 1) * side {
                         acc += c[j * per + x];
                     }
                 }
-                out[k * stride + bx] = acc * inv;
+                *o = acc * inv;
             }
         }
     }

@@ -269,26 +269,34 @@ pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
     super::scalar::luv_row_scalar([r, g, b], [l, u, v], i);
 }
 
-/// [`super::lerp_row`] on 8 values at a time: a group's taps, offsets below 16 from its first
-/// tap, are picked from the 16 values there by two `vpermps` and a blend; a group spanning more
-/// (or too close to the end of `a`) is computed by the oracle.
+/// [`super::lerp_row`] on 8 values at a time: when every tap of a group lies in the 16 values
+/// from its first tap, they are picked from there by two `vpermps` and a blend; any other group
+/// (taps spread wider, or too close to the end of `a`) is computed by the oracle.
 ///
 /// # Safety
-/// The CPU has AVX2; `p`, `q`, `f` hold at least `out.len()` values and every tap is below
-/// `a.len()` (checked by [`super::lerp_row`]).
+/// The CPU has AVX2; `p`, `q`, `f` hold at least `out.len()` values (checked by
+/// [`super::lerp_row`]).
 #[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn lerp_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32]) {
     let n = out.len();
     let seven = _mm256_set1_epi32(7);
+    let wide = _mm256_set1_epi32(!15);
     let mut x = 0;
     while x + 8 <= n {
         let base = p[x] as usize;
-        if base + 16 <= a.len() && (q[x + 7] as usize) < base + 16 {
-            // SAFETY: x + 8 ≤ n ≤ the taps' lengths; base + 16 ≤ a.len().
+        // SAFETY: x + 8 ≤ n ≤ the taps' lengths.
+        let (ip, iq) = unsafe {
+            let b = _mm256_set1_epi32(base as i32);
+            (
+                _mm256_sub_epi32(_mm256_loadu_si256(p.as_ptr().add(x).cast()), b),
+                _mm256_sub_epi32(_mm256_loadu_si256(q.as_ptr().add(x).cast()), b),
+            )
+        };
+        // every offset from the first tap in 0..16 (a negative one has high bits set)
+        let near = _mm256_testz_si256(_mm256_or_si256(ip, iq), wide) == 1;
+        if near && base + 16 <= a.len() {
+            // SAFETY: x + 8 ≤ n ≤ out.len(), f.len(); base + 16 ≤ a.len().
             unsafe {
-                let b = _mm256_set1_epi32(base as i32);
-                let ip = _mm256_sub_epi32(_mm256_loadu_si256(p.as_ptr().add(x).cast()), b);
-                let iq = _mm256_sub_epi32(_mm256_loadu_si256(q.as_ptr().add(x).cast()), b);
                 let lo = _mm256_loadu_ps(a.as_ptr().add(base));
                 let hi = _mm256_loadu_ps(a.as_ptr().add(base + 8));
                 let pick = |i: __m256i| {

@@ -243,13 +243,14 @@ pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
     super::scalar::luv_row_scalar([r, g, b], [l, u, v], i);
 }
 
-/// [`super::lerp_row`] on 4 values at a time: a group's taps, offsets below 8 from its first
-/// tap, are picked from the 8 values there by a byte table lookup (`tbl` over 32 bytes); a group
-/// spanning more (or too close to the end of `a`) is computed by the oracle.
+/// [`super::lerp_row`] on 4 values at a time: when every tap of a group lies in the 8 values
+/// from its first tap, they are picked from there by a byte table lookup (`tbl` over 32
+/// bytes); any other group (taps spread wider, or too close to the end of `a`) is computed by
+/// the oracle.
 ///
 /// # Safety
-/// `p`, `q`, `f` hold at least `out.len()` values and every tap is below `a.len()` (checked by
-/// [`super::lerp_row`]; NEON is part of every aarch64 target).
+/// `p`, `q`, `f` hold at least `out.len()` values (checked by [`super::lerp_row`]; NEON is part
+/// of every aarch64 target).
 #[target_feature(enable = "neon")]
 pub(super) unsafe fn lerp_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32]) {
     let n = out.len();
@@ -259,20 +260,27 @@ pub(super) unsafe fn lerp_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &
     let mut x = 0;
     while x + 4 <= n {
         let base = p[x] as usize;
-        if base + 8 <= a.len() && (q[x + 3] as usize) < base + 8 {
-            // SAFETY: x + 4 ≤ n ≤ the taps' lengths; base + 8 ≤ a.len().
+        let b = vdupq_n_u32(base as u32);
+        // SAFETY: x + 4 ≤ n ≤ the taps' lengths.
+        let (ip, iq) = unsafe {
+            (
+                vsubq_u32(vld1q_u32(p.as_ptr().add(x)), b),
+                vsubq_u32(vld1q_u32(q.as_ptr().add(x)), b),
+            )
+        };
+        // every offset from the first tap in 0..8 (a tap below it wraps to a large offset)
+        if vmaxvq_u32(vorrq_u32(ip, iq)) < 8 && base + 8 <= a.len() {
+            // SAFETY: x + 4 ≤ n ≤ out.len(), f.len(); base + 8 ≤ a.len().
             unsafe {
-                let b = vdupq_n_u32(base as u32);
                 let table = uint8x16x2_t(
                     vreinterpretq_u8_f32(vld1q_f32(a.as_ptr().add(base))),
                     vreinterpretq_u8_f32(vld1q_f32(a.as_ptr().add(base + 4))),
                 );
-                let pick = |t: *const u32| {
-                    let i = vsubq_u32(vld1q_u32(t), b);
+                let pick = |i: uint32x4_t| {
                     let idx = vreinterpretq_u8_u32(vaddq_u32(vmulq_u32(i, spread), bytes));
                     vreinterpretq_f32_u8(vqtbl2q_u8(table, idx))
                 };
-                let (ap, aq) = (pick(p.as_ptr().add(x)), pick(q.as_ptr().add(x)));
+                let (ap, aq) = (pick(ip), pick(iq));
                 let fx = vld1q_f32(f.as_ptr().add(x));
                 vst1q_f32(
                     out.as_mut_ptr().add(x),
