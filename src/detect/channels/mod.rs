@@ -485,6 +485,25 @@ impl Triangle {
         &self.yi[y * n..(y + 1) * n]
     }
 
+    /// The whole filter: `dst = t ∗ src`, both planes of rows of `w` values, rows in parallel
+    /// (each row [`Triangle::row`], the same arithmetic for any thread count).
+    fn filter(&self, isa: Isa, src: &[f32], w: usize, dst: &mut [f32]) {
+        dst.par_chunks_mut(w * ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(i, chunk)| {
+                let mut tmp = vec![0.0f32; w];
+                for (j, row) in chunk.chunks_mut(w).enumerate() {
+                    self.row(
+                        isa,
+                        i * ROWS_PER_TASK + j,
+                        |sy| &src[sy * w..(sy + 1) * w],
+                        &mut tmp,
+                        row,
+                    );
+                }
+            });
+    }
+
     /// Output row `y` into `out` (`w` values): the vertical pass `tmp = Σ_k t_k · src(y_k)` (source
     /// rows through `src`, in tap order, from 0), then the horizontal pass (the same sum along the
     /// row; mirrored taps at the borders).
@@ -553,20 +572,7 @@ fn triangle_filter_on(
         return;
     };
     dst.resize(w * h, 0.0);
-    dst.par_chunks_mut(w * ROWS_PER_TASK)
-        .enumerate()
-        .for_each(|(i, chunk)| {
-            let mut tmp = vec![0.0f32; w];
-            for (j, row) in chunk.chunks_mut(w).enumerate() {
-                t.row(
-                    isa,
-                    i * ROWS_PER_TASK + j,
-                    |sy| &src[sy * w..(sy + 1) * w],
-                    &mut tmp,
-                    row,
-                );
-            }
-        });
+    t.filter(isa, src, w, dst);
 }
 
 /// Smooth every channel with the triangle filter of radius `r` (step 1, symmetric borders).
@@ -587,24 +593,9 @@ fn smooth_channels_on(isa: Isa, ch: &mut Channels, r: f32) {
     // replaces the channels' (no copy back); each row the arithmetic of `triangle_filter`
     let mut out = pool::zeros(N_CHANNELS * w * h);
     let src = ch.as_slice();
-    out.par_chunks_mut(w * h).enumerate().for_each(|(c, plane)| {
-        let src = &src[c * w * h..(c + 1) * w * h];
-        plane
-            .par_chunks_mut(w * ROWS_PER_TASK)
-            .enumerate()
-            .for_each(|(i, chunk)| {
-                let mut tmp = vec![0.0f32; w];
-                for (j, row) in chunk.chunks_mut(w).enumerate() {
-                    t.row(
-                        isa,
-                        i * ROWS_PER_TASK + j,
-                        |sy| &src[sy * w..(sy + 1) * w],
-                        &mut tmp,
-                        row,
-                    );
-                }
-            });
-    });
+    out.par_chunks_mut(w * h)
+        .enumerate()
+        .for_each(|(c, plane)| t.filter(isa, &src[c * w * h..(c + 1) * w * h], w, plane));
     pool::give(std::mem::replace(&mut ch.data, out));
 }
 
