@@ -346,12 +346,14 @@ impl PeopleDetector {
 }
 
 /// For tests: the shipped raw-mosaic ACF model (`models/acf-mosaic.json`) scoring every window
-/// with every tree (no soft cascade), every window a hit: boxes on any texture.
+/// with every tree (no soft cascade: neither its threshold nor its rejection trace), every window
+/// a hit: boxes on any texture.
 #[cfg(test)]
 pub(crate) fn every_window_acf() -> PeopleDetector {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/acf-mosaic.json");
     let mut model = AcfModel::load(Path::new(path)).expect("the shipped ACF model");
     model.casc_thr = f32::NEG_INFINITY;
+    model.casc_trace = None;
     let opts = AcfOptions {
         hit_threshold: -1e9,
         ..AcfOptions::default()

@@ -68,7 +68,7 @@ pub enum PyramidError {
 }
 
 /// Source index and weight of the right/lower neighbour for each output coordinate.
-fn taps(src: usize, dst: usize) -> Vec<(usize, f32)> {
+pub(crate) fn taps(src: usize, dst: usize) -> Vec<(usize, f32)> {
     let scale = src as f64 / dst as f64;
     (0..dst)
         .map(|d| {

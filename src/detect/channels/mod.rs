@@ -108,6 +108,8 @@ pub const MAG_CHANNEL: usize = 3;
 const ROWS_PER_TASK: usize = 16;
 /// Largest smoothing radius accepted (a larger one is almost certainly a unit error).
 const MAX_RADIUS: f32 = 32.0;
+/// Most taps of a triangle filter (radius [`MAX_RADIUS`]).
+const MAX_TAPS: usize = 2 * MAX_RADIUS as usize + 1;
 
 // Dollár's rgbConvert LUV constants (rgbConvertMex.cpp, `rgb2luv_setup`).
 const LUV_MR: [f32; 3] = [0.430574, 0.222015, 0.020183];
@@ -118,6 +120,10 @@ const LUV_VN: f32 = 0.468331;
 const LUV_MAXI: f32 = 1.0 / 270.0;
 const LUV_MINU: f32 = -88.0 * LUV_MAXI;
 const LUV_MINV: f32 = -134.0 * LUV_MAXI;
+/// `(6/29)³`: below it `L` is linear in `Y`.
+const LUV_Y0: f32 = 0.008_856_452;
+/// `(29/3)³`: the slope of the linear part.
+const LUV_A: f32 = 903.296_3;
 
 /// Errors from channel computation.
 #[derive(Debug, PartialEq, Error)]
@@ -388,9 +394,11 @@ pub fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
     let x = LUV_MR[0] * r + LUV_MG[0] * g + LUV_MB[0] * b;
     let y = LUV_MR[1] * r + LUV_MG[1] * g + LUV_MB[1] * b;
     let z = LUV_MR[2] * r + LUV_MG[2] * g + LUV_MB[2] * b;
-    const Y0: f32 = 0.008_856_452; // (6/29)^3
-    const A: f32 = 903.296_3; // (29/3)^3
-    let l = if y > Y0 { 116.0 * y.cbrt() - 16.0 } else { y * A } * LUV_MAXI;
+    let l = if y > LUV_Y0 {
+        116.0 * y.cbrt() - 16.0
+    } else {
+        y * LUV_A
+    } * LUV_MAXI;
     let d = 1.0 / (x + 15.0 * y + 3.0 * z + 1e-35);
     let u = l * (13.0 * 4.0 * x * d - 13.0 * LUV_UN) - LUV_MINU;
     let v = l * (13.0 * 9.0 * y * d - 13.0 * LUV_VN) - LUV_MINV;
@@ -477,6 +485,25 @@ impl Triangle {
         &self.yi[y * n..(y + 1) * n]
     }
 
+    /// The whole filter: `dst = t ∗ src`, both planes of rows of `w` values, rows in parallel
+    /// (each row [`Triangle::row`], the same arithmetic for any thread count).
+    fn filter(&self, isa: Isa, src: &[f32], w: usize, dst: &mut [f32]) {
+        dst.par_chunks_mut(w * ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(i, chunk)| {
+                let mut tmp = vec![0.0f32; w];
+                for (j, row) in chunk.chunks_mut(w).enumerate() {
+                    self.row(
+                        isa,
+                        i * ROWS_PER_TASK + j,
+                        |sy| &src[sy * w..(sy + 1) * w],
+                        &mut tmp,
+                        row,
+                    );
+                }
+            });
+    }
+
     /// Output row `y` into `out` (`w` values): the vertical pass `tmp = Σ_k t_k · src(y_k)` (source
     /// rows through `src`, in tap order, from 0), then the horizontal pass (the same sum along the
     /// row; mirrored taps at the borders).
@@ -489,14 +516,26 @@ impl Triangle {
         out: &mut [f32],
     ) {
         let (w, n) = (out.len(), self.taps.len());
-        let rows: Vec<&[f32]> = self.rows_of(y).iter().map(|&sy| src(sy)).collect();
-        kernels::taps_sum(isa, tmp, &rows, &self.taps);
+        // the tap rows on the stack (no allocation per row: the smoothing filters ~17 000 short
+        // rows per 1080p frame)
+        let mut stack: [&[f32]; MAX_TAPS] = [&[]; MAX_TAPS];
+        let mut heap: Vec<&[f32]>;
+        let rows: &mut [&[f32]] = if n <= MAX_TAPS {
+            &mut stack[..n]
+        } else {
+            heap = vec![&[]; n];
+            &mut heap
+        };
+        for (r, &sy) in rows.iter_mut().zip(self.rows_of(y)) {
+            *r = src(sy);
+        }
+        kernels::taps_sum(isa, tmp, rows, &self.taps);
         let (lo, hi) = (self.lo, self.hi);
         if lo < hi {
-            let shifted: Vec<&[f32]> = (0..n)
-                .map(|k| &tmp[k * self.step..k * self.step + (hi - lo)])
-                .collect();
-            kernels::taps_sum(isa, &mut out[lo..hi], &shifted, &self.taps);
+            for (k, r) in rows.iter_mut().enumerate() {
+                *r = &tmp[k * self.step..k * self.step + (hi - lo)];
+            }
+            kernels::taps_sum(isa, &mut out[lo..hi], rows, &self.taps);
         }
         for x in (0..lo.min(w)).chain(hi.max(lo)..w) {
             out[x] = self
@@ -533,20 +572,7 @@ fn triangle_filter_on(
         return;
     };
     dst.resize(w * h, 0.0);
-    dst.par_chunks_mut(w * ROWS_PER_TASK)
-        .enumerate()
-        .for_each(|(i, chunk)| {
-            let mut tmp = vec![0.0f32; w];
-            for (j, row) in chunk.chunks_mut(w).enumerate() {
-                t.row(
-                    isa,
-                    i * ROWS_PER_TASK + j,
-                    |sy| &src[sy * w..(sy + 1) * w],
-                    &mut tmp,
-                    row,
-                );
-            }
-        });
+    t.filter(isa, src, w, dst);
 }
 
 /// Smooth every channel with the triangle filter of radius `r` (step 1, symmetric borders).
@@ -560,12 +586,17 @@ fn smooth_channels_on(isa: Isa, ch: &mut Channels, r: f32) {
         return;
     }
     let (w, h) = (ch.width, ch.height);
-    let mut out = pool::zeros(w * h);
-    for c in 0..N_CHANNELS {
-        triangle_filter_on(isa, ch.plane(c), w, h, r, 1, &mut out);
-        ch.plane_mut(c).copy_from_slice(&out);
-    }
-    pool::give(out);
+    let Some(t) = Triangle::new(w, h, r, 1) else {
+        return;
+    };
+    // one filter (taps, mirror tables) for the ten planes, written into a new buffer that then
+    // replaces the channels' (no copy back); each row the arithmetic of `triangle_filter`
+    let mut out = pool::zeros(N_CHANNELS * w * h);
+    let src = ch.as_slice();
+    out.par_chunks_mut(w * h)
+        .enumerate()
+        .for_each(|(c, plane)| t.filter(isa, &src[c * w * h..(c + 1) * w * h], w, plane));
+    pool::give(std::mem::replace(&mut ch.data, out));
 }
 
 /// The input as planes scaled to `[0, 1]` (one plane, or R, G, B), and the tap step of the input
@@ -618,6 +649,8 @@ struct Scratch {
     tmp: Vec<f32>,
     norm: Vec<f32>,
     v: Vec<f32>,
+    /// The colour pass: R, G, B and L, U, V of one block row.
+    luv: Vec<f32>,
 }
 
 thread_local! {
@@ -794,6 +827,7 @@ fn channels_unsmoothed_on(
                     tmp,
                     norm: nrow,
                     v,
+                    luv,
                 } = sc;
                 scaled_rows(&src, scale, w, ilo, ihi, inp);
                 let ni = ihi - ilo;
@@ -839,7 +873,7 @@ fn channels_unsmoothed_on(
                         &mut out[(MAG_CHANNEL * nb + j) * cw..],
                         nb * cw,
                     );
-                    colour.block_row(np, row, cw, by, &mut out[j * cw..], nb * cw);
+                    colour.block_row(isa, np, row, cw, by, &mut out[j * cw..], nb * cw, luv);
                 }
             });
             (by0, out)
@@ -889,62 +923,87 @@ impl ColourSites {
 
     /// Block means of L, U, V along block row `by` (per 2x2 super-pixel on a mosaic, per pixel
     /// otherwise) into `out[k·stride + bx]`; `row(p, y)` is row `y` of plane `p` (one plane, or R,
-    /// G, B), scaled to `[0, 1]`.
+    /// G, B), scaled to `[0, 1]`. The colours of the block row are gathered into `buf`, converted
+    /// by the LUV kernel, then summed per block in the oracle's order (super-pixel or pixel rows,
+    /// then left to right, from 0).
+    #[allow(clippy::too_many_arguments)]
     fn block_row<'r>(
         self,
+        isa: Isa,
         n_planes: usize,
         row: impl Fn(usize, usize) -> &'r [f32],
         cw: usize,
         by: usize,
         out: &mut [f32],
         stride: usize,
+        buf: &mut Vec<f32>,
     ) {
-        let add = |acc: &mut [f32; 3], luv: [f32; 3]| {
-            for k in 0..3 {
-                acc[k] += luv[k];
-            }
+        // `rows` rows of `per` colours each (super-pixels or pixels), `side` of them per block
+        let (rows, per, side) = match self {
+            ColourSites::Mosaic { .. } => (SHRINK / 2, cw * SHRINK / 2, SHRINK / 2),
+            ColourSites::Pixels => (SHRINK, cw * SHRINK, SHRINK),
         };
+        let m = rows * per;
+        buf.resize(6 * m, 0.0);
+        let (rgb, luv) = buf.split_at_mut(3 * m);
+        let (r, rest) = rgb.split_at_mut(m);
+        let (g, b) = rest.split_at_mut(m);
         match self {
             ColourSites::Mosaic { r: ro, g: go, b: bo } => {
-                let at = |x: usize, y: usize| row(0, y)[x];
-                let sp = SHRINK / 2; // super-pixels per block side
-                let inv_sp = 1.0 / (sp * sp) as f32;
-                for bx in 0..cw {
-                    let mut acc = [0.0f32; 3];
-                    for sy in 0..sp {
-                        for sx in 0..sp {
-                            let (x0, y0) = (bx * SHRINK + 2 * sx, by * SHRINK + 2 * sy);
-                            let r = at(x0 + ro.0, y0 + ro.1);
-                            let g = 0.5 * (at(x0 + go[0].0, y0 + go[0].1) + at(x0 + go[1].0, y0 + go[1].1));
-                            let b = at(x0 + bo.0, y0 + bo.1);
-                            add(&mut acc, luv_from_rgb(r, g, b));
-                        }
-                    }
-                    for (k, a) in acc.iter().enumerate() {
-                        out[k * stride + bx] = a * inv_sp;
+                // each colour's site in a super-pixel [top-left, top-right, bottom-left,
+                // bottom-right]
+                let site = |(dx, dy): (usize, usize)| dy * 2 + dx;
+                let (kr, kg0, kg1, kb) = (site(ro), site(go[0]), site(go[1]), site(bo));
+                for sy in 0..rows {
+                    let y0 = by * SHRINK + 2 * sy;
+                    let (top, bot) = (&row(0, y0)[..2 * per], &row(0, y0 + 1)[..2 * per]);
+                    let span = sy * per..(sy + 1) * per;
+                    let sites = top.chunks_exact(2).zip(bot.chunks_exact(2));
+                    let dst = r[span.clone()]
+                        .iter_mut()
+                        .zip(&mut g[span.clone()])
+                        .zip(&mut b[span]);
+                    for ((t, d), ((ri, gi), bi)) in sites.zip(dst) {
+                        let s = [t[0], t[1], d[0], d[1]];
+                        *ri = s[kr];
+                        *gi = 0.5 * (s[kg0] + s[kg1]);
+                        *bi = s[kb];
                     }
                 }
             }
             ColourSites::Pixels => {
-                let inv = 1.0 / (SHRINK * SHRINK) as f32;
-                for bx in 0..cw {
-                    let mut acc = [0.0f32; 3];
-                    for y in by * SHRINK..(by + 1) * SHRINK {
-                        for x in bx * SHRINK..(bx + 1) * SHRINK {
-                            let luv = match n_planes {
-                                1 => {
-                                    let g = row(0, y)[x];
-                                    luv_from_rgb(g, g, g)
-                                }
-                                _ => luv_from_rgb(row(0, y)[x], row(1, y)[x], row(2, y)[x]),
-                            };
-                            add(&mut acc, luv);
-                        }
-                    }
-                    for (k, a) in acc.iter().enumerate() {
-                        out[k * stride + bx] = a * inv;
+                for j in 0..rows {
+                    let y = by * SHRINK + j;
+                    let span = j * per..(j + 1) * per;
+                    let p = |k: usize| &row(k.min(n_planes - 1), y)[..per];
+                    r[span.clone()].copy_from_slice(p(0));
+                    g[span.clone()].copy_from_slice(p(1));
+                    b[span].copy_from_slice(p(2));
+                }
+            }
+        }
+        let (l, rest) = luv.split_at_mut(m);
+        let (u, v) = rest.split_at_mut(m);
+        kernels::luv_row(isa, [r, g, b], [&mut *l, &mut *u, &mut *v]);
+        let inv = 1.0 / (side * side) as f32;
+        for (k, c) in [&*l, &*u, &*v].into_iter().enumerate() {
+            let o = &mut out[k * stride..k * stride + cw];
+            if let ColourSites::Mosaic { .. } = self {
+                // 2x2 super-pixels per block: the two rows' pairs, from 0
+                let (c0, c1) = c.split_at(per);
+                for ((o, a), b) in o.iter_mut().zip(c0.chunks_exact(2)).zip(c1.chunks_exact(2)) {
+                    *o = (0.0 + a[0] + a[1] + b[0] + b[1]) * inv;
+                }
+                continue;
+            }
+            for (bx, o) in o.iter_mut().enumerate() {
+                let mut acc = 0.0f32;
+                for j in 0..rows {
+                    for x in bx * side..(bx + 1) * side {
+                        acc += c[j * per + x];
                     }
                 }
+                *o = acc * inv;
             }
         }
     }

@@ -24,11 +24,12 @@
 
 use rayon::prelude::*;
 
-use crate::detect::pyramid::{resize_bilinear, resize_mosaic};
+use crate::detect::pyramid::{resize_bilinear, resize_mosaic, taps};
 use crate::image::{Image, ImageView};
 
 use crate::kernels::Isa;
 
+use super::kernels::{blend_rows, lerp_row};
 use super::{
     channels_unsmoothed_on, smooth_channels_on, ChannelInput, ChannelSpec, Channels, ChannelsError,
     MAG_CHANNEL, N_CHANNELS, SHRINK,
@@ -185,24 +186,54 @@ fn resized_channels(
     }
 }
 
-/// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio[c]`.
+/// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio[c]`:
+/// the shared bilinear resize ([`crate::detect::pyramid::resize_bilinear`]: each needed source
+/// row resampled horizontally, then each output row interpolated between two of them), then the
+/// factor, in the same operations and order, so the same bits; here through the channel kernels
+/// ([`super::kernels::lerp_row`], [`super::kernels::blend_rows`]) with the factor fused into the
+/// vertical pass, the ten planes in parallel.
 fn resample_channels(
+    isa: Isa,
     src: &Channels,
     w: usize,
     h: usize,
-    ratio: impl Fn(usize) -> f32,
+    ratio: impl Fn(usize) -> f32 + Sync,
 ) -> Result<Channels, ChannelsError> {
-    let mut out = Channels::zeros(w, h);
-    let mut d = Image::new(0, 0);
-    for c in 0..N_CHANNELS {
-        let v = ImageView::new(src.plane(c), src.width(), src.height(), src.width())
-            .expect("a plane holds width · height values");
-        resize_bilinear(v, w, h, &mut d)?;
-        let r = ratio(c);
-        for (o, &s) in out.plane_mut(c).iter_mut().zip(d.as_slice()) {
-            *o = s * r;
+    let (sw, sh) = (src.width(), src.height());
+    if sw == 0 || sh == 0 || w == 0 || h == 0 {
+        return Err(crate::detect::pyramid::PyramidError::Empty {
+            src_w: sw,
+            src_h: sh,
+            dst_w: w,
+            dst_h: h,
         }
+        .into());
     }
+    let tx = taps(sw, w);
+    let p: Vec<u32> = tx.iter().map(|&(i, _)| i as u32).collect();
+    let q: Vec<u32> = tx.iter().map(|&(i, _)| (i + 1).min(sw - 1) as u32).collect();
+    let f: Vec<f32> = tx.iter().map(|&(_, f)| f).collect();
+    let ty = taps(sh, h);
+    let mut out = Channels::zeros(w, h);
+    out.data.par_chunks_mut(w * h).enumerate().for_each(|(c, plane)| {
+        let sp = src.plane(c);
+        let k = ratio(c);
+        // two horizontally resampled source rows (row index, values), refilled as the output
+        // rows move down
+        let mut slots = [(usize::MAX, vec![0.0f32; w]), (usize::MAX, vec![0.0f32; w])];
+        for (row, &(iy, fy)) in plane.chunks_mut(w).zip(&ty) {
+            let need = [iy, (iy + 1).min(sh - 1)];
+            for r in need {
+                if slots[0].0 != r && slots[1].0 != r {
+                    let s = usize::from(need.contains(&slots[0].0));
+                    lerp_row(isa, &sp[r * sw..(r + 1) * sw], &p, &q, &f, &mut slots[s].1);
+                    slots[s].0 = r;
+                }
+            }
+            let at = |r: usize| &slots[usize::from(slots[0].0 != r)].1;
+            blend_rows(isa, at(need[0]), at(need[1]), fy, k, row);
+        }
+    });
     Ok(out)
 }
 
@@ -280,7 +311,7 @@ pub(super) fn pyramid_on(
                 .min_by_key(|&e| (e.abs_diff(i), e > i))
                 .expect("level 0 is exact");
             let rel = (s / plan[r].0) as f32;
-            let c = resample_channels(&raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
+            let c = resample_channels(isa, &raw[r / step], lw / SHRINK, lh / SHRINK, |c| {
                 rel.powf(-opts.lambda_of(c))
             })?;
             Ok(Some(level(i, c)))

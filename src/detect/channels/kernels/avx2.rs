@@ -186,3 +186,158 @@ pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out:
     }
     super::scalar::aggregate_scalar(v, bins, gw, inv, out, ostride, bx);
 }
+
+/// [`super::luv_row`] on 8 values at a time (`Y^⅓` lane by lane through `f32::cbrt`, the
+/// oracle's function); the arithmetic of `luv_from_rgb` in its order.
+///
+/// # Safety
+/// The CPU has AVX2; the six slices have the same length (checked by [`super::luv_row`]).
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
+    use crate::detect::channels::{
+        LUV_A, LUV_MAXI, LUV_MB, LUV_MG, LUV_MINU, LUV_MINV, LUV_MR, LUV_UN, LUV_VN, LUV_Y0,
+    };
+    let [r, g, b] = rgb;
+    let [l, u, v] = luv;
+    let n = l.len();
+    let k = |c: f32| _mm256_set1_ps(c);
+    let mut i = 0;
+    while i + 8 <= n {
+        // SAFETY: i + 8 ≤ n, the length of every slice.
+        let (rv, gv, bv) = unsafe {
+            (
+                _mm256_loadu_ps(r.as_ptr().add(i)),
+                _mm256_loadu_ps(g.as_ptr().add(i)),
+                _mm256_loadu_ps(b.as_ptr().add(i)),
+            )
+        };
+        let dot = |m: usize| {
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(k(LUV_MR[m]), rv), _mm256_mul_ps(k(LUV_MG[m]), gv)),
+                _mm256_mul_ps(k(LUV_MB[m]), bv),
+            )
+        };
+        let (x, y, z) = (dot(0), dot(1), dot(2));
+        let above = _mm256_cmp_ps::<_CMP_GT_OQ>(y, k(LUV_Y0));
+        let lanes = _mm256_movemask_ps(above);
+        let mut ys = [0.0f32; 8];
+        // SAFETY: 8 values into an array of 8.
+        unsafe { _mm256_storeu_ps(ys.as_mut_ptr(), y) };
+        let mut cb = [0.0f32; 8];
+        for (j, (c, y)) in cb.iter_mut().zip(ys).enumerate() {
+            if lanes >> j & 1 != 0 {
+                *c = y.cbrt();
+            }
+        }
+        // SAFETY: 8 values from an array of 8.
+        let cb = unsafe { _mm256_loadu_ps(cb.as_ptr()) };
+        let lc = _mm256_sub_ps(_mm256_mul_ps(k(116.0), cb), k(16.0));
+        let lv = _mm256_mul_ps(
+            _mm256_blendv_ps(_mm256_mul_ps(y, k(LUV_A)), lc, above),
+            k(LUV_MAXI),
+        );
+        let den = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_add_ps(x, _mm256_mul_ps(k(15.0), y)),
+                _mm256_mul_ps(k(3.0), z),
+            ),
+            k(1e-35),
+        );
+        let d = _mm256_div_ps(k(1.0), den);
+        let uv = _mm256_sub_ps(
+            _mm256_mul_ps(
+                lv,
+                _mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(k(52.0), x), d), k(13.0 * LUV_UN)),
+            ),
+            k(LUV_MINU),
+        );
+        let vv = _mm256_sub_ps(
+            _mm256_mul_ps(
+                lv,
+                _mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(k(117.0), y), d), k(13.0 * LUV_VN)),
+            ),
+            k(LUV_MINV),
+        );
+        // SAFETY: i + 8 ≤ n.
+        unsafe {
+            _mm256_storeu_ps(l.as_mut_ptr().add(i), lv);
+            _mm256_storeu_ps(u.as_mut_ptr().add(i), uv);
+            _mm256_storeu_ps(v.as_mut_ptr().add(i), vv);
+        }
+        i += 8;
+    }
+    super::scalar::luv_row_scalar([r, g, b], [l, u, v], i);
+}
+
+/// [`super::lerp_row`] on 8 values at a time: when every tap of a group lies in the 16 values
+/// from its first tap, they are picked from there by two `vpermps` and a blend; any other group
+/// (taps spread wider, or too close to the end of `a`) is computed by the oracle.
+///
+/// # Safety
+/// The CPU has AVX2; `p`, `q`, `f` hold at least `out.len()` values (checked by
+/// [`super::lerp_row`]).
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn lerp_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32]) {
+    let n = out.len();
+    let seven = _mm256_set1_epi32(7);
+    let wide = _mm256_set1_epi32(!15);
+    let mut x = 0;
+    while x + 8 <= n {
+        let base = p[x] as usize;
+        // SAFETY: x + 8 ≤ n ≤ the taps' lengths.
+        let (ip, iq) = unsafe {
+            let b = _mm256_set1_epi32(base as i32);
+            (
+                _mm256_sub_epi32(_mm256_loadu_si256(p.as_ptr().add(x).cast()), b),
+                _mm256_sub_epi32(_mm256_loadu_si256(q.as_ptr().add(x).cast()), b),
+            )
+        };
+        // every offset from the first tap in 0..16 (a negative one has high bits set)
+        let near = _mm256_testz_si256(_mm256_or_si256(ip, iq), wide) == 1;
+        if near && base + 16 <= a.len() {
+            // SAFETY: x + 8 ≤ n ≤ out.len(), f.len(); base + 16 ≤ a.len().
+            unsafe {
+                let lo = _mm256_loadu_ps(a.as_ptr().add(base));
+                let hi = _mm256_loadu_ps(a.as_ptr().add(base + 8));
+                let pick = |i: __m256i| {
+                    let upper = _mm256_castsi256_ps(_mm256_cmpgt_epi32(i, seven));
+                    _mm256_blendv_ps(
+                        _mm256_permutevar8x32_ps(lo, i),
+                        _mm256_permutevar8x32_ps(hi, i),
+                        upper,
+                    )
+                };
+                let (ap, aq) = (pick(ip), pick(iq));
+                let fx = _mm256_loadu_ps(f.as_ptr().add(x));
+                let o = _mm256_add_ps(ap, _mm256_mul_ps(_mm256_sub_ps(aq, ap), fx));
+                _mm256_storeu_ps(out.as_mut_ptr().add(x), o);
+            }
+        } else {
+            super::scalar::lerp_row_scalar(a, p, q, f, &mut out[..x + 8], x);
+        }
+        x += 8;
+    }
+    super::scalar::lerp_row_scalar(a, p, q, f, out, x);
+}
+
+/// [`super::blend_rows`] on 8 values at a time.
+///
+/// # Safety
+/// The CPU has AVX2; `r0` and `r1` hold at least `out.len()` values.
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn blend_rows(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32]) {
+    let n = out.len();
+    let (fv, kv) = (_mm256_set1_ps(fy), _mm256_set1_ps(k));
+    let mut x = 0;
+    while x + 8 <= n {
+        // SAFETY: x + 8 ≤ n ≤ the rows' lengths.
+        unsafe {
+            let a = _mm256_loadu_ps(r0.as_ptr().add(x));
+            let b = _mm256_loadu_ps(r1.as_ptr().add(x));
+            let o = _mm256_mul_ps(_mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fv)), kv);
+            _mm256_storeu_ps(out.as_mut_ptr().add(x), o);
+        }
+        x += 8;
+    }
+    super::scalar::blend_rows_scalar(r0, r1, fy, k, out, x);
+}

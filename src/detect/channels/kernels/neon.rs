@@ -163,3 +163,158 @@ pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out:
     }
     super::scalar::aggregate_scalar(v, bins, gw, inv, out, ostride, bx);
 }
+
+/// [`super::luv_row`] on 4 values at a time (`Y^⅓` lane by lane through `f32::cbrt`, the
+/// oracle's function); the arithmetic of `luv_from_rgb` in its order.
+///
+/// # Safety
+/// The six slices have the same length (checked by [`super::luv_row`]; NEON is part of every
+/// aarch64 target).
+#[target_feature(enable = "neon")]
+pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
+    use crate::detect::channels::{
+        LUV_A, LUV_MAXI, LUV_MB, LUV_MG, LUV_MINU, LUV_MINV, LUV_MR, LUV_UN, LUV_VN, LUV_Y0,
+    };
+    let [r, g, b] = rgb;
+    let [l, u, v] = luv;
+    let n = l.len();
+    let k = |c: f32| vdupq_n_f32(c);
+    let mut i = 0;
+    while i + 4 <= n {
+        // SAFETY: i + 4 ≤ n, the length of every slice.
+        let (rv, gv, bv) = unsafe {
+            (
+                vld1q_f32(r.as_ptr().add(i)),
+                vld1q_f32(g.as_ptr().add(i)),
+                vld1q_f32(b.as_ptr().add(i)),
+            )
+        };
+        let dot = |m: usize| {
+            vaddq_f32(
+                vaddq_f32(vmulq_f32(k(LUV_MR[m]), rv), vmulq_f32(k(LUV_MG[m]), gv)),
+                vmulq_f32(k(LUV_MB[m]), bv),
+            )
+        };
+        let (x, y, z) = (dot(0), dot(1), dot(2));
+        let above = vcgtq_f32(y, k(LUV_Y0));
+        let (mut ys, mut ab) = ([0.0f32; 4], [0u32; 4]);
+        // SAFETY: 4 values into arrays of 4.
+        unsafe {
+            vst1q_f32(ys.as_mut_ptr(), y);
+            vst1q_u32(ab.as_mut_ptr(), above);
+        }
+        let mut cb = [0.0f32; 4];
+        for ((c, y), a) in cb.iter_mut().zip(ys).zip(ab) {
+            if a != 0 {
+                *c = y.cbrt();
+            }
+        }
+        // SAFETY: 4 values from an array of 4.
+        let cb = unsafe { vld1q_f32(cb.as_ptr()) };
+        let lc = vsubq_f32(vmulq_f32(k(116.0), cb), k(16.0));
+        let lv = vmulq_f32(vbslq_f32(above, lc, vmulq_f32(y, k(LUV_A))), k(LUV_MAXI));
+        let den = vaddq_f32(
+            vaddq_f32(vaddq_f32(x, vmulq_f32(k(15.0), y)), vmulq_f32(k(3.0), z)),
+            k(1e-35),
+        );
+        let d = vdivq_f32(k(1.0), den);
+        let uv = vsubq_f32(
+            vmulq_f32(
+                lv,
+                vsubq_f32(vmulq_f32(vmulq_f32(k(52.0), x), d), k(13.0 * LUV_UN)),
+            ),
+            k(LUV_MINU),
+        );
+        let vv = vsubq_f32(
+            vmulq_f32(
+                lv,
+                vsubq_f32(vmulq_f32(vmulq_f32(k(117.0), y), d), k(13.0 * LUV_VN)),
+            ),
+            k(LUV_MINV),
+        );
+        // SAFETY: i + 4 ≤ n.
+        unsafe {
+            vst1q_f32(l.as_mut_ptr().add(i), lv);
+            vst1q_f32(u.as_mut_ptr().add(i), uv);
+            vst1q_f32(v.as_mut_ptr().add(i), vv);
+        }
+        i += 4;
+    }
+    super::scalar::luv_row_scalar([r, g, b], [l, u, v], i);
+}
+
+/// [`super::lerp_row`] on 4 values at a time: when every tap of a group lies in the 8 values
+/// from its first tap, they are picked from there by a byte table lookup (`tbl` over 32
+/// bytes); any other group (taps spread wider, or too close to the end of `a`) is computed by
+/// the oracle.
+///
+/// # Safety
+/// `p`, `q`, `f` hold at least `out.len()` values (checked by [`super::lerp_row`]; NEON is part
+/// of every aarch64 target).
+#[target_feature(enable = "neon")]
+pub(super) unsafe fn lerp_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32]) {
+    let n = out.len();
+    // lane offset i → its four bytes 4i, 4i + 1, 4i + 2, 4i + 3 (i < 8: below 32)
+    let spread = vdupq_n_u32(0x0404_0404);
+    let bytes = vdupq_n_u32(0x0302_0100);
+    let mut x = 0;
+    while x + 4 <= n {
+        let base = p[x] as usize;
+        let b = vdupq_n_u32(base as u32);
+        // SAFETY: x + 4 ≤ n ≤ the taps' lengths.
+        let (ip, iq) = unsafe {
+            (
+                vsubq_u32(vld1q_u32(p.as_ptr().add(x)), b),
+                vsubq_u32(vld1q_u32(q.as_ptr().add(x)), b),
+            )
+        };
+        // every offset from the first tap in 0..8 (a tap below it wraps to a large offset)
+        if vmaxvq_u32(vorrq_u32(ip, iq)) < 8 && base + 8 <= a.len() {
+            // SAFETY: x + 4 ≤ n ≤ out.len(), f.len(); base + 8 ≤ a.len().
+            unsafe {
+                let table = uint8x16x2_t(
+                    vreinterpretq_u8_f32(vld1q_f32(a.as_ptr().add(base))),
+                    vreinterpretq_u8_f32(vld1q_f32(a.as_ptr().add(base + 4))),
+                );
+                let pick = |i: uint32x4_t| {
+                    let idx = vreinterpretq_u8_u32(vaddq_u32(vmulq_u32(i, spread), bytes));
+                    vreinterpretq_f32_u8(vqtbl2q_u8(table, idx))
+                };
+                let (ap, aq) = (pick(ip), pick(iq));
+                let fx = vld1q_f32(f.as_ptr().add(x));
+                vst1q_f32(
+                    out.as_mut_ptr().add(x),
+                    vaddq_f32(ap, vmulq_f32(vsubq_f32(aq, ap), fx)),
+                );
+            }
+        } else {
+            super::scalar::lerp_row_scalar(a, p, q, f, &mut out[..x + 4], x);
+        }
+        x += 4;
+    }
+    super::scalar::lerp_row_scalar(a, p, q, f, out, x);
+}
+
+/// [`super::blend_rows`] on 4 values at a time.
+///
+/// # Safety
+/// `r0` and `r1` hold at least `out.len()` values (NEON is part of every aarch64 target).
+#[target_feature(enable = "neon")]
+pub(super) unsafe fn blend_rows(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32]) {
+    let n = out.len();
+    let (fv, kv) = (vdupq_n_f32(fy), vdupq_n_f32(k));
+    let mut x = 0;
+    while x + 4 <= n {
+        // SAFETY: x + 4 ≤ n ≤ the rows' lengths.
+        unsafe {
+            let a = vld1q_f32(r0.as_ptr().add(x));
+            let b = vld1q_f32(r1.as_ptr().add(x));
+            vst1q_f32(
+                out.as_mut_ptr().add(x),
+                vmulq_f32(vaddq_f32(a, vmulq_f32(vsubq_f32(b, a), fv)), kv),
+            );
+        }
+        x += 4;
+    }
+    super::scalar::blend_rows_scalar(r0, r1, fy, k, out, x);
+}

@@ -95,3 +95,30 @@ pub(crate) fn aggregate_scalar(
         }
     }
 }
+
+/// The scalar oracle of `luv_row` from index `from` on (also the SIMD tails): Dollár's LUV of
+/// each `(r, g, b)`.
+pub(crate) fn luv_row_scalar(rgb: [&[f32]; 3], luv: [&mut [f32]; 3], from: usize) {
+    let [r, g, b] = rgb;
+    let [l, u, v] = luv;
+    for i in from..l.len() {
+        [l[i], u[i], v[i]] = crate::detect::channels::luv_from_rgb(r[i], g[i], b[i]);
+    }
+}
+
+/// The scalar oracle of `lerp_row` from index `from` on (also the SIMD tails and the groups
+/// whose taps span too many values): `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`.
+pub(crate) fn lerp_row_scalar(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32], from: usize) {
+    for x in from..out.len() {
+        let (ap, aq) = (a[p[x] as usize], a[q[x] as usize]);
+        out[x] = ap + (aq - ap) * f[x];
+    }
+}
+
+/// The scalar oracle of `blend_rows` from index `from` on: `out[x] = (r0[x] + (r1[x] −
+/// r0[x])·fy)·k`.
+pub(crate) fn blend_rows_scalar(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32], from: usize) {
+    for x in from..out.len() {
+        out[x] = (r0[x] + (r1[x] - r0[x]) * fy) * k;
+    }
+}
