@@ -92,8 +92,8 @@ use crate::image::ImageView;
 use crate::kernels::Isa;
 use crate::raw::{Cfa, Colour};
 
-pub use kernels::N_ORIENTS;
 use kernels::{bin_edges, orient_bin};
+pub use kernels::{luv_from_rgb, N_ORIENTS};
 pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.
@@ -110,20 +110,6 @@ const ROWS_PER_TASK: usize = 16;
 const MAX_RADIUS: f32 = 32.0;
 /// Most taps of a triangle filter (radius [`MAX_RADIUS`]).
 const MAX_TAPS: usize = 2 * MAX_RADIUS as usize + 1;
-
-// Dollár's rgbConvert LUV constants (rgbConvertMex.cpp, `rgb2luv_setup`).
-const LUV_MR: [f32; 3] = [0.430574, 0.222015, 0.020183];
-const LUV_MG: [f32; 3] = [0.341550, 0.706655, 0.129553];
-const LUV_MB: [f32; 3] = [0.178325, 0.071330, 0.939180];
-const LUV_UN: f32 = 0.197833;
-const LUV_VN: f32 = 0.468331;
-const LUV_MAXI: f32 = 1.0 / 270.0;
-const LUV_MINU: f32 = -88.0 * LUV_MAXI;
-const LUV_MINV: f32 = -134.0 * LUV_MAXI;
-/// `(6/29)³`: below it `L` is linear in `Y`.
-const LUV_Y0: f32 = 0.008_856_452;
-/// `(29/3)³`: the slope of the linear part.
-const LUV_A: f32 = 903.296_3;
 
 /// Errors from channel computation.
 #[derive(Debug, PartialEq, Error)]
@@ -387,22 +373,6 @@ impl Channels {
         }
         Some(out)
     }
-}
-
-/// Dollár's LUV of `(r, g, b)` in `[0, 1]`.
-pub fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
-    let x = LUV_MR[0] * r + LUV_MG[0] * g + LUV_MB[0] * b;
-    let y = LUV_MR[1] * r + LUV_MG[1] * g + LUV_MB[1] * b;
-    let z = LUV_MR[2] * r + LUV_MG[2] * g + LUV_MB[2] * b;
-    let l = if y > LUV_Y0 {
-        116.0 * y.cbrt() - 16.0
-    } else {
-        y * LUV_A
-    } * LUV_MAXI;
-    let d = 1.0 / (x + 15.0 * y + 3.0 * z + 1e-35);
-    let u = l * (13.0 * 4.0 * x * d - 13.0 * LUV_UN) - LUV_MINU;
-    let v = l * (13.0 * 9.0 * y * d - 13.0 * LUV_VN) - LUV_MINV;
-    [l, u, v]
 }
 
 /// Taps of Dollár's `convTri` of radius `r`: for an integer `r ≥ 1`, `(r + 1 − |k|)/(r + 1)²`,

@@ -194,7 +194,7 @@ pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out:
 /// The CPU has AVX2; the six slices have the same length (checked by [`super::luv_row`]).
 #[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
-    use crate::detect::channels::{
+    use super::scalar::{
         LUV_A, LUV_MAXI, LUV_MB, LUV_MG, LUV_MINU, LUV_MINV, LUV_MR, LUV_UN, LUV_VN, LUV_Y0,
     };
     let [r, g, b] = rgb;

@@ -20,8 +20,8 @@
 
 use crate::kernels::Isa;
 
-pub use scalar::N_ORIENTS;
 pub(crate) use scalar::{bin_edges, grad_row_scalar, normalise_scalar, orient_bin, Edges, BLOCK};
+pub use scalar::{luv_from_rgb, N_ORIENTS};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -341,7 +341,7 @@ mod tests {
             scalar::luv_row_scalar([&rgb[0], &rgb[1], &rgb[2]], [l, u, v], 0);
             // the oracle is luv_from_rgb
             if len > 0 {
-                let one = crate::detect::channels::luv_from_rgb(rgb[0][0], rgb[1][0], rgb[2][0]);
+                let one = scalar::luv_from_rgb(rgb[0][0], rgb[1][0], rgb[2][0]);
                 assert_eq!(bits(&one), bits(&[want[0][0], want[1][0], want[2][0]]));
             }
             for isa in Isa::available() {

@@ -172,7 +172,7 @@ pub(super) unsafe fn aggregate(v: &[f32], bins: &[u8], gw: usize, inv: f32, out:
 /// aarch64 target).
 #[target_feature(enable = "neon")]
 pub(super) unsafe fn luv_row(rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
-    use crate::detect::channels::{
+    use super::scalar::{
         LUV_A, LUV_MAXI, LUV_MB, LUV_MG, LUV_MINU, LUV_MINV, LUV_MR, LUV_UN, LUV_VN, LUV_Y0,
     };
     let [r, g, b] = rgb;

@@ -1,6 +1,6 @@
 //! The scalar oracle of the channel kernels and what it shares with the channel code (the
-//! orientation bins): below the dispatch in `mod.rs`, the per-ISA files and `channels/mod.rs`,
-//! which all use it.
+//! orientation bins, Dollár's LUV constants and [`luv_from_rgb`]): below the dispatch in `mod.rs`,
+//! the per-ISA files and `channels/mod.rs`, which all use it.
 
 /// Orientation channels (Dollár's `nOrients`).
 pub const N_ORIENTS: usize = 6;
@@ -102,7 +102,7 @@ pub(crate) fn luv_row_scalar(rgb: [&[f32]; 3], luv: [&mut [f32]; 3], from: usize
     let [r, g, b] = rgb;
     let [l, u, v] = luv;
     for i in from..l.len() {
-        [l[i], u[i], v[i]] = crate::detect::channels::luv_from_rgb(r[i], g[i], b[i]);
+        [l[i], u[i], v[i]] = luv_from_rgb(r[i], g[i], b[i]);
     }
 }
 
@@ -121,4 +121,34 @@ pub(crate) fn blend_rows_scalar(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &m
     for x in from..out.len() {
         out[x] = (r0[x] + (r1[x] - r0[x]) * fy) * k;
     }
+}
+
+// Dollár's rgbConvert LUV constants (rgbConvertMex.cpp, `rgb2luv_setup`).
+pub(crate) const LUV_MR: [f32; 3] = [0.430574, 0.222015, 0.020183];
+pub(crate) const LUV_MG: [f32; 3] = [0.341550, 0.706655, 0.129553];
+pub(crate) const LUV_MB: [f32; 3] = [0.178325, 0.071330, 0.939180];
+pub(crate) const LUV_UN: f32 = 0.197833;
+pub(crate) const LUV_VN: f32 = 0.468331;
+pub(crate) const LUV_MAXI: f32 = 1.0 / 270.0;
+pub(crate) const LUV_MINU: f32 = -88.0 * LUV_MAXI;
+pub(crate) const LUV_MINV: f32 = -134.0 * LUV_MAXI;
+/// `(6/29)³`: below it `L` is linear in `Y`.
+pub(crate) const LUV_Y0: f32 = 0.008_856_452;
+/// `(29/3)³`: the slope of the linear part.
+pub(crate) const LUV_A: f32 = 903.296_3;
+
+/// Dollár's LUV of `(r, g, b)` in `[0, 1]`.
+pub fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
+    let x = LUV_MR[0] * r + LUV_MG[0] * g + LUV_MB[0] * b;
+    let y = LUV_MR[1] * r + LUV_MG[1] * g + LUV_MB[1] * b;
+    let z = LUV_MR[2] * r + LUV_MG[2] * g + LUV_MB[2] * b;
+    let l = if y > LUV_Y0 {
+        116.0 * y.cbrt() - 16.0
+    } else {
+        y * LUV_A
+    } * LUV_MAXI;
+    let d = 1.0 / (x + 15.0 * y + 3.0 * z + 1e-35);
+    let u = l * (13.0 * 4.0 * x * d - 13.0 * LUV_UN) - LUV_MINU;
+    let v = l * (13.0 * 9.0 * y * d - 13.0 * LUV_VN) - LUV_MINV;
+    [l, u, v]
 }
