@@ -45,7 +45,6 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::detect::people::DetectorKind;
-use camera::parse_cfa;
 
 mod camera;
 mod compute;
@@ -409,7 +408,7 @@ impl Config {
                 });
             }
             range(&key("bit_depth"), cam.bit_depth, 8, 16)?;
-            if parse_cfa(&cam.cfa).is_none() {
+            if cam.cfa.parse::<crate::raw::Cfa>().is_err() {
                 return Err(ConfigError::OutOfRange {
                     key: key("cfa"),
                     value: format!("{:?}", cam.cfa),

@@ -155,20 +155,10 @@ impl CameraConfig {
 
     /// The parsed CFA pattern (validated by [`Config::validate`](super::Config::validate)).
     pub fn cfa(&self) -> Result<Cfa, ConfigError> {
-        parse_cfa(&self.cfa).ok_or_else(|| ConfigError::OutOfRange {
+        self.cfa.parse::<Cfa>().map_err(|_| ConfigError::OutOfRange {
             key: "camera.cfa".into(),
             value: format!("{:?}", self.cfa),
             allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
         })
-    }
-}
-
-pub(super) fn parse_cfa(s: &str) -> Option<Cfa> {
-    match s.to_ascii_uppercase().as_str() {
-        "RGGB" => Some(Cfa::Rggb),
-        "BGGR" => Some(Cfa::Bggr),
-        "GRBG" => Some(Cfa::Grbg),
-        "GBRG" => Some(Cfa::Gbrg),
-        _ => None,
     }
 }
