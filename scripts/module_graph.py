@@ -13,9 +13,8 @@ The graph's strongly connected components (Tarjan) of more than one file are the
 The same check runs on the top-level modules (each folder of `src/` and each file at its root), where
 a circle means two areas import each other even if no two files do.
 
-Circles listed in `KNOWN` (files), and upward imports in `KNOWN_TOP` (top-level modules), are
-reported but do not fail the check (each names why it remains); a new
-circle fails it, and so does a known one that is gone, so that the list shrinks with the code.
+Any circle fails the check, between files or between top-level modules: there is no list of
+allowed ones. (A `#[cfg(test)] use` line outside a test module counts as an edge.)
 
     python3 scripts/module_graph.py            # exit 1 and list the circles if there is any
     python3 scripts/module_graph.py --edges    # also print every edge
@@ -384,30 +383,6 @@ def shortest_cycle(graph, comp) -> list:
     return best or sorted(comp)
 
 
-# Circles not yet removed, as sorted file lists (relative to src/), each with why it remains.
-KNOWN: dict[tuple[str, ...], str] = {
-    (
-        "features/hog/approx.rs",
-        "features/hog/blocks.rs",
-        "features/hog/cells.rs",
-        "features/hog/gradient.rs",
-        "features/hog/grid.rs",
-        "features/hog/input.rs",
-        "features/hog/kernels/avx2.rs",
-        "features/hog/kernels/avx512.rs",
-        "features/hog/kernels/mod.rs",
-        "features/hog/kernels/neon.rs",
-    ): (
-        "the HOG kernels read the stages' plane, scratch and tap types, and the stages dispatch "
-        "through kernels/mod.rs; moving those types into a hog/types.rs below both removes it "
-        "(left from the split of hog.rs and the kernel layer, issues 25 and 28)"
-    ),
-}
-# Upward imports between top-level modules not yet removed, (from, to), each with why; they are
-# left out of the top-level check (which would otherwise find the circle they close).
-KNOWN_TOP: dict[tuple[str, str], str] = {}
-
-
 def top_level(graph: dict) -> dict:
     """The graph collapsed to top-level modules (`detect`, `raw`, ..., `@bin` for the CLI)."""
 
@@ -446,28 +421,13 @@ def main() -> int:
     n_edges = sum(len(v) for v in graph.values())
     comps = strongly_connected(graph)
     print(f"module graph: {len(graph)} files, {n_edges} edges, {len(comps)} import circle(s)")
-    seen = set()
     for comp in sorted(comps, key=lambda c: sorted(g.name(x) for x in c)):
-        key = tuple(sorted(g.name(x) for x in comp))
-        seen.add(key)
-        cyc = shortest_cycle(graph, comp)
-        why = KNOWN.get(key)
-        failed |= why is None
-        print(f"  {'known' if why else 'NEW'} circle of {len(comp)} files: " + ", ".join(key))
-        print("    e.g. " + " -> ".join(g.name(x) for x in cyc + [cyc[0]]))
-        if why:
-            print(f"    remains because: {why}")
-    for key in sorted(set(KNOWN) - seen):
         failed = True
-        print("  GONE (remove it from KNOWN): " + ", ".join(key))
+        key = tuple(sorted(g.name(x) for x in comp))
+        cyc = shortest_cycle(graph, comp)
+        print(f"  circle of {len(comp)} files: " + ", ".join(key))
+        print("    e.g. " + " -> ".join(g.name(x) for x in cyc + [cyc[0]]))
     tops = top_level(graph)
-    for (a, b), why in sorted(KNOWN_TOP.items()):
-        if b in tops.get(a, set()):
-            print(f"  known upward import {a} -> {b}, left out of the top-level check: {why}")
-            tops[a].discard(b)
-        else:
-            failed = True
-            print(f"  GONE (remove it from KNOWN_TOP): {a} -> {b}")
     top_comps = strongly_connected(tops)
     print(f"top-level modules: {len(tops)}, {len(top_comps)} circle(s)")
     for comp in sorted(top_comps, key=sorted):

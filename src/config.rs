@@ -32,16 +32,33 @@
 //!     .unwrap_err();
 //! assert!(err.to_string().contains("daemon.threads"));
 //! ```
+//!
+//! # Layout
+//!
+//! This file holds [`Config`], loading, path resolution and [`Config::validate`]; one file per
+//! section below it, importing nothing from it: `daemon` (`[daemon]`, `[limits]`, `[metrics]`),
+//! `publish` (`[publish]`, `[foxglove]`), `record`, `compute`, `camera`, and `error`
+//! ([`ConfigError`]).
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::detect::people::DetectorKind;
-use crate::detect::ScorePrecision;
-use crate::features::hog::{MosaicTaps, MosaicTone};
-use crate::raw::levels::{Compression, Gains, NormaliseOptions};
-use crate::raw::Cfa;
+
+mod camera;
+mod compute;
+mod daemon;
+mod error;
+mod publish;
+mod record;
+
+pub use camera::{CameraConfig, SourceType};
+pub use compute::{ComputeConfig, DEFAULT_ACF_MODEL};
+pub use daemon::{DaemonConfig, LimitsConfig, MetricsConfig};
+pub use error::ConfigError;
+pub use publish::{FoxgloveConfig, Iox2Root, PublishConfig, AUTO_ROOT};
+pub use record::RecordConfig;
 
 /// Largest worker pool we accept (a sanity bound, not a tuning hint).
 const MAX_THREADS: usize = 256;
@@ -63,58 +80,6 @@ const NAME_CHARS: &str = "a-z, A-Z, 0-9, '_', '-'";
 /// Where a relative model file is looked for after the config file's directory: the model
 /// files the Debian package installs.
 pub const SYSTEM_MODEL_DIR: &str = "/usr/share/mosaicd/models";
-
-/// The default `compute.acf_model`: the shipped raw-mosaic ACF model (`models/acf-mosaic.json`,
-/// installed into [`SYSTEM_MODEL_DIR`]).
-pub const DEFAULT_ACF_MODEL: &str = "acf-mosaic.json";
-
-/// Errors from loading or validating a configuration. Each names the offending key.
-#[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read config {path}: {source}")]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The TOML did not parse or a key is unknown or of the wrong type (the message names the key).
-    #[error("config {origin}: {message}")]
-    Parse {
-        /// File name or `<string>`.
-        origin: String,
-        /// The parser's message (names the key and line).
-        message: String,
-    },
-    /// A value is outside its allowed range.
-    #[error("config key `{key}` = {value} is out of range: allowed {allowed}")]
-    OutOfRange {
-        /// Dotted key, e.g. `daemon.threads` or `camera[0].width`.
-        key: String,
-        /// The value found.
-        value: String,
-        /// The allowed range, in words.
-        allowed: String,
-    },
-    /// A key the chosen source needs is missing.
-    #[error("config key `{key}` is required when {when}")]
-    Missing {
-        /// Dotted key.
-        key: String,
-        /// The condition that makes it required.
-        when: String,
-    },
-    /// Two cameras share a name.
-    #[error("config key `camera[{index}].name` = {name:?} is used twice: camera names must be unique")]
-    DuplicateCamera {
-        /// Index of the second camera with the name.
-        index: usize,
-        /// The name.
-        name: String,
-    },
-}
 
 /// The whole configuration.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -146,493 +111,6 @@ pub struct Config {
     pub cameras: Vec<CameraConfig>,
 }
 
-/// `[limits]`: bounds on what inputs may claim, checked before anything is allocated for them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct LimitsConfig {
-    /// Largest frame in pixels (`4..=268435456`, default 2^26 = 67108864, "64 MP"), from any
-    /// source: recordings, files, cameras ([`crate::raw::limits`]; a side is at most 16384).
-    pub max_frame_pixels: u64,
-}
-
-impl Default for LimitsConfig {
-    fn default() -> Self {
-        Self {
-            max_frame_pixels: crate::raw::limits::DEFAULT_MAX_PIXELS,
-        }
-    }
-}
-
-impl LimitsConfig {
-    /// The frame-size limit (valid after [`Config::validate`]; out-of-range values give the
-    /// default).
-    pub fn frame_limits(&self) -> crate::raw::FrameLimits {
-        crate::raw::FrameLimits::new(self.max_frame_pixels).unwrap_or(crate::raw::FrameLimits::DEFAULT)
-    }
-}
-
-/// `[metrics]`: fleet metrics without opening a port. With `textfile` set, the daemon writes
-/// its counters in Prometheus's text format to that file every `daemon.stats_interval_ms`
-/// (written to a temporary file beside it, then renamed over it), for node_exporter's textfile
-/// collector ([`crate::pipeline::textfile`]).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MetricsConfig {
-    /// The file, ending in `.prom` (what the collector reads), in a directory that exists;
-    /// relative to the working directory. Default: none (no metrics file).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub textfile: Option<PathBuf>,
-}
-
-/// `[daemon]`: scheduling and process settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DaemonConfig {
-    /// Size of the dedicated compute pool (`1..=256`).
-    pub threads: usize,
-    /// Frames computed concurrently per camera (`1..=64`).
-    pub max_in_flight: usize,
-    /// Capture queue depth per camera (`1..=1024`).
-    pub queue_depth: usize,
-    /// Stats period in milliseconds (`>= 50`): stats message, sd_notify STATUS, log line.
-    pub stats_interval_ms: u64,
-    /// Time allowed for draining at shutdown, in milliseconds (`1..=90000`).
-    pub shutdown_timeout_ms: u64,
-    /// Output files (the MCAP recording and the results file) leave out what depends on the wall
-    /// clock: timer-driven stats records and the `"wall"` group. A replay then writes the same
-    /// bytes for any thread count. `mosaicd replay` turns it on (`--wall-clock` keeps them).
-    pub deterministic_outputs: bool,
-}
-
-impl Default for DaemonConfig {
-    fn default() -> Self {
-        Self {
-            threads: 2,
-            max_in_flight: 4,
-            queue_depth: 4,
-            stats_interval_ms: 1000,
-            shutdown_timeout_ms: 10_000,
-            deterministic_outputs: false,
-        }
-    }
-}
-
-/// `[publish]`: iceoryx2 services `<prefix>/<camera>/{detections,gradients,stats}`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PublishConfig {
-    /// Publish at all.
-    pub enabled: bool,
-    /// First component of every service name.
-    pub service_prefix: String,
-    /// Samples each subscriber buffers before the oldest is overwritten (`1..=4096`).
-    pub subscriber_buffer: usize,
-    /// Publish the gradient maps too (dynamic slices).
-    pub gradients: bool,
-    /// Keep every n-th gradient pixel in x and y (`1..=64`).
-    pub gradients_decimation: usize,
-    /// The directory iceoryx2 keeps its files in: `"auto"` (the default: resolved per process by
-    /// [`crate::publish::service::resolve_root`], so that it works under systemd, as root and as an
-    /// ordinary user alike) or an absolute path. Created `0750` when missing; one of another user
-    /// is refused. Subscribers (`mosaicd listen`, the Python client) of the same user resolve
-    /// `"auto"` to the same directory; with a path, pass them the same `--root`.
-    pub root: Iox2Root,
-}
-
-/// `publish.root`: [`Iox2Root::Auto`] (written `"auto"`) or a directory.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(from = "PathBuf", into = "PathBuf")]
-pub enum Iox2Root {
-    /// Chosen from the process's environment and user ([`crate::publish::service::resolve_root`]).
-    #[default]
-    Auto,
-    /// This directory (must be absolute: [`Config::validate`] refuses a relative one).
-    Path(PathBuf),
-}
-
-/// How `publish.root = "auto"` and the subscribers' `--root auto` are written.
-pub const AUTO_ROOT: &str = "auto";
-
-impl From<PathBuf> for Iox2Root {
-    fn from(p: PathBuf) -> Self {
-        if p.as_os_str() == AUTO_ROOT {
-            Self::Auto
-        } else {
-            Self::Path(p)
-        }
-    }
-}
-
-impl From<Iox2Root> for PathBuf {
-    fn from(r: Iox2Root) -> Self {
-        match r {
-            Iox2Root::Auto => PathBuf::from(AUTO_ROOT),
-            Iox2Root::Path(p) => p,
-        }
-    }
-}
-
-impl Default for PublishConfig {
-    fn default() -> Self {
-        Self {
-            enabled: true,
-            service_prefix: "mosaicd".into(),
-            subscriber_buffer: 64,
-            gradients: false,
-            gradients_decimation: 4,
-            root: Iox2Root::Auto,
-        }
-    }
-}
-
-/// `[record]`: results (and frames) to MCAP.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RecordConfig {
-    /// Record at all.
-    pub enabled: bool,
-    /// Output file; `{camera}` is replaced by the camera name.
-    pub path: PathBuf,
-    /// Also record the raw frames (lossless, full bit depth), not only results.
-    pub frames: bool,
-    /// Also record an 8-bit `foxglove.RawImage` preview, keeping every n-th 2x2 tile (`0` = no
-    /// preview, `1..=16`).
-    pub preview_decimation: u32,
-    /// Flush (close the chunk) every n frames: what a crash can lose (`1..=10000`).
-    pub flush_frames: u32,
-    /// Start a new file after this many MiB (`0` = never, `0..=1048576`).
-    pub rotate_mb: u64,
-    /// Start a new file after this many seconds of recorded time (`0` = never, `0..=31536000`).
-    pub rotate_secs: u64,
-    /// With rotation, keep at most this many files of this path, deleting the oldest (`0` = keep
-    /// all, `0..=1000000`; not with `overwrite`).
-    pub max_files: u32,
-    /// Overwrite an existing file at `path` instead of numbering the new recording after it
-    /// (`mosaicd replay --out` sets it: a command-line output).
-    pub overwrite: bool,
-    /// After a write error (disk full, I/O error), try again in a new file this many
-    /// milliseconds later, and then as often, until a write succeeds (`0` = stop recording for
-    /// the rest of the run, `0..=86400000`). Only without `overwrite`: resuming must not
-    /// truncate the file that failed.
-    pub retry_ms: u64,
-}
-
-impl Default for RecordConfig {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            path: PathBuf::from("out/{camera}.mcap"),
-            frames: false,
-            preview_decimation: 0,
-            flush_frames: 30,
-            rotate_mb: 0,
-            rotate_secs: 0,
-            max_files: 0,
-            overwrite: false,
-            retry_ms: 30_000,
-        }
-    }
-}
-
-/// `[foxglove]`: the live view, a WebSocket server speaking Foxglove's protocol (the `foxglove`
-/// crate's), off unless `listen` is set. See `docs/daemon.md`, "Live view in Foxglove".
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FoxgloveConfig {
-    /// Address to listen on, `"host:port"` (e.g. `"127.0.0.1:8765"`, Foxglove's default; port 0
-    /// picks a free one, logged at start). Unset: no live view, no socket.
-    pub listen: Option<String>,
-    /// The live preview keeps every n-th 2x2 tile of the mosaic (`1..=16`; 2 makes a 1080p frame
-    /// a 960x540 `foxglove.RawImage`, 518 kB).
-    pub preview_decimation: u32,
-    /// Messages queued per client before its oldest are dropped (`4..=4096`): a slow or
-    /// vanished client holds at most this many (an image, its boxes, keypoints, stats: about
-    /// 3 per frame), and only it loses them.
-    pub client_backlog: usize,
-}
-
-impl Default for FoxgloveConfig {
-    fn default() -> Self {
-        Self {
-            listen: None,
-            preview_decimation: 2,
-            client_backlog: 32,
-        }
-    }
-}
-
-impl FoxgloveConfig {
-    /// The validated listen address (`None`: live view off).
-    pub fn listen_addr(&self) -> Result<Option<std::net::SocketAddr>, ConfigError> {
-        self.listen
-            .as_deref()
-            .map(|l| {
-                l.parse().map_err(|_| ConfigError::OutOfRange {
-                    key: "foxglove.listen".into(),
-                    value: format!("{l:?}"),
-                    allowed: "an IP address and port, e.g. \"127.0.0.1:8765\" or \"[::1]:8765\"".into(),
-                })
-            })
-            .transpose()
-    }
-
-    /// Whether the live view is on.
-    pub fn enabled(&self) -> bool {
-        self.listen.is_some()
-    }
-}
-
-/// `[compute]`: the per-frame stage.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ComputeConfig {
-    /// Run pedestrian detection on the mosaic (the detector of `detector`).
-    pub detect: bool,
-    /// Which detector: `"hog"` (multi-scale HOG + linear SVM with the model of `model`; the
-    /// default) or `"acf"` (aggregated channel features, boosted trees with a soft cascade, with
-    /// the model file of `acf_model`; docs/acf.md). [`ComputeConfig::detector_kind`] parses it.
-    pub detector: String,
-    /// With `detector = "acf"`: the ACF model file (`mosaicd train --detector acf`; default
-    /// `acf-mosaic.json`, the shipped raw-mosaic model `models/acf-mosaic.json`). A relative path
-    /// is looked for like `model`'s: in the config file's directory, then in [`SYSTEM_MODEL_DIR`].
-    /// The HOG-only keys (`model`, `scale_step`, `approx_levels`, `svm`, `mosaic_taps`) do not
-    /// apply to it; `hit_threshold`, `max_levels`, `upsample`, `mosaic_tone` and `wb_gains` do.
-    pub acf_model: String,
-    /// Detector model: a built-in name ([`crate::detect::shipped::SHIPPED`]; default
-    /// [`crate::detect::DEFAULT_MODEL`], compiled into the binary), `opencv-default` (OpenCV's
-    /// people detector from the shared data directory,
-    /// `opencv_hog/default_people_detector_64x128.npy`) or a model file (`.json` ours; `.npy`,
-    /// `.yml`, text: OpenCV vectors).
-    pub model: String,
-    /// Score a window needs: the SVM's (OpenCV `hitThreshold`, `-10..=10`), or with
-    /// `detector = "acf"` the trees' sum (`-100..=100`; a window the soft cascade rejects is never
-    /// a hit).
-    pub hit_threshold: f32,
-    /// Scale factor between pyramid levels (`1.01..=2.0`, OpenCV 1.05).
-    pub scale_step: f64,
-    /// Maximum pyramid levels (`1..=64`).
-    pub max_levels: usize,
-    /// Start the pyramid magnified (`1.0..=4.0`; 2 finds people ~64 px tall; below 1 would drop
-    /// the full-resolution level).
-    pub upsample: f64,
-    /// Feature-pyramid approximation (Dollár et al. 2014): every n-th level is computed exactly,
-    /// the levels between are approximated from its micro-cells (`1..=64`; 1 = exact, 14 ≈ one
-    /// exact level per octave; default [`crate::detect::DEFAULT_APPROX_LEVELS`]).
-    pub approx_levels: usize,
-    /// SVM arithmetic: `"f32"` (OpenCV's scores within 1e-6), `"i8"` (8-bit blocks and weights,
-    /// exact integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, most
-    /// with AVX-512 VNNI or AVX-VNNI; on aarch64 without the dot product it is not, which is
-    /// warned about at start-up) or `"auto"` (`"i8"` where it was measured faster, `"f32"`
-    /// elsewhere: [`ScorePrecision::auto_for`]; the default).
-    pub svm: String,
-    /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
-    /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or
-    /// `"paper"` (`I(x+1) − I(x−1)`, the paper's `[-1, 0, 1]` on the mosaic: better on clean
-    /// frames, worse under noise; docs/detection.md, "The mosaic derivative").
-    pub mosaic_taps: String,
-    /// How raw values become the detector's mosaic: `"model"` (what the model file says; OpenCV's
-    /// weights and files without the field: `linear`), `"linear"` (black-subtracted and
-    /// scaled, the paper's raw mosaic) or `"srgb"` (each site white balanced, clipped and
-    /// sRGB-encoded; no demosaicing: docs/detection.md, "The mosaic's tone").
-    pub mosaic_tone: String,
-    /// White-balance gains of the `srgb` tone: `"auto"` (the frame's own when its source has them,
-    /// otherwise a grey-world estimate from each frame), `"file"` (the frame's own; a frame
-    /// without them is an error), `"grey-world"`, `"none"` or `"R,G,B"` (fixed, e.g. the
-    /// camera's daylight gains).
-    pub wb_gains: String,
-    /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
-    pub orientation_bins: usize,
-    /// Rows per parallel strip (`2..=4096`, even).
-    pub strip_rows: usize,
-    /// Also compute mosaic SIFT keypoints (super-pixel DoG, 5x5 extrema) and publish them on
-    /// `<prefix>/<camera>/keypoints` and record them on `/<camera>/keypoints` (Foxglove points)
-    /// and `/<camera>/sift` (full-frame keypoints, with descriptors when computed).
-    pub keypoints: bool,
-    /// With `keypoints`: also compute each keypoint's 128-byte SIFT descriptor (on the mosaic
-    /// gradient) and publish and record it beside the keypoint.
-    pub keypoint_descriptors: bool,
-    /// With `keypoints`: double the colour planes first (the mosaic's analogue of OpenCV's
-    /// `firstOctave = -1`): finer keypoints, at 4-5x the cost of the stage.
-    pub keypoints_double: bool,
-}
-
-impl Default for ComputeConfig {
-    fn default() -> Self {
-        Self {
-            detect: true,
-            detector: DetectorKind::Hog.name().into(),
-            acf_model: DEFAULT_ACF_MODEL.into(),
-            model: crate::detect::DEFAULT_MODEL.into(),
-            hit_threshold: 0.0,
-            scale_step: 1.05,
-            max_levels: 64,
-            upsample: 1.0,
-            approx_levels: crate::detect::DEFAULT_APPROX_LEVELS,
-            svm: "auto".into(),
-            mosaic_taps: "model".into(),
-            mosaic_tone: "model".into(),
-            wb_gains: "auto".into(),
-            orientation_bins: 9,
-            strip_rows: 64,
-            keypoints: false,
-            keypoint_descriptors: false,
-            keypoints_double: false,
-        }
-    }
-}
-
-/// Which kind of source a camera reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SourceType {
-    /// An MCAP recording in our format (`path`).
-    Mcap,
-    /// A V4L2 device (`device`).
-    V4l2,
-    /// A deterministic synthetic stream generated in process (`width`, `height`, `bit_depth`,
-    /// `cfa`, `frames`).
-    Synthetic,
-    /// Raw files played as a stream (`path`: a file or a directory of files in name order; camera
-    /// raws through rawloader, mosaic PNG/PGM, RGB images sampled to a mosaic, headerless raws
-    /// described by a TOML sidecar, see [`crate::capture::files`]); timestamps at `fps`.
-    Files,
-}
-
-impl SourceType {
-    /// The name in config files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Mcap => "mcap",
-            Self::V4l2 => "v4l2",
-            Self::Synthetic => "synthetic",
-            Self::Files => "files",
-        }
-    }
-}
-
-/// `[[camera]]`: one source.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CameraConfig {
-    /// Unique name; part of the service names (`a-z A-Z 0-9 _ -`, 1..=64 chars).
-    pub name: String,
-    /// Source kind: `mcap`, `v4l2`, `synthetic`.
-    pub source: SourceType,
-    /// MCAP recording to replay (`source = "mcap"`), or a raw file or directory of raw files
-    /// (`source = "files"`).
-    #[serde(default)]
-    pub path: Option<PathBuf>,
-    /// `source = "files"` only: a sidecar (TOML) describing every headerless file, instead of the
-    /// per-file `<file>.toml` / directory `mosaicd-raw.toml` ones.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sidecar: Option<PathBuf>,
-    /// V4L2 device (`source = "v4l2"`).
-    #[serde(default)]
-    pub device: Option<PathBuf>,
-    /// Replay at the recorded rate instead of as fast as possible.
-    #[serde(default)]
-    pub realtime: bool,
-    /// Replay in a loop.
-    #[serde(default, rename = "loop")]
-    pub looped: bool,
-    /// Frame width (synthetic, V4L2 request) (`2..=16384`, even).
-    #[serde(default = "default_width")]
-    pub width: usize,
-    /// Frame height (`2..=16384`, even).
-    #[serde(default = "default_height")]
-    pub height: usize,
-    /// Bit depth (synthetic) (`8..=16`).
-    #[serde(default = "default_bit_depth")]
-    pub bit_depth: u8,
-    /// CFA pattern (synthetic): `RGGB`, `BGGR`, `GRBG`, `GBRG`.
-    #[serde(default = "default_cfa")]
-    pub cfa: String,
-    /// Frame rate (synthetic when live, V4L2 request) (`0 < fps <= 1000`).
-    #[serde(default = "default_fps")]
-    pub fps: f64,
-    /// Number of frames (synthetic); 0 = endless.
-    #[serde(default)]
-    pub frames: u64,
-    /// Treat the synthetic stream as a live camera (drop-oldest) instead of a replay.
-    #[serde(default)]
-    pub live: bool,
-    /// V4L2 only: the preferred FourCC (4 characters, e.g. `"pRAA"`); default: the first Bayer
-    /// format the driver offers, in our preference order.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fourcc: Option<String>,
-    /// V4L2 only: the sensor's black level in raw units (V4L2 does not report it); needs `white`.
-    /// Default 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub black: Option<u16>,
-    /// V4L2 only: the sensor's white level in raw units. Default: full scale of the negotiated
-    /// format's bit depth.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub white: Option<u16>,
-}
-
-fn default_width() -> usize {
-    640
-}
-fn default_height() -> usize {
-    480
-}
-fn default_bit_depth() -> u8 {
-    12
-}
-fn default_cfa() -> String {
-    "RGGB".into()
-}
-fn default_fps() -> f64 {
-    30.0
-}
-
-impl CameraConfig {
-    /// A synthetic camera with the given name and size (tests, benches).
-    pub fn synthetic(name: &str, width: usize, height: usize, frames: u64) -> Self {
-        Self {
-            name: name.into(),
-            source: SourceType::Synthetic,
-            path: None,
-            sidecar: None,
-            device: None,
-            realtime: false,
-            looped: false,
-            width,
-            height,
-            bit_depth: default_bit_depth(),
-            cfa: default_cfa(),
-            fps: default_fps(),
-            frames,
-            live: false,
-            fourcc: None,
-            black: None,
-            white: None,
-        }
-    }
-
-    /// The sensor levels for a V4L2 camera (`None`: 0 / full scale of the negotiated format).
-    pub fn levels(&self) -> Option<crate::raw::Levels> {
-        self.white
-            .map(|w| crate::raw::Levels::uniform(self.black.unwrap_or(0), w))
-    }
-
-    /// The preferred FourCC for a V4L2 camera (validated by [`Config::validate`]).
-    pub fn fourcc_bytes(&self) -> Option<[u8; 4]> {
-        self.fourcc
-            .as_deref()
-            .and_then(crate::capture::v4l2_formats::parse_fourcc)
-    }
-
-    /// The parsed CFA pattern (validated by [`Config::validate`]).
-    pub fn cfa(&self) -> Result<Cfa, ConfigError> {
-        parse_cfa(&self.cfa).ok_or_else(|| ConfigError::OutOfRange {
-            key: "camera.cfa".into(),
-            value: format!("{:?}", self.cfa),
-            allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
-        })
-    }
-}
-
 /// One relative input path of a config file and where it was resolved ([`Config::resolve_paths`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ResolvedPath {
@@ -650,97 +128,6 @@ impl ResolvedPath {
     /// Whether `resolved` exists.
     pub fn exists(&self) -> bool {
         self.resolved.exists()
-    }
-}
-
-/// A `"model"`-or-value key: `None` for `"model"` (the model file's own), else `value` parsed.
-fn model_override<T: std::str::FromStr>(
-    key: &str,
-    value: &str,
-    allowed: &str,
-) -> Result<Option<T>, ConfigError> {
-    match value {
-        "model" => Ok(None),
-        s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
-            key: key.into(),
-            value: format!("{value:?}"),
-            allowed: allowed.into(),
-        }),
-    }
-}
-
-impl ComputeConfig {
-    /// `detector` parsed.
-    pub fn detector_kind(&self) -> Result<DetectorKind, ConfigError> {
-        self.detector.parse().map_err(|_| ConfigError::OutOfRange {
-            key: "compute.detector".into(),
-            value: format!("{:?}", self.detector),
-            allowed: "one of \"hog\", \"acf\"".into(),
-        })
-    }
-
-    /// The model file or name the configured detector reads, and its key: `acf_model` for
-    /// `detector = "acf"`, else `model`.
-    pub fn model_key(&self) -> Result<(&'static str, &str), ConfigError> {
-        Ok(match self.detector_kind()? {
-            DetectorKind::Hog => ("compute.model", &self.model),
-            DetectorKind::Acf => ("compute.acf_model", &self.acf_model),
-        })
-    }
-
-    /// `mosaic_taps` parsed: `None` = the model's own.
-    pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
-        model_override(
-            "compute.mosaic_taps",
-            &self.mosaic_taps,
-            "one of \"model\", \"same-site\", \"paper\"",
-        )
-    }
-
-    /// `mosaic_tone` parsed: `None` = the model's own.
-    pub fn mosaic_tone_override(&self) -> Result<Option<MosaicTone>, ConfigError> {
-        model_override(
-            "compute.mosaic_tone",
-            &self.mosaic_tone,
-            "one of \"model\", \"linear\", \"srgb\"",
-        )
-    }
-
-    /// `wb_gains` parsed (fixed gains checked: finite, > 0 and < 16).
-    pub fn wb_gains(&self) -> Result<Gains, ConfigError> {
-        let bad = || ConfigError::OutOfRange {
-            key: "compute.wb_gains".into(),
-            value: format!("{:?}", self.wb_gains),
-            allowed: "\"auto\", \"file\", \"grey-world\", \"none\" or \"R,G,B\" (each finite, > 0 and < 16)"
-                .into(),
-        };
-        let g: Gains = self.wb_gains.parse().map_err(|_| bad())?;
-        NormaliseOptions {
-            gains: g,
-            compression: Compression::None,
-        }
-        .build()
-        .map_err(|_| bad())?;
-        Ok(g)
-    }
-
-    /// `svm` parsed (`"auto"` resolved for this CPU's kernel path).
-    pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
-        self.svm.parse().map_err(|_| ConfigError::OutOfRange {
-            key: "compute.svm".into(),
-            value: format!("{:?}", self.svm),
-            allowed: "one of \"f32\", \"i8\", \"auto\"".into(),
-        })
-    }
-}
-
-fn parse_cfa(s: &str) -> Option<Cfa> {
-    match s.to_ascii_uppercase().as_str() {
-        "RGGB" => Some(Cfa::Rggb),
-        "BGGR" => Some(Cfa::Bggr),
-        "GRBG" => Some(Cfa::Grbg),
-        "GBRG" => Some(Cfa::Gbrg),
-        _ => None,
     }
 }
 
@@ -1021,7 +408,7 @@ impl Config {
                 });
             }
             range(&key("bit_depth"), cam.bit_depth, 8, 16)?;
-            if parse_cfa(&cam.cfa).is_none() {
+            if cam.cfa.parse::<crate::raw::Cfa>().is_err() {
                 return Err(ConfigError::OutOfRange {
                     key: key("cfa"),
                     value: format!("{:?}", cam.cfa),
@@ -1118,6 +505,10 @@ fn valid_name(s: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::detect::ScorePrecision;
+    use crate::features::hog::{MosaicTaps, MosaicTone};
+    use crate::raw::levels::Gains;
+    use crate::raw::Cfa;
 
     const MIN: &str = "[[camera]]\nname = \"a\"\nsource = \"synthetic\"\n";
 

@@ -37,296 +37,42 @@
 //! 11-bit fixed point, so a level's pixels can differ by one grey level and only level 0 is
 //! bit-comparable. Without the rounding, OpenCV's weights fired on 6 % more windows at the hit
 //! threshold −0.5 on USC and lost 0.7 points of AP (docs/detection.md).
+//!
+//! # Layout
+//!
+//! This file holds [`Detector`] (levels, groups, lanes of approximated levels, scoring, NMS); below
+//! it, importing nothing from it: `options` (the options, their checks, errors, [`Level`], stats),
+//! `lanes` (which lane scores which approximated level), `scratch` (the bounded buffer pools) and
+//! `planes` (the input's linear planes).
 
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::model::{Domain, LinearModel, ModelError};
+use super::model::{Domain, LinearModel};
 use super::nms::{greedy_nms, group_rectangles};
-use super::pyramid::{resize_then, PyramidError};
+use super::pyramid::resize_then;
 use super::score::{
-    window_scores, window_scores_i8, RowScorer, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8,
-    ScorerBuffers,
+    window_scores, window_scores_i8, RowScorer, ScorePrecision, ScoreWeights, ScoreWeightsI8, ScorerBuffers,
 };
 use super::Detection;
 use crate::features::hog::{
     approx_block_rows, block_and_micro_grids_from_gamma_planes, block_grid_dims,
-    block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_in_place,
-    gamma_plane_into, micro_grid_from_gamma_planes, ApproxLevel, BlockGrid, Exec, GammaPlanes, HogError,
-    HogInput, HogSpec, HogTimings, MicroGrid, SweepBuffers, CELL_SIZE, MICRO_CELL,
+    block_grid_from_gamma_planes, block_grid_stage_times, blocks_from_micro_grid, gamma_plane_into,
+    micro_grid_from_gamma_planes, ApproxLevel, BlockGrid, Exec, GammaPlanes, HogError, HogInput, HogSpec,
+    MicroGrid, CELL_SIZE, MICRO_CELL,
 };
-use crate::image::{Image, ImageView};
+use crate::image::Image;
+use lanes::{approx_gain, deal_levels};
+use planes::{linear_from_input, round_in_place, Linear, Plane, Planes};
+use scratch::{ApproxScratch, LaneScratch, LevelScratch, Pool, ScratchPool};
 
-/// Gain of the cells of level `lv` approximated from the micro-cells of `head`: the linear size
-/// ratio `√(r_x r_y)` (summed gradient magnitudes measure edge length, which shrinks with the
-/// level; see [`crate::features::hog::blocks_from_micro_grid`]).
-fn approx_gain(head: &Level, lv: &Level) -> f32 {
-    ((lv.width * lv.height) as f64 / (head.width * head.height) as f64).sqrt() as f32
-}
+mod lanes;
+mod options;
+mod planes;
+mod scratch;
 
-/// The approximated `levels` of a group (exact level `head`) dealt to `lanes` lanes, each lane's
-/// level indices ascending: largest first, each to the lane with the least work so far, work
-/// taken as `0.35 + area ratio` (the fill's pass over every micro-cell costs the same for any level,
-/// about a third of a full-size level's fill, blocks and products; the rest scales with the
-/// level's area). Depends only on the geometry, so the same for every frame; results do not
-/// depend on it (each level's arithmetic is its own).
-fn deal_levels(head: &Level, levels: &[Level], lanes: usize) -> Vec<Vec<usize>> {
-    let lanes = lanes.max(1);
-    let area = (head.width * head.height).max(1) as f64;
-    let mut load = vec![0.0f64; lanes];
-    let mut dealt = vec![Vec::new(); lanes];
-    // Levels come largest first.
-    for (i, lv) in levels.iter().enumerate() {
-        let l = (0..lanes)
-            .min_by(|&a, &b| load[a].total_cmp(&load[b]))
-            .expect("at least one lane");
-        load[l] += 0.35 + (lv.width * lv.height) as f64 / area;
-        dealt[l].push(i);
-    }
-    dealt
-}
-
-/// Errors of the detector.
-#[derive(Debug, thiserror::Error)]
-pub enum DetectError {
-    /// HOG failed (e.g. image smaller than a window).
-    #[error(transparent)]
-    Hog(#[from] HogError),
-    /// Pyramid failed.
-    #[error(transparent)]
-    Pyramid(#[from] PyramidError),
-    /// Model invalid.
-    #[error(transparent)]
-    Model(#[from] ModelError),
-    /// The scoring setup failed (e.g. a descriptor too long for the 8-bit path).
-    #[error(transparent)]
-    Score(#[from] ScoreError),
-    /// An option out of range.
-    #[error("detector option {what} = {value} is out of range ({allowed})")]
-    BadOption {
-        /// Option name.
-        what: &'static str,
-        /// Value given.
-        value: String,
-        /// Allowed range.
-        allowed: &'static str,
-    },
-}
-
-/// Non-maximum suppression method.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum NmsMethod {
-    /// Return every hit.
-    None,
-    /// Greedy IoU suppression.
-    Greedy {
-        /// IoU above which the weaker box goes.
-        iou: f32,
-    },
-    /// OpenCV `groupRectangles` (detectMultiScale's `finalThreshold` = 2, eps 0.2).
-    Group {
-        /// A group needs more than this many boxes.
-        threshold: usize,
-        /// Similarity tolerance.
-        eps: f32,
-    },
-}
-
-/// Detector options (defaults = OpenCV `detectMultiScale`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DetectorOptions {
-    /// Scale factor between pyramid levels (OpenCV `scale` 1.05).
-    pub scale_step: f64,
-    /// Maximum number of levels (OpenCV `nlevels` 64).
-    pub max_levels: usize,
-    /// Start the pyramid at this magnification (1 = full resolution; 2 finds people of 64 px).
-    pub upsample: f64,
-    /// Score a window needs to be a hit (OpenCV `hitThreshold` 0).
-    pub hit_threshold: f32,
-    /// Suppression.
-    pub nms: NmsMethod,
-    /// Feature-pyramid approximation (Dollár et al. 2014): levels are taken in groups of this many;
-    /// the first of each group is computed exactly, the others are approximated from its
-    /// orientation votes pooled into 2x2-pixel micro-cells
-    /// ([`crate::features::hog::blocks_from_micro_grid`]). 1 = every level exact
-    /// (OpenCV-equivalent); 14 ≈ one exact level per octave at scale step 1.05.
-    pub approx_levels: usize,
-    /// Arithmetic of the SVM stage: f32 (OpenCV's scores within ≈1e-6) or the 8-bit integer path
-    /// (scores within [`ScoreWeightsI8::error_bound`], see [`super::score`]; where it is faster
-    /// than f32: [`ScorePrecision::auto_for`]). A precision slower than the other on this CPU is
-    /// warned about when the detector is built ([`ScorePrecision::slow_reason`]).
-    pub svm: ScorePrecision,
-}
-
-impl Default for DetectorOptions {
-    fn default() -> Self {
-        Self {
-            scale_step: 1.05,
-            max_levels: 64,
-            upsample: 1.0,
-            hit_threshold: 0.0,
-            nms: NmsMethod::Group {
-                threshold: 2,
-                eps: 0.2,
-            },
-            approx_levels: 1,
-            svm: ScorePrecision::F32,
-        }
-    }
-}
-
-/// Validated detector options.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DetectorSpec {
-    opts: DetectorOptions,
-}
-
-impl DetectorSpec {
-    /// Validate.
-    pub fn new(o: &DetectorOptions) -> Result<Self, DetectError> {
-        let bad = |what, value: String, allowed| Err(DetectError::BadOption { what, value, allowed });
-        if !(o.scale_step.is_finite() && o.scale_step > 1.0 && o.scale_step <= 4.0) {
-            return bad("scale_step", o.scale_step.to_string(), "(1, 4]");
-        }
-        if !(1..=1000).contains(&o.max_levels) {
-            return bad("max_levels", o.max_levels.to_string(), "1..=1000");
-        }
-        if !(o.upsample.is_finite() && (1.0..=8.0).contains(&o.upsample)) {
-            return bad("upsample", o.upsample.to_string(), "[1, 8]");
-        }
-        if !(1..=64).contains(&o.approx_levels) {
-            return bad("approx_levels", o.approx_levels.to_string(), "1..=64");
-        }
-        if !o.hit_threshold.is_finite() {
-            return bad("hit_threshold", o.hit_threshold.to_string(), "finite");
-        }
-        match o.nms {
-            NmsMethod::Greedy { iou } if !(0.0..=1.0).contains(&iou) => {
-                return bad("nms iou", iou.to_string(), "[0, 1]")
-            }
-            NmsMethod::Group { eps, .. } if !(eps.is_finite() && eps >= 0.0) => {
-                return bad("nms eps", eps.to_string(), "≥ 0")
-            }
-            _ => {}
-        }
-        Ok(Self { opts: *o })
-    }
-    /// Options.
-    pub fn options(&self) -> &DetectorOptions {
-        &self.opts
-    }
-}
-
-/// Per-frame statistics; stage times are summed over levels (CPU time when levels run in parallel).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct DetectStats {
-    /// Levels scored.
-    pub levels: usize,
-    /// Windows scored.
-    pub windows: usize,
-    /// Windows at or above the hit threshold (before NMS).
-    pub hits: usize,
-    /// Pyramid resizes.
-    pub resize: Duration,
-    /// HOG stage times.
-    pub hog: HogTimings,
-    /// Approximated levels: their cells from the exact level's micro-cells, and their blocks.
-    pub cell_resample: Duration,
-    /// SVM scoring.
-    pub svm: Duration,
-    /// NMS.
-    pub nms: Duration,
-    /// Wall time of the whole call.
-    pub total: Duration,
-}
-
-impl std::ops::AddAssign for DetectStats {
-    /// Every count and time summed.
-    fn add_assign(&mut self, o: Self) {
-        self.levels += o.levels;
-        self.windows += o.windows;
-        self.hits += o.hits;
-        self.resize += o.resize;
-        self.hog += o.hog;
-        self.cell_resample += o.cell_resample;
-        self.svm += o.svm;
-        self.nms += o.nms;
-        self.total += o.total;
-    }
-}
-
-/// Per-stage times of one frame from [`Detector::stage_profile`]: every stage on one thread,
-/// one after another, so each time is that stage's CPU.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct StageProfile {
-    /// Pyramid levels.
-    pub levels: usize,
-    /// Windows scored.
-    pub windows: usize,
-    /// Windows at or above the hit threshold (before NMS).
-    pub hits: usize,
-    /// Resize and gamma of the exactly computed levels.
-    pub resize: Duration,
-    /// Gradients and orientation binning of the exactly computed levels.
-    pub gradients: Duration,
-    /// Their weighted cell histograms.
-    pub cells: Duration,
-    /// Their block assembly and L2-Hys normalisation.
-    pub blocks: Duration,
-    /// Micro-cell pooling at each group's exact level (approximate pyramid; it computes that
-    /// level's gradients again).
-    pub micro_cells: Duration,
-    /// Approximated levels: cells from the micro-cells and their blocks (one fused pass).
-    pub approx_cells_blocks: Duration,
-    /// SVM scoring of every level.
-    pub svm: Duration,
-    /// Non-maximum suppression.
-    pub nms: Duration,
-}
-
-impl std::ops::AddAssign for StageProfile {
-    /// Times and counts summed (levels kept: the same for every frame of one size).
-    fn add_assign(&mut self, o: Self) {
-        self.levels = o.levels;
-        self.windows += o.windows;
-        self.hits += o.hits;
-        self.resize += o.resize;
-        self.gradients += o.gradients;
-        self.cells += o.cells;
-        self.blocks += o.blocks;
-        self.micro_cells += o.micro_cells;
-        self.approx_cells_blocks += o.approx_cells_blocks;
-        self.svm += o.svm;
-        self.nms += o.nms;
-    }
-}
-
-impl StageProfile {
-    /// Sum of the stage times.
-    pub fn total(&self) -> Duration {
-        self.resize
-            + self.gradients
-            + self.cells
-            + self.blocks
-            + self.micro_cells
-            + self.approx_cells_blocks
-            + self.svm
-            + self.nms
-    }
-}
-
-/// One pyramid level: scale and size.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Level {
-    /// Original size / level size.
-    pub scale: f64,
-    /// Level width.
-    pub width: usize,
-    /// Level height.
-    pub height: usize,
-}
+pub use options::{DetectError, DetectStats, DetectorOptions, DetectorSpec, Level, NmsMethod, StageProfile};
 
 /// A ready-to-run detector: model, HOG spec and options.
 #[derive(Debug, Clone)]
@@ -345,173 +91,6 @@ pub struct Detector {
     lane_pool: Pool<LaneScratch>,
     /// Planes of magnified frames (`upsample > 1`), reused the same way.
     source_pool: Pool<Vec<Image<f32>>>,
-}
-
-/// The buffers of one lane of approximated levels: the sweep's, one scorer's per level, the scores.
-#[derive(Debug, Default)]
-struct LaneScratch {
-    sweep: SweepBuffers,
-    scorers: Vec<ScorerBuffers>,
-    scores: Vec<f32>,
-}
-
-impl Pool<LaneScratch> {
-    /// Lanes held: one per worker for each of two frames (or groups) in flight.
-    fn capacity() -> usize {
-        2 * rayon::current_num_threads()
-    }
-    fn put(&self, s: LaneScratch) {
-        self.put_bounded(s, Self::capacity())
-    }
-}
-
-/// The buffers of one pyramid level, reused for the next level and frame (allocating them afresh
-/// cost ≈ 40 MB of page faults and zeroing per 1080p level).
-#[derive(Debug, Default)]
-struct LevelScratch {
-    /// Resized, gamma-corrected planes (one, or B, G, R).
-    planes: [Image<f32>; 3],
-    /// Micro-cells of the group's exact level (approximate pyramid).
-    micro: MicroGrid,
-    /// Normalised blocks.
-    blocks: BlockGrid,
-    /// Window scores.
-    scores: Vec<f32>,
-}
-
-/// The buffers of one approximated level in [`Detector::stage_profile`]: its blocks (from the
-/// group's micro-cells) and scores.
-#[derive(Debug, Default)]
-struct ApproxScratch {
-    blocks: BlockGrid,
-    scores: Vec<f32>,
-}
-
-/// Free buffer sets. A level takes one (or makes one when none is free) and returns it; at most
-/// `capacity` are kept, so the memory held is bounded by that many largest-level buffer sets and
-/// does not grow from frame to frame. A cloned detector starts with an empty pool.
-#[derive(Debug)]
-struct Pool<T> {
-    free: Mutex<Vec<T>>,
-}
-
-/// The pool of whole level buffers (planes, micro-cells, blocks, scores).
-type ScratchPool = Pool<LevelScratch>;
-
-impl<T> Default for Pool<T> {
-    fn default() -> Self {
-        Self {
-            free: Mutex::new(Vec::new()),
-        }
-    }
-}
-
-impl<T> Clone for Pool<T> {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
-impl<T: Default> Pool<T> {
-    fn take(&self) -> T {
-        self.free
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .pop()
-            .unwrap_or_default()
-    }
-    fn put_bounded(&self, s: T, capacity: usize) {
-        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
-        if free.len() < capacity {
-            free.push(s);
-        }
-    }
-}
-
-impl ScratchPool {
-    /// Scratches kept: one per worker thread plus one for a level a blocked worker steals.
-    fn capacity() -> usize {
-        rayon::current_num_threads() + 1
-    }
-    fn put(&self, s: LevelScratch) {
-        self.put_bounded(s, Self::capacity())
-    }
-}
-
-/// Linear planes of the input (8-bit units, no gamma) from which levels are resized.
-enum Planes<'a> {
-    Grey(Plane<'a>),
-    Colour([Plane<'a>; 3]),
-    Mosaic(Plane<'a>),
-}
-
-/// The input's linear planes and whether they hold 8-bit integers (u8 grey or RGB input): then
-/// every resized level is rounded to integers, as OpenCV keeps an 8-bit image's pyramid in 8 bits.
-struct Linear<'a> {
-    planes: Planes<'a>,
-    eight_bit: bool,
-    /// The planes are a magnified frame in buffers of the detector's pool.
-    pooled: bool,
-}
-
-impl Linear<'_> {
-    /// The row operation of a resized level: rounding (8-bit input), then gamma.
-    fn level_row_op(&self, gamma: bool) -> impl Fn(&mut [f32]) + Sync + 'static {
-        let round = self.eight_bit;
-        move |row: &mut [f32]| {
-            if round {
-                round_in_place(row);
-            }
-            gamma_in_place(row, gamma)
-        }
-    }
-}
-
-/// Round every value to the nearest integer (halves away from zero, as OpenCV's
-/// `saturate_cast<uchar>` rounds non-negative values).
-fn round_in_place(row: &mut [f32]) {
-    for v in row {
-        *v = v.round();
-    }
-}
-
-/// A linear plane: converted from integer input, or the caller's f32 plane itself (no copy).
-enum Plane<'a> {
-    Owned(Image<f32>),
-    Borrowed(ImageView<'a, f32>),
-}
-
-impl Plane<'_> {
-    fn view(&self) -> ImageView<'_, f32> {
-        match self {
-            Plane::Owned(i) => i.view(),
-            Plane::Borrowed(v) => *v,
-        }
-    }
-}
-
-fn linear_from_input<'a>(input: &HogInput<'a>) -> Linear<'a> {
-    use Plane::{Borrowed, Owned};
-    let eight_bit = matches!(input, HogInput::GreyU8(_) | HogInput::Rgb8(_));
-    let planes = match input {
-        HogInput::GreyU8(v) => Planes::Grey(Owned(v.to_image().map(|p| p as f32))),
-        HogInput::GreyU16 { image, max_value } => {
-            let s = 255.0 / (*max_value).max(1) as f32;
-            Planes::Grey(Owned(image.to_image().map(|p| p as f32 * s)))
-        }
-        HogInput::GreyF32(v) => Planes::Grey(Borrowed(*v)),
-        HogInput::Mosaic(v) => Planes::Mosaic(Borrowed(*v)),
-        HogInput::Rgb8(v) => {
-            let img = v.to_image();
-            Planes::Colour([0, 1, 2].map(|c| Owned(img.map(|p| p[c] as f32))))
-        }
-        HogInput::ColourF32(p) => Planes::Colour(p.map(Borrowed)),
-    };
-    Linear {
-        planes,
-        eight_bit,
-        pooled: false,
-    }
 }
 
 impl Detector {

@@ -70,20 +70,22 @@
 //!
 //! # Layout
 //!
-//! This file is the facade: it re-exports what callers use. The stages live in `pub(crate)`
-//! submodules, the algorithm in portable Rust and the instruction-set builds apart:
+//! This file is the facade: it re-exports what callers use. The stages live in private
+//! submodules, the per-row kernels (portable and per instruction set) below them. Imports only
+//! point down the table (stages → `kernels` → `gradient` → `types` → `spec`, `error`):
 //!
 //! | module | holds |
 //! |---|---|
-//! | `error` | [`HogError`] |
-//! | `spec` | [`HogOptions`], [`MosaicTaps`], [`HogSpec`] (validated geometry and weight profiles) |
-//! | `input` | [`HogInput`], [`GammaPlanes`], gamma correction |
+//! | `grid` | the entry points from an input ([`block_grid`], [`block_grid_from_input`], …) and stage timing |
+//! | [`approx`] | micro-cells and approximated pyramid levels (the method, the taps, the sweep) |
+//! | `blocks` | [`BlockGrid`], the bands of cell rows → block rows |
+//! | `cells` | [`CellGrid`], the parallel strips of cell rows |
+//! | `input` | [`HogInput`], [`GammaPlanes`], gamma correction of whole planes |
+//! | `kernels` | the choice of kernel per [`crate::kernels::isa`] and the dispatch (`kernels/mod.rs`); the AVX2, AVX-512 and NEON builds (`kernels/{avx2,avx512,neon}.rs`) and the half-float rows (`kernels/f16.rs`), the only files here with intrinsics; the portable kernels, the oracles (`kernels/portable.rs`: cell histograms, block assembly and [`normalize_l2hys`], micro rows, the approximated levels' fill) |
 //! | `gradient` | derivatives, [`fast_atan2_deg`], orientation binning of a pixel row |
-//! | `cells` | [`CellGrid`] and the portable cell kernel (the oracle) |
-//! | `blocks` | [`BlockGrid`], block assembly, [`normalize_l2hys`], the fused cell → block bands |
-//! | `grid` | the entry points from an input ([`block_grid`], [`cell_grid`], …) and stage timing |
-//! | [`approx`] | micro-cells and approximated pyramid levels |
-//! | `kernels` | the choice of kernel per [`crate::kernels::isa`], and the AVX2, AVX-512 and NEON builds (`kernels/{avx2,avx512,neon}.rs`, the only files here with intrinsics) |
+//! | `types` | [`Exec`], the planes, scratch, cell layout, [`MicroGrid`] and taps the stages and kernels share; half floats in software |
+//! | `spec` | [`HogOptions`], [`MosaicTaps`], [`HogSpec`] (validated geometry and weight profiles) |
+//! | `error` | [`HogError`] |
 //! | [`tone`] | raw → mosaic in a model's tone (re-exported from `crate::raw::tone`, its home) |
 
 /// Cell side in pixels (OpenCV `cellSize` default; fixed here).
@@ -120,6 +122,7 @@ mod grid;
 mod input;
 mod kernels;
 mod spec;
+mod types;
 
 pub use crate::raw::tone::{
     self, mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
@@ -130,17 +133,17 @@ pub use approx::{
     blocks_from_micro_grid, micro_grid_from_gamma_planes, warn_if_approx_slow, ApproxLevel, MicroGrid,
     SweepBuffers, MICRO_CELL,
 };
-pub use blocks::{
-    block_grid_from_gamma_planes, blocks_from_cells, normalize_l2hys, BlockGrid, BAND_BLOCK_ROWS,
-};
+pub use blocks::{block_grid_from_gamma_planes, blocks_from_cells, BlockGrid, BAND_BLOCK_ROWS};
 pub use cells::{cell_grid, cell_grid_from_gamma_planes, CellGrid};
 pub use error::HogError;
 pub use gradient::fast_atan2_deg;
 pub use grid::{
-    block_grid, block_grid_from_input, block_grid_stage_times, descriptor_from_window, Exec, HogTimings,
+    block_grid, block_grid_from_input, block_grid_stage_times, descriptor_from_window, HogTimings,
 };
 pub use input::{gamma_in_place, gamma_plane_into, GammaPlanes, HogInput};
+pub use kernels::portable::normalize_l2hys;
 pub use spec::{HogOptions, HogSpec, MosaicTaps, MAX_NBINS, MAX_WINDOW_SIDE};
+pub use types::Exec;
 
 #[cfg(test)]
 mod tests;

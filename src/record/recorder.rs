@@ -10,219 +10,28 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use super::preview::preview_from_raw;
-use crate::clock::{WallClock, WallClockSource};
 use crate::detect::Detection;
 use crate::features::sift::Keypoint;
 use crate::raw::RawFrame;
 use crate::wire::schema::{self, DetectionsMessage, FoxgloveTime, RawImageMessage};
 use crate::wire::{RecordError, Topics};
+use files::{numbered_files, numbered_path};
 
-/// Default uncompressed chunk size target (bytes): a few 1080p frames per chunk at most.
-pub const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
-/// Default flush cadence in frames (a crash loses at most this many frames).
-pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
-/// Default zstd level: level 1 is about 4x faster than zstd's default (3) on noisy 12-bit 1080p
-/// frames for a file about 2 % larger (measured: docs/recording.md).
-pub const DEFAULT_COMPRESSION_LEVEL: u32 = 1;
-/// Name of the metadata record that ties a live recording's `CLOCK_MONOTONIC` times to the wall
-/// clock. Keys: `timestamps` (`CLOCK_MONOTONIC`: what log times, publish times and the frames'
-/// timestamps count), `realtime_minus_monotonic_ns` (add it to any of them for ns since the Unix
-/// epoch, UTC), `realtime_ns` and `monotonic_ns` (the reading it comes from, taken when the file was
-/// opened) and `realtime_utc` (the same instant, RFC 3339).
-pub const WALL_CLOCK_METADATA: &str = "mosaicd.clock";
+mod files;
+mod options;
+
+pub use files::{wall_clock_metadata, WALL_CLOCK_METADATA};
+pub use options::{
+    Compression, FlushPolicy, PreviewOptions, RecorderOptions, RecordingSummary, RotatePolicy,
+    DEFAULT_CHUNK_SIZE, DEFAULT_COMPRESSION_LEVEL, DEFAULT_FLUSH_FRAMES,
+};
+
 /// Write buffer in front of the file (bytes).
 const FILE_BUFFER: usize = 1 << 20;
 
 /// Where an MCAP recording goes: a file, or any seekable writer (tests inject failing ones).
 pub trait RecordSink: Write + Seek + Send {}
 impl<T: Write + Seek + Send> RecordSink for T {}
-
-/// Chunk compression.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Compression {
-    /// zstd (default).
-    #[default]
-    Zstd,
-    /// lz4.
-    Lz4,
-    /// Uncompressed chunks.
-    None,
-}
-
-/// When to close the open chunk and flush it to the file. A crash loses at most what was
-/// written since the last flush. Time is recorded time (frame timestamps), not wall-clock.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FlushPolicy {
-    /// Flush after this many frames.
-    pub every_frames: Option<u32>,
-    /// Flush when this much recorded time (ns) passed since the last flush.
-    pub every_ns: Option<u64>,
-}
-
-impl Default for FlushPolicy {
-    fn default() -> Self {
-        Self {
-            every_frames: Some(DEFAULT_FLUSH_FRAMES),
-            every_ns: None,
-        }
-    }
-}
-
-/// When to start a new file. Both limits are checked before each frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct RotatePolicy {
-    /// Start a new file once the current one holds at least this many bytes (flushed chunks).
-    pub bytes: Option<u64>,
-    /// Start a new file once a frame is this much recorded time (ns) after the file's first frame.
-    pub duration_ns: Option<u64>,
-}
-
-impl RotatePolicy {
-    /// From limits in MiB and seconds of recorded time, `None` or `0` meaning never (the CLI's
-    /// `--rotate-mb` / `--rotate-secs`, a recipe's and the daemon's `rotate_mb` / `rotate_secs`).
-    pub fn from_limits(mib: Option<u64>, secs: Option<u64>) -> Self {
-        Self {
-            bytes: mib.filter(|&m| m > 0).map(|m| m.saturating_mul(1024 * 1024)),
-            duration_ns: secs.filter(|&s| s > 0).map(|s| s.saturating_mul(1_000_000_000)),
-        }
-    }
-
-    /// True when rotation is configured.
-    pub fn enabled(&self) -> bool {
-        self.bytes.is_some() || self.duration_ns.is_some()
-    }
-}
-
-/// The 8-bit preview channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PreviewOptions {
-    /// Keep one 2x2 tile in `decimation` per axis (1 = full size).
-    pub decimation: u32,
-}
-
-/// Recorder options.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RecorderOptions {
-    /// Camera name: topics are `/<camera>/raw`, `/<camera>/preview`, ...
-    pub camera: String,
-    /// Chunk compression.
-    pub compression: Compression,
-    /// Compression level (0 = zstd's own default, 3; ours is [`DEFAULT_COMPRESSION_LEVEL`]).
-    pub compression_level: u32,
-    /// Target uncompressed chunk size in bytes.
-    pub chunk_size: u64,
-    /// Flush cadence.
-    pub flush: FlushPolicy,
-    /// Rotation.
-    pub rotate: RotatePolicy,
-    /// Record the lossless raw channel.
-    pub raw: bool,
-    /// Record the 8-bit Foxglove preview.
-    pub preview: Option<PreviewOptions>,
-    /// Declare the result channels (`/<camera>/annotations`, `/<camera>/detections`,
-    /// `/<camera>/stats`). Off for a recording of frames only (`mosaicd record`), so its file
-    /// declares no channel that holds no message; writing results is then refused.
-    pub results: bool,
-    /// Add the `/<camera>/keypoints` channel (mosaic SIFT keypoints as Foxglove annotations) and
-    /// the `/<camera>/sift` channel (`mosaicd.SiftFeatures`: full-frame keypoints and descriptors).
-    pub keypoints: bool,
-    /// Frame timestamps are `CLOCK_MONOTONIC` (a live camera): each file then starts with a
-    /// `mosaicd.clock` metadata record holding this reading of the wall clock against it, taken
-    /// when the file is opened ([`WALL_CLOCK_METADATA`]). `None` for recorded or synthetic time
-    /// (replays, recipes), whose output must not depend on when it was made.
-    pub wall_clock: Option<WallClockSource>,
-    /// Never overwrite an existing file (the daemon: a restart must not truncate the recording of
-    /// the run before it). Files are then numbered as rotation numbers them, `stem-NNNN.mcap`,
-    /// after the highest number already in the directory; the plain path is used only while it
-    /// does not exist and nothing rotates. Files are opened with `create_new`.
-    pub keep_existing: bool,
-    /// With rotation and `keep_existing`: keep at most this many `stem-NNNN.mcap` files of this
-    /// path (earlier runs' included), deleting the lowest-numbered when a rotation opens a new
-    /// file (never at start-up). `None` keeps all.
-    pub max_files: Option<u32>,
-}
-
-impl Default for RecorderOptions {
-    fn default() -> Self {
-        Self {
-            camera: "camera".into(),
-            compression: Compression::Zstd,
-            compression_level: DEFAULT_COMPRESSION_LEVEL,
-            chunk_size: DEFAULT_CHUNK_SIZE,
-            flush: FlushPolicy::default(),
-            rotate: RotatePolicy::default(),
-            raw: true,
-            preview: Some(PreviewOptions { decimation: 2 }),
-            results: true,
-            wall_clock: None,
-            keypoints: false,
-            keep_existing: false,
-            max_files: None,
-        }
-    }
-}
-
-impl RecorderOptions {
-    /// Check every option; errors name the option.
-    pub fn validate(&self) -> Result<(), RecordError> {
-        let bad = |name, value: String, why| Err(RecordError::Option { name, value, why });
-        if self.camera.is_empty() || self.camera.contains(['/', ' ']) {
-            return bad(
-                "camera",
-                self.camera.clone(),
-                "a non-empty name without '/' or spaces",
-            );
-        }
-        if self.chunk_size == 0 || self.chunk_size > crate::wire::read::MAX_RECORD_BYTES / 4 {
-            return bad("chunk_size", self.chunk_size.to_string(), "1 byte ..= 64 MiB");
-        }
-        if self.flush.every_frames == Some(0) {
-            return bad("flush.every_frames", "0".into(), "at least 1 frame, or unset");
-        }
-        if self.flush.every_ns == Some(0) {
-            return bad("flush.every_ns", "0".into(), "at least 1 ns, or unset");
-        }
-        if self.rotate.bytes == Some(0) {
-            return bad("rotate.bytes", "0".into(), "at least 1 byte, or unset");
-        }
-        if self.rotate.duration_ns == Some(0) {
-            return bad("rotate.duration_ns", "0".into(), "at least 1 ns, or unset");
-        }
-        if let Some(p) = self.preview {
-            if p.decimation == 0 {
-                return bad("preview.decimation", "0".into(), "at least 1");
-            }
-        }
-        if let Some(n) = self.max_files {
-            if n == 0 || !self.rotate.enabled() || !self.keep_existing {
-                return bad(
-                    "max_files",
-                    n.to_string(),
-                    "at least 1, and only with rotation and keep_existing (a new run would restart at \
-                     0001 and its files would be the lowest numbers, the first deleted)",
-                );
-            }
-        }
-        if self.compression_level > 22 {
-            return bad("compression_level", self.compression_level.to_string(), "0..=22");
-        }
-        Ok(())
-    }
-}
-
-/// What a finished recording holds.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct RecordingSummary {
-    /// Files written, in order (one unless rotating).
-    pub files: Vec<PathBuf>,
-    /// Frames written to the raw (or preview) channel.
-    pub frames: u64,
-    /// Detection messages written.
-    pub detections: u64,
-    /// Stats messages written.
-    pub stats: u64,
-}
 
 /// Counts bytes that reached the sink (for size rotation).
 struct Counted {
@@ -988,119 +797,11 @@ impl McapRecorder {
     }
 }
 
-/// The [`WALL_CLOCK_METADATA`] record of a reading.
-pub fn wall_clock_metadata(w: &WallClock) -> mcap::records::Metadata {
-    let metadata = BTreeMap::from([
-        ("timestamps".to_string(), "CLOCK_MONOTONIC".to_string()),
-        (
-            "realtime_minus_monotonic_ns".to_string(),
-            w.offset_ns().to_string(),
-        ),
-        ("realtime_ns".to_string(), w.realtime_ns.to_string()),
-        ("monotonic_ns".to_string(), w.monotonic_ns.to_string()),
-        ("realtime_utc".to_string(), rfc3339_utc(w.realtime_ns)),
-    ]);
-    mcap::records::Metadata {
-        name: WALL_CLOCK_METADATA.to_string(),
-        metadata,
-    }
-}
-
-/// `ns` since the Unix epoch as RFC 3339 UTC with nanoseconds (`2026-11-27T06:50:00.000000000Z`),
-/// by the days-to-civil conversion of the proleptic Gregorian calendar (H. Hinnant, "chrono-
-/// Compatible Low-Level Date Algorithms").
-fn rfc3339_utc(ns: u64) -> String {
-    let (secs, nanos) = (ns / 1_000_000_000, ns % 1_000_000_000);
-    let (days, rem) = ((secs / 86_400) as i64, secs % 86_400);
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{nanos:09}Z",
-        rem / 3600,
-        rem / 60 % 60,
-        rem % 60
-    )
-}
-
 /// Writing results to a recorder created without result channels.
 fn no_results() -> RecordError {
     RecordError::Option {
         name: "results",
         value: "false".into(),
         why: "true to record detections and stats",
-    }
-}
-
-/// `base`'s file name with a file number: `stem-NNNN.ext` (the rotation naming).
-fn numbered_path(base: &Path, n: u32) -> PathBuf {
-    let (stem, ext) = stem_ext(base);
-    base.with_file_name(format!("{stem}-{n:04}.{ext}"))
-}
-
-fn stem_ext(base: &Path) -> (String, String) {
-    let stem = base
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = base
-        .extension()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "mcap".into());
-    (stem, ext)
-}
-
-/// The numbered files of `base` in its directory (`stem-` + four to six digits + `.ext`, so a dated
-/// `stem-20240101.ext` is not taken for one), lowest number first.
-fn numbered_files(base: &Path) -> Result<Vec<(u32, PathBuf)>, RecordError> {
-    let (stem, ext) = stem_ext(base);
-    let dir = base
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let entries = std::fs::read_dir(dir).map_err(|source| RecordError::Create {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let mut v: Vec<(u32, PathBuf)> = entries
-        .filter_map(|e| {
-            let name = e.ok()?.file_name().into_string().ok()?;
-            let digits = name
-                .strip_prefix(&stem)?
-                .strip_prefix('-')?
-                .strip_suffix(&ext)?
-                .strip_suffix('.')?;
-            if !(4..=6).contains(&digits.len()) || !digits.bytes().all(|b| b.is_ascii_digit()) {
-                return None;
-            }
-            Some((digits.parse().ok()?, base.with_file_name(&name)))
-        })
-        .collect();
-    v.sort();
-    Ok(v)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rfc3339_of_known_instants() {
-        assert_eq!(rfc3339_utc(0), "1970-01-01T00:00:00.000000000Z");
-        // 2000-02-29 (a leap day of a century leap year) 12:34:56.789
-        assert_eq!(
-            rfc3339_utc(951_827_696_789_000_000),
-            "2000-02-29T12:34:56.789000000Z"
-        );
-        assert_eq!(
-            rfc3339_utc(1_795_737_600_000_000_001),
-            "2026-11-27T00:00:00.000000001Z"
-        );
     }
 }

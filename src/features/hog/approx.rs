@@ -71,10 +71,10 @@
 use rayon::prelude::*;
 
 use super::blocks::{block_grid_shape, blocks_in_bands, blocks_in_bands_with, blocks_of};
-use super::cells::{cell_len, cell_slot, live_profiles};
-use super::gradient::{gradient_row, CellScratch, RowScratch};
-use super::input::{planes_of, Planes};
+use super::input::planes_of;
 use super::kernels::{self, CellKernel, FillKernel};
+use super::types::{cell_len, AxisTap, CellScratch, FillScratch, Taps, LEFT_PROFILES, RIGHT_PROFILES};
+pub use super::types::{f16_bits, f32_from_f16, MicroGrid};
 use super::{
     BlockGrid, Exec, GammaPlanes, HogError, HogSpec, BAND_BLOCK_ROWS, BLOCK_CELLS, CELL_SIZE, PROFILES,
 };
@@ -86,69 +86,6 @@ use crate::kernels::Isa;
 pub const MICRO_CELL: usize = 2;
 /// Micro-cell rows per parallel task.
 const MICRO_ROWS_PER_TASK: usize = 4;
-
-/// Orientation histograms of `m x m`-pixel micro-cells of one level (no spatial weights): the
-/// source of [`blocks_from_micro_grid`]. Pixels beyond the last whole micro-cell are left out.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct MicroGrid {
-    pub(super) nmx: usize,
-    pub(super) nmy: usize,
-    size: usize,
-    width: usize,
-    height: usize,
-    pub(super) nbins: usize,
-    /// Votes as IEEE half-precision bits ([`f16_bits`]), `[my][mx][bin]`.
-    pub(super) data: Vec<u16>,
-}
-
-impl MicroGrid {
-    /// Shape for `size`-pixel micro-cells of `p` (buffer reused, contents stale).
-    fn reshape(&mut self, p: &Planes, size: usize, nb: usize) {
-        let (nmx, nmy) = (p.width / size, p.height / size);
-        *self = MicroGrid {
-            nmx,
-            nmy,
-            size,
-            width: p.width,
-            height: p.height,
-            nbins: nb,
-            data: std::mem::take(&mut self.data),
-        };
-        self.data.resize(nmx * nmy * nb, 0);
-    }
-
-    /// An empty grid (fill with [`micro_grid_from_gamma_planes`]).
-    pub fn empty() -> Self {
-        Self::default()
-    }
-    /// Micro-cells across.
-    pub fn cells_x(&self) -> usize {
-        self.nmx
-    }
-    /// Micro-cells down.
-    pub fn cells_y(&self) -> usize {
-        self.nmy
-    }
-    /// Micro-cell side in pixels.
-    pub fn cell_size(&self) -> usize {
-        self.size
-    }
-    /// Width of the level the grid was pooled from, in pixels.
-    pub fn width(&self) -> usize {
-        self.width
-    }
-    /// Height of that level.
-    pub fn height(&self) -> usize {
-        self.height
-    }
-    /// The `nbins` votes of micro-cell (mx, my) (stored as half floats, returned exactly).
-    pub fn cell(&self, mx: usize, my: usize) -> Vec<f32> {
-        self.data[(my * self.nmx + mx) * self.nbins..][..self.nbins]
-            .iter()
-            .map(|&h| f32_from_f16(h))
-            .collect()
-    }
-}
 
 /// Pool gamma-corrected planes into `size x size`-pixel micro-cells (`size` in 1..=8): the same
 /// gradients and orientation votes as the exact cells, summed per micro-cell and bin. `dst`'s
@@ -277,127 +214,6 @@ pub(super) fn block_and_micro_grids_with(
     // Micro rows below the last whole cell row.
     kernels::micro_rows(isa, &p, nb, size, ncy * per_cell, tail);
     Ok(())
-}
-
-/// Micro rows from `my0` on (as many as `chunk` holds, every value written): each row summed
-/// in `f32`, then stored as half floats (converted with the `isa` build). The portable kernel,
-/// compiled per ISA by `kernels`.
-#[inline(always)]
-pub(super) fn micro_rows(isa: Isa, p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
-    let nmx = p.width / size;
-    let used = nmx * size;
-    let mut sc = RowScratch::new(p.width);
-    let mut bins = vec![[0u8; 2]; used];
-    let mut wts = vec![[0.0f32; 2]; used];
-    let mut row = vec![0.0f32; nmx * nb];
-    for (k, out) in chunk.chunks_mut(nmx * nb).enumerate() {
-        let my = my0 + k;
-        row.fill(0.0);
-        for y in my * size..(my + 1) * size {
-            gradient_row(p, y, nb, &mut sc, &mut bins, &mut wts);
-            for (cell, (b, w)) in row
-                .chunks_exact_mut(nb)
-                .zip(bins.chunks_exact(size).zip(wts.chunks_exact(size)))
-            {
-                for (&[b0, b1], &[w0, w1]) in b.iter().zip(w) {
-                    cell[b0 as usize] += w0;
-                    cell[b1 as usize] += w1;
-                }
-            }
-        }
-        kernels::to_f16_row(isa, &row, out);
-    }
-}
-
-/// The 2x2-pixel micro-cells `mx0..` of a cell row's 4 micro rows (`micro`, `nmx` micro-cells
-/// each) from its 8 pixel rows of votes (`bins`, `wts`, `stride` pixels apart), summed in the pixel
-/// order of [`micro_rows`]: the register cell kernels' margin right of the last whole cell.
-pub(super) fn micro_margin(
-    bins: &[[u8; 2]],
-    wts: &[[f32; 2]],
-    stride: usize,
-    nb: usize,
-    mx0: usize,
-    micro: &mut [u16],
-) {
-    let per_cell = CELL_SIZE / 2;
-    let nmx = micro.len() / (per_cell * nb).max(1);
-    let mut acc = vec![0.0f32; nb];
-    for a in 0..per_cell {
-        for mx in mx0..nmx {
-            acc.fill(0.0);
-            for y in 2 * a..2 * a + 2 {
-                for x in 2 * mx..2 * mx + 2 {
-                    let ([b0, b1], [w0, w1]) = (bins[y * stride + x], wts[y * stride + x]);
-                    acc[b0 as usize] += w0;
-                    acc[b1 as usize] += w1;
-                }
-            }
-            let out = &mut micro[(a * nmx + mx) * nb..][..nb];
-            for (o, &v) in out.iter_mut().zip(&acc) {
-                *o = f16_bits(v);
-            }
-        }
-    }
-}
-
-/// IEEE 754 half-precision bits of `x`, rounded to nearest, ties to even (overflow to infinity,
-/// underflow through the subnormals to zero; a NaN stays a quiet NaN).
-pub fn f16_bits(x: f32) -> u16 {
-    let b = x.to_bits();
-    let sign = ((b >> 16) & 0x8000) as u16;
-    let exp = ((b >> 23) & 0xff) as i32;
-    let man = b & 0x7f_ffff;
-    if exp == 0xff {
-        return sign | 0x7c00 | if man != 0 { 0x200 | (man >> 13) as u16 } else { 0 };
-    }
-    let e = exp - 127 + 15;
-    if e >= 0x1f {
-        return sign | 0x7c00;
-    }
-    let round = |r: u32, rem: u32, half: u32| r + u32::from(rem > half || (rem == half && r & 1 == 1));
-    if e <= 0 {
-        if e < -10 {
-            return sign;
-        }
-        let m = man | 0x80_0000;
-        let shift = (14 - e) as u32;
-        let r = round(m >> shift, m & ((1 << shift) - 1), 1 << (shift - 1));
-        return sign | r as u16;
-    }
-    // A carry out of the mantissa moves into the exponent, which is the correct result (up to
-    // infinity).
-    let r = round(((e as u32) << 10) | (man >> 13), man & 0x1fff, 0x1000);
-    sign | r as u16
-}
-
-/// The `f32` value of half-precision bits `h` (exact; a NaN keeps its payload and comes back
-/// quiet).
-pub fn f32_from_f16(h: u16) -> f32 {
-    let sign = u32::from(h & 0x8000) << 16;
-    let exp = u32::from((h >> 10) & 0x1f);
-    let man = u32::from(h & 0x3ff);
-    let bits = match (exp, man) {
-        (0, 0) => sign,
-        (0, _) => {
-            // Subnormal: normalise (2^-14 has f32 exponent 113).
-            let shift = man.leading_zeros() - 21;
-            sign | ((113 - shift) << 23) | (((man << shift) & 0x3ff) << 13)
-        }
-        (0x1f, 0) => sign | 0x7f80_0000,
-        // A NaN comes back quiet, as F16C converts it.
-        (0x1f, _) => sign | 0x7fc0_0000 | (man << 13),
-        _ => sign | ((exp + 112) << 23) | (man << 13),
-    };
-    f32::from_bits(bits)
-}
-
-/// Where one micro-cell row or column lands in the target level: its cell and the weights of the
-/// 4 profiles at its continuous offset in that cell.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct AxisTap {
-    cell: usize,
-    pub(super) w: [f32; PROFILES],
 }
 
 /// Profile `p` (block cell · 2 + offset of the image cell in the block) at the continuous pixel
@@ -695,26 +511,6 @@ fn row_ranges(yt: &[Option<AxisTap>], ncy: usize) -> Vec<(usize, usize)> {
     rows
 }
 
-/// The taps of one approximated level.
-pub(super) struct Taps {
-    xt: Vec<Option<AxisTap>>,
-    pub(super) yt: Vec<Option<AxisTap>>,
-    /// Micro rows `[lo, hi)` landing in each cell row.
-    pub(super) rows: Vec<(usize, usize)>,
-    /// Micro columns `[lo, hi)` landing in each cell column.
-    pub(super) cols: Vec<(usize, usize)>,
-    /// The x-profile weights of each micro column (zeros where it has no tap).
-    pub(super) xw: Vec<[f32; PROFILES]>,
-    /// Per cell column, the micro column `mid` such that only [`LEFT_PROFILES`] can be non-zero
-    /// on `[lo, mid)` and only [`RIGHT_PROFILES`] on `[mid, hi)` (always so for [`HogSpec`]'s
-    /// profiles: the tent of a block's second cell starts at a cell's centre); `None` if not.
-    pub(super) split: Vec<Option<usize>>,
-    pub(super) ncx: usize,
-    pub(super) gain: f32,
-    /// The shape of the micro grid the taps were made for: micro-cells across and down, bins.
-    shape: (usize, usize, usize),
-}
-
 impl Taps {
     /// The taps of the `width x height` level approximated from `micro`, cell values times `gain`.
     fn new(spec: &HogSpec, micro: &MicroGrid, width: usize, height: usize, gain: f32) -> Self {
@@ -748,151 +544,6 @@ impl Taps {
             ncx,
             gain,
             shape: (micro.nmx, micro.nmy, micro.nbins),
-        }
-    }
-
-    /// Whether these are taps of `micro` (every micro row and column they name is in it, and its
-    /// buffer holds all its micro-cells): the check the fill kernels' loads rely on.
-    pub(super) fn fits(&self, micro: &MicroGrid) -> bool {
-        let (nmx, nmy, nb) = self.shape;
-        (micro.nmx, micro.nmy, micro.nbins) == self.shape
-            && micro.data.len() == nmx * nmy * nb
-            && self.yt.len() == nmy
-            && self.xt.len() == nmx
-            && self.xw.len() == nmx
-            && self.cols.len() == self.ncx
-            && self.split.len() == self.ncx
-    }
-}
-
-/// The x-profiles that can be non-zero in the left / right half of a cell ([`live_profiles`] of
-/// the exact cell kernel): the register fill multiplies only these.
-pub(super) const LEFT_PROFILES: [usize; 3] = live_profiles(0);
-pub(super) const RIGHT_PROFILES: [usize; 3] = live_profiles(CELL_SIZE / 2);
-
-/// Per-band buffers of [`fill_cell_row`].
-pub(super) struct FillScratch {
-    /// One micro row pooled horizontally: `[cell][x-profile][bin]`.
-    h: Vec<f32>,
-    /// The cell row being built: `[y-profile][cell][x-profile][bin]`.
-    t: Vec<f32>,
-    /// The micro row being pooled, as `f32` (kernels that cannot read half floats directly).
-    v: Vec<f32>,
-}
-
-impl FillScratch {
-    /// Empty buffers; the portable fill sizes them on first use (the register fills need none).
-    pub(super) fn new() -> Self {
-        Self {
-            h: Vec::new(),
-            t: Vec::new(),
-            v: Vec::new(),
-        }
-    }
-}
-
-/// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
-/// written): the row is converted to `f32` once into `v` ([`from_f16_row`]), then every
-/// micro-cell adds its histogram times its four x-profile weights to its cell (fused
-/// multiply-adds).
-#[inline(always)]
-fn hpass(isa: Isa, nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
-    let hl = PROFILES * nb;
-    h.fill(0.0);
-    v.resize(src.len(), 0.0);
-    kernels::from_f16_row(isa, src, v);
-    for (tx, mc) in xt.iter().zip(v.chunks_exact(nb)) {
-        let Some(tx) = tx else { continue };
-        let hc = &mut h[tx.cell * hl..][..hl];
-        // All four x-profiles (zero weights add +0).
-        for (hp, &wx) in hc.chunks_exact_mut(nb).zip(&tx.w) {
-            for (d, &s) in hp.iter_mut().zip(mc) {
-                *d = wx.mul_add(s, *d);
-            }
-        }
-    }
-}
-
-/// Cell row `cy` of the approximated level (cell layout of [`super::CellGrid`], every value
-/// written; half floats converted with the `isa` build): each micro row landing in it is pooled
-/// horizontally into (cell, x-profile) histograms, which are added with the row's y-profile
-/// weights (times the gain) into a `[y-profile][cell][x-profile][bin]` buffer — one contiguous
-/// multiply-add per y-profile — and that buffer is finally permuted into the cells' slots. The
-/// portable kernel and the oracle of the register fills in `kernels`.
-#[inline(always)]
-pub(super) fn fill_cell_row(
-    isa: Isa,
-    micro: &MicroGrid,
-    taps: &Taps,
-    cy: usize,
-    row: &mut [f32],
-    s: &mut FillScratch,
-) {
-    // A literal bin count lets the compiler unroll and vectorise the default geometry.
-    if micro.nbins == 9 {
-        fill_cell_row_nb(isa, 9, micro, taps, cy, row, s)
-    } else {
-        fill_cell_row_nb(isa, micro.nbins, micro, taps, cy, row, s)
-    }
-}
-
-/// [`fill_cell_row`] for `nb` = `micro.nbins` bins.
-#[inline(always)]
-fn fill_cell_row_nb(
-    isa: Isa,
-    nb: usize,
-    micro: &MicroGrid,
-    taps: &Taps,
-    cy: usize,
-    row: &mut [f32],
-    s: &mut FillScratch,
-) {
-    let hl = PROFILES * nb;
-    let plane = taps.ncx * hl;
-    let FillScratch { h, t, v } = s;
-    h.resize(taps.ncx * hl, 0.0);
-    t.resize(PROFILES * plane, 0.0);
-    let (lo, hi) = taps.rows[cy];
-    let mut first = true;
-    for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
-        let Some(ty) = ty else { continue };
-        hpass(
-            isa,
-            nb,
-            &taps.xt,
-            &micro.data[my * micro.nmx * nb..][..micro.nmx * nb],
-            h,
-            v,
-        );
-        for (py, &wy) in ty.w.iter().enumerate() {
-            let wy = wy * taps.gain;
-            let tp = &mut t[py * plane..][..plane];
-            if first {
-                // `wy·s` is `0 + wy·s` to the bit (both ≥ +0): no zeroing pass.
-                for (d, &s) in tp.iter_mut().zip(h.iter()) {
-                    *d = wy * s;
-                }
-            } else if wy != 0.0 {
-                for (d, &s) in tp.iter_mut().zip(h.iter()) {
-                    *d = wy.mul_add(s, *d);
-                }
-            }
-        }
-        first = false;
-    }
-    if first {
-        t.fill(0.0);
-    }
-    let cl = cell_len(nb);
-    for (cx, cell) in row.chunks_exact_mut(cl).enumerate() {
-        for py in 0..PROFILES {
-            for px in 0..PROFILES {
-                let src = &t[py * plane + cx * hl + px * nb..][..nb];
-                let dst = &mut cell[cell_slot(py, px) * nb..][..nb];
-                for (d, &v) in dst.iter_mut().zip(src) {
-                    *d = v;
-                }
-            }
         }
     }
 }
@@ -1293,12 +944,12 @@ mod tests {
         let all: Vec<u16> = (0..=u16::MAX).collect();
         for isa in Isa::available() {
             let mut hw = vec![0u16; vals.len()];
-            kernels::to_f16_row(isa, &vals, &mut hw);
+            kernels::f16::to_f16_row(isa, &vals, &mut hw);
             for (v, h) in vals.iter().zip(&hw) {
                 assert_eq!(f16_bits(*v), *h, "{isa} {v:e}");
             }
             let mut back = vec![0.0f32; all.len()];
-            kernels::from_f16_row(isa, &all, &mut back);
+            kernels::f16::from_f16_row(isa, &all, &mut back);
             for (&h, f) in all.iter().zip(&back) {
                 assert_eq!(f.to_bits(), f32_from_f16(h).to_bits(), "{isa} {h:#06x}");
             }

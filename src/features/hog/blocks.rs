@@ -1,16 +1,15 @@
 //! Blocks (steps 5 and 6 of the math in the parent module): each 2x2-cell block is the sum of
 //! its four cells' runs, then L2-Hys-normalised; a [`BlockGrid`] holds every block of an image.
-//! [`block_row`] is the portable kernel and the oracle of the batched builds in `kernels`.
+//! The per-row kernel is `kernels::portable::block_row` (with [`normalize_l2hys`](super::normalize_l2hys), the oracle of
+//! the batched builds in `kernels`); this file holds the grid and the bands that call it.
 
 use rayon::prelude::*;
 
-use super::cells::{cell_len, cell_slot, CellGrid};
-use super::gradient::CellScratch;
-use super::input::{planes_of, Planes};
+use super::cells::CellGrid;
+use super::input::planes_of;
 use super::kernels::{self, CellKernel};
-use super::{
-    Exec, GammaPlanes, HogError, HogSpec, BLOCK_CELLS, CELL_SIZE, L2HYS_EPS2, L2HYS_EPS_PER_ELEMENT,
-};
+use super::types::{cell_len, sized, CellScratch, Planes};
+use super::{Exec, GammaPlanes, HogError, HogSpec, BLOCK_CELLS, CELL_SIZE};
 use crate::kernels::Isa;
 
 /// `[8bx, 8bx+16) x [8by, 8by+16)`.
@@ -230,110 +229,4 @@ pub(super) fn block_grid_shape(spec: &HogSpec, ncx: usize, ncy: usize, dst: &mut
     dst.block_len = bl;
     sized(&mut dst.data, nbx * nby * bl);
     (bl > 0 && nbx > 0 && nby > 0).then_some(nbx * bl)
-}
-
-/// One block row from its upper and lower cell rows (`ncx` cells each; every value is written).
-/// The portable kernel, and the oracle of the batched builds in `kernels`.
-#[inline(always)]
-pub(super) fn block_row(spec: &HogSpec, ncx: usize, top: &[f32], bottom: &[f32], row: &mut [f32]) {
-    let bp = BlockParams::new(spec);
-    debug_assert!(top.len() >= ncx * cell_len(bp.nb) && bottom.len() >= ncx * cell_len(bp.nb));
-    for (bx, blk) in row.chunks_mut(bp.bl).enumerate() {
-        block_at(&bp, top, bottom, bx, blk);
-    }
-}
-
-/// What block assembly and normalisation take from a [`HogSpec`].
-#[derive(Clone, Copy)]
-pub(super) struct BlockParams {
-    /// Bins per histogram.
-    pub(super) nb: usize,
-    /// Values per block (`4·nb`).
-    pub(super) bl: usize,
-    /// First L2-Hys epsilon.
-    pub(super) eps1: f32,
-    /// L2-Hys clipping threshold.
-    pub(super) thresh: f32,
-}
-
-impl BlockParams {
-    #[inline(always)]
-    pub(super) fn new(spec: &HogSpec) -> Self {
-        let (nb, bl) = (spec.nbins(), spec.block_len());
-        debug_assert!(bl == BLOCK_CELLS * BLOCK_CELLS * nb);
-        Self {
-            nb,
-            bl,
-            eps1: bl as f32 * L2HYS_EPS_PER_ELEMENT,
-            thresh: spec.opts.l2hys_threshold,
-        }
-    }
-}
-
-/// Block `bx` of a block row (`blk`, `bl` values) from its upper and lower cell rows, then
-/// [`normalize_l2hys`].
-#[inline(always)]
-pub(super) fn block_at(bp: &BlockParams, top: &[f32], bottom: &[f32], bx: usize, blk: &mut [f32]) {
-    let BlockParams { nb, bl, eps1, thresh } = *bp;
-    let cl = cell_len(nb);
-    // The cell at (sy, sx) in the block holds its whole contribution to the block, in block
-    // order, as one run of `bl` values ([`cell_slot`]). The four runs are summed in (sy, sx)
-    // order in registers from 0 (a read-modify-write of `blk` per source stalled on store
-    // forwarding).
-    let h = |sy: usize, sx: usize| {
-        let cells = if sy == 0 { top } else { bottom };
-        let c = &cells[(bx + sx) * cl..][..cl];
-        &c[cell_slot(sy, sx) * nb..][..bl]
-    };
-    let (h00, h01, h10, h11) = (h(0, 0), h(0, 1), h(1, 0), h(1, 1));
-    for (k, o) in blk.iter_mut().enumerate() {
-        *o = (((0.0 + h00[k]) + h01[k]) + h10[k]) + h11[k];
-    }
-    normalize_l2hys(blk, eps1, thresh);
-}
-
-/// `buf` resized to `n` values with unspecified contents (the kernels overwrite every value): a
-/// shrink keeps the allocation without a `memset` pass over tens of MB per pyramid level, a buffer
-/// that must grow is allocated zeroed (`calloc`: fresh pages are already zero).
-pub(super) fn sized(buf: &mut Vec<f32>, n: usize) {
-    if buf.capacity() < n {
-        *buf = vec![0.0; n];
-    } else if buf.len() >= n {
-        buf.truncate(n);
-    } else {
-        buf.resize(n, 0.0);
-    }
-}
-
-/// OpenCV `normalizeBlockHistogram`: L2, clip, L2 again. Squares are summed in 8 interleaved
-/// partial sums (lane `i mod 8`) added pairwise at the end, so the loops vectorise; OpenCV sums in
-/// 4 SIMD lanes, a sequential sum differs from both by ≈1e-7 relative.
-#[inline(always)]
-pub fn normalize_l2hys(h: &mut [f32], eps1: f32, thresh: f32) {
-    let scale = 1.0 / (sum_of_squares(h).sqrt() + eps1);
-    for v in h.iter_mut() {
-        *v = (*v * scale).min(thresh);
-    }
-    let scale2 = 1.0 / (sum_of_squares(h).sqrt() + L2HYS_EPS2);
-    for v in h.iter_mut() {
-        *v *= scale2;
-    }
-}
-
-/// `Σ v²` in 8 partial sums (lane `i mod 8`), combined as ((0+4)+(2+6))+((1+5)+(3+7)).
-#[inline(always)]
-pub(super) fn sum_of_squares(h: &[f32]) -> f32 {
-    let mut acc = [0.0f32; 8];
-    let chunks = h.chunks_exact(8);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for k in 0..8 {
-            acc[k] += c[k] * c[k];
-        }
-    }
-    for (k, &v) in rest.iter().enumerate() {
-        acc[k] += v * v;
-    }
-    let a: [f32; 4] = std::array::from_fn(|k| acc[k] + acc[k + 4]);
-    (a[0] + a[2]) + (a[1] + a[3])
 }

@@ -1,7 +1,7 @@
 //! Gradients of gamma-corrected planes and their orientation votes, one pixel row at a time
 //! (steps 2 and 3 of the math in the parent module).
 
-use super::input::Planes;
+use super::types::{Planes, RowScratch};
 use super::CELL_SIZE;
 use crate::image::ImageView;
 
@@ -41,44 +41,6 @@ pub(super) fn reflect101(i: isize, n: usize) -> usize {
         i
     };
     r.clamp(0, n - 1) as usize
-}
-
-/// Per-worker scratch of the cell kernels: the quantised gradients of one cell row (8 pixel rows)
-/// and the rows [`gradient_row`] works in.
-pub(super) struct CellScratch {
-    pub(super) bins: Vec<[u8; 2]>,
-    pub(super) wts: Vec<[f32; 2]>,
-    pub(super) sc: RowScratch,
-}
-
-impl CellScratch {
-    /// Room for 8 pixel rows of `width` pixels (the cell kernels use the first `ncx·8` of each row
-    /// unless they also pool micro-cells, which reach the last even column).
-    pub(super) fn new(width: usize) -> Self {
-        let n = width * CELL_SIZE;
-        Self {
-            bins: vec![[0; 2]; n],
-            wts: vec![[0.0; 2]; n],
-            sc: RowScratch::new(width),
-        }
-    }
-}
-
-/// Scratch rows for [`gradient_row`].
-pub(super) struct RowScratch {
-    dx: Vec<f32>,
-    dy: Vec<f32>,
-    m: Vec<f32>,
-}
-
-impl RowScratch {
-    pub(super) fn new(w: usize) -> Self {
-        Self {
-            dx: vec![0.0; w],
-            dy: vec![0.0; w],
-            m: vec![0.0; w],
-        }
-    }
 }
 
 /// Derivatives of one plane's row `y` into `dx`, `dy` (reflect-101 at the borders).

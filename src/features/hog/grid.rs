@@ -2,19 +2,10 @@
 //! descriptor of a single window.
 
 use super::cells::{cells_from_planes, cells_from_planes_with, CellGrid};
-use super::input::{planes_from_input, planes_of, Planes};
+use super::input::{planes_from_input, planes_of};
 use super::kernels::CellKernel;
+use super::types::{Exec, Planes};
 use super::{blocks_from_cells, BlockGrid, GammaPlanes, HogError, HogInput, HogSpec};
-
-/// How the block grid is computed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Exec {
-    /// Rayon over strips of cell rows (the caller's pool).
-    #[default]
-    Parallel,
-    /// One thread (the test oracle for `Parallel`).
-    Serial,
-}
 
 /// Wall time of the HOG stages of one [`block_grid`] call.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

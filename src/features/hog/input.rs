@@ -2,6 +2,7 @@
 
 use rayon::prelude::*;
 
+use super::types::Planes;
 use super::{kernels, HogError, HogSpec, UNIT_RANGE};
 use crate::image::{Image, ImageView};
 
@@ -40,15 +41,6 @@ impl HogInput<'_> {
             HogInput::ColourF32(p) => (p[0].width(), p[0].height()),
         }
     }
-}
-
-/// Gamma-corrected planes in 8-bit units: one plane, or three (B, G, R order as OpenCV) for RGB.
-pub(super) struct Planes<'a> {
-    pub(super) width: usize,
-    pub(super) height: usize,
-    pub(super) planes: Vec<ImageView<'a, f32>>,
-    /// Tap distance of the derivative: 1 for images, 2 for mosaics.
-    pub(super) tap: usize,
 }
 
 /// [`Planes`] that own their pixels.
@@ -170,20 +162,6 @@ pub fn gamma_plane_into(v: ImageView<'_, f32>, gamma: bool, dst: &mut Image<f32>
 /// are IEEE square roots, the same bits as scalar code).
 pub fn gamma_in_place(row: &mut [f32], gamma: bool) {
     kernels::gamma_in_place(crate::kernels::isa(), row, gamma)
-}
-
-/// [`gamma_in_place`]'s portable body (the oracle; the kernel paths compile it per ISA).
-#[inline(always)]
-pub(super) fn gamma_in_place_generic(row: &mut [f32], gamma: bool) {
-    if gamma {
-        for v in row.iter_mut() {
-            *v = v.max(0.0).sqrt();
-        }
-    } else {
-        for v in row.iter_mut() {
-            *v = v.max(0.0);
-        }
-    }
 }
 
 fn plane_map<P: Copy + Sync>(v: ImageView<'_, P>, f: impl Fn(P) -> f32 + Sync) -> Image<f32> {

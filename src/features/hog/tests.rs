@@ -1,9 +1,11 @@
 //! Tests of the HOG stages (the approximation's are in `approx`).
 
 use super::blocks::{block_rows_with, blocks_in_bands};
-use super::cells::{cell_len, cells_from_planes_with};
-use super::input::{gamma_in_place_generic, planes_from_input};
+use super::cells::cells_from_planes_with;
+use super::input::planes_from_input;
+use super::kernels::portable::gamma_in_place_generic;
 use super::kernels::{self, CellKernel};
+use super::types::cell_len;
 use super::*;
 use crate::image::{Image, ImageView};
 use crate::kernels::Isa;

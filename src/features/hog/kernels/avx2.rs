@@ -14,15 +14,16 @@
 
 use std::arch::x86_64::*;
 
-use super::super::approx::{self, FillScratch, MicroGrid, Taps, LEFT_PROFILES, RIGHT_PROFILES};
-use super::super::blocks::{block_at, block_row as block_row_portable, BlockParams};
-use super::super::cells::{self, cell_len, cell_slot, live_profiles};
-use super::super::gradient::{self, gradient_row, CellScratch};
-use super::super::input::{gamma_in_place_generic, Planes};
+use super::super::gradient::{self, gradient_row};
+use super::super::types::{
+    cell_len, cell_slot, live_profiles, BlockParams, CellScratch, FillScratch, MicroGrid, Planes, Taps,
+    LEFT_PROFILES, RIGHT_PROFILES,
+};
 use super::super::{HogSpec, BLOCK_CELLS, CELL_SIZE, DEFAULT_NBINS, L2HYS_EPS2, PROFILES};
+use super::portable::{self, block_at, block_row as block_row_portable, gamma_in_place_generic};
 use crate::kernels::Isa;
 
-/// HOG's gamma (`input::gamma_in_place_generic`) compiled for AVX2 (8 lanes, IEEE `vsqrtps`).
+/// HOG's gamma (`portable::gamma_in_place_generic`) compiled for AVX2 (8 lanes, IEEE `vsqrtps`).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
@@ -40,7 +41,7 @@ pub(crate) unsafe fn gradient_pass(p: &Planes, nb: usize) {
     gradient::gradient_pass(p, nb)
 }
 
-/// The portable cell kernel (`cells::cells_strip`) compiled for AVX2 + FMA (vectorises the
+/// The portable cell kernel (`portable::cells_strip`) compiled for AVX2 + FMA (vectorises the
 /// magnitude / angle pass 8 lanes wide; the vote scatter stays scalar).
 ///
 /// # Safety
@@ -53,19 +54,19 @@ pub(crate) unsafe fn cells_strip_portable(
     chunk: &mut [f32],
     cs: &mut CellScratch,
 ) {
-    cells::cells_strip(spec, p, cy0, chunk, cs)
+    portable::cells_strip(spec, p, cy0, chunk, cs)
 }
 
-/// `approx::micro_rows` compiled for AVX2 + FMA, half floats by F16C.
+/// `portable::micro_rows` compiled for AVX2 + FMA, half floats by F16C.
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA and F16C.
 #[target_feature(enable = "avx2,fma,f16c")]
 pub(crate) unsafe fn micro_rows(p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
-    approx::micro_rows(Isa::Avx2, p, nb, size, my0, chunk)
+    portable::micro_rows(Isa::Avx2, p, nb, size, my0, chunk)
 }
 
-/// The portable fill (`approx::fill_cell_row`) compiled for AVX2 + FMA, half floats by F16C.
+/// The portable fill (`portable::fill_cell_row`) compiled for AVX2 + FMA, half floats by F16C.
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA and F16C.
@@ -77,52 +78,7 @@ pub(crate) unsafe fn fill_cell_row_portable(
     row: &mut [f32],
     s: &mut FillScratch,
 ) {
-    approx::fill_cell_row(Isa::Avx2, micro, taps, cy, row, s)
-}
-
-/// `out[i] = f16_bits(src[i])` with `vcvtps2ph` (round to nearest even, as `approx::f16_bits`),
-/// 8 values at a time.
-///
-/// # Safety
-/// The CPU must support F16C and AVX.
-#[target_feature(enable = "avx2,f16c")]
-pub(crate) unsafe fn to_f16_row(src: &[f32], out: &mut [u16]) {
-    let n = src.len().min(out.len());
-    let (src, out) = (&src[..n], &mut out[..n]);
-    let mut s8 = src.chunks_exact(8);
-    let mut o8 = out.chunks_exact_mut(8);
-    for (s, o) in (&mut s8).zip(&mut o8) {
-        // SAFETY: `s` and `o` hold 8 values each (16 and 32 bytes).
-        unsafe {
-            let h = _mm256_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(_mm256_loadu_ps(s.as_ptr()));
-            _mm_storeu_si128(o.as_mut_ptr() as *mut __m128i, h);
-        }
-    }
-    for (o, &v) in o8.into_remainder().iter_mut().zip(s8.remainder()) {
-        *o = approx::f16_bits(v);
-    }
-}
-
-/// `out[i] = f32_from_f16(src[i])` with `vcvtph2ps` (exact), 8 values at a time.
-///
-/// # Safety
-/// The CPU must support F16C and AVX.
-#[target_feature(enable = "avx2,f16c")]
-pub(crate) unsafe fn from_f16_row(src: &[u16], out: &mut [f32]) {
-    let n = src.len().min(out.len());
-    let (src, out) = (&src[..n], &mut out[..n]);
-    let mut s8 = src.chunks_exact(8);
-    let mut o8 = out.chunks_exact_mut(8);
-    for (s, o) in (&mut s8).zip(&mut o8) {
-        // SAFETY: `s` and `o` hold 8 values each.
-        unsafe {
-            let h = _mm_loadu_si128(s.as_ptr() as *const __m128i);
-            _mm256_storeu_ps(o.as_mut_ptr(), _mm256_cvtph_ps(h));
-        }
-    }
-    for (o, &h) in o8.into_remainder().iter_mut().zip(s8.remainder()) {
-        *o = approx::f32_from_f16(h);
-    }
+    portable::fill_cell_row(Isa::Avx2, micro, taps, cy, row, s)
 }
 
 /// The first `dst.len()` (≤ 8·R) lanes of `v` into `dst`.
@@ -180,7 +136,7 @@ fn vote<const R: usize>(perm: &[__m256i; R], [w0, w1]: [f32; 2]) -> [__m256; R] 
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA and F16C; `spec` has ≤ 16 bins and its profiles have the fixed
-/// zeros (`cells::profiles_have_fixed_zeros`).
+/// zeros (`types::profiles_have_fixed_zeros`).
 #[target_feature(enable = "avx2,fma,f16c")]
 pub(crate) unsafe fn cells_strip(
     spec: &HogSpec,
@@ -199,7 +155,7 @@ pub(crate) unsafe fn cells_strip(
 /// [`cells_strip`] for one cell row `cy` that also pools the row's 2x2-pixel micro-cells (its 4
 /// micro rows, `(p.width / 2) · nbins` half floats each, into `micro`) from the same votes: each
 /// micro-cell is the sum of its 4 pixels' one-hot vote vectors in the pixel order of
-/// `approx::micro_rows` (rows, then columns; other lanes add +0), rounded to half floats as it
+/// `portable::micro_rows` (rows, then columns; other lanes add +0), rounded to half floats as it
 /// does. Micro-cells right of the last whole cell are summed by a scalar loop in the same order.
 ///
 /// # Safety
@@ -231,7 +187,7 @@ pub(crate) unsafe fn cells_micro_row(
 /// accumulators of a cell go to the stack, and the cell's 16 profile histograms are then made one
 /// x-profile at a time (`4R` registers) by adding the 8 rows with their live y-profile weights:
 /// 16 histograms of 2 registers do not fit in AVX2's 16, where AVX-512 keeps them all. Each lane
-/// sees exactly the fused multiply-adds of the scalar scatter in `cells::cells_strip`, in its
+/// sees exactly the fused multiply-adds of the scalar scatter in `portable::cells_strip`, in its
 /// order (row accumulators over pixel columns from `+0`, cell histograms over pixel rows from
 /// `+0`; skipped terms are `0·v = +0`), so the same bits.
 ///
@@ -357,7 +313,7 @@ unsafe fn cells_body<const MICRO: bool, const R: usize, const NB: usize>(
             }
         }
         if MICRO && ncx * PER_CELL < nmx {
-            approx::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
+            portable::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
         }
     }
 }
@@ -376,7 +332,7 @@ unsafe fn cells_body<const MICRO: bool, const R: usize, const NB: usize>(
 ///    the tail bins with two y-profiles per ymm.
 ///
 /// Each value gets the same fused multiply-adds in the same order as the portable fill
-/// (`approx::fill_cell_row`): x sums over the micro columns left to right from +0, then the y
+/// (`portable::fill_cell_row`): x sums over the micro columns left to right from +0, then the y
 /// sum over the micro rows top to bottom, the first a multiply. So the same bits. Where the
 /// portable fill skips a product whose weight is 0 (the x-profile that is zero on each half of a
 /// cell, a y-profile that is zero for a row), the tail lanes add `0·v` = +0 to a sum ≥ +0
@@ -566,14 +522,14 @@ unsafe fn fill_body<const FULL: usize, const TAIL: usize>(
 /// Blocks per batch of [`block_row`].
 const BLOCK_BATCH: usize = 8;
 
-/// `blocks::block_row` with AVX2, bit for bit: the blocks are taken in batches of [`BLOCK_BATCH`] so
+/// `portable::block_row` with AVX2, bit for bit: the blocks are taken in batches of [`BLOCK_BATCH`] so
 /// that each of the two normalisations runs one horizontal reduction → square root → division
-/// chain for eight blocks at once (in `blocks::block_row` that latency-bound chain runs twice per block;
+/// chain for eight blocks at once (in `portable::block_row` that latency-bound chain runs twice per block;
 /// ≈2x less time per block on a 1080p row).
 ///
-/// A batch is assembled as in `blocks::block_row` (same four-run sum from `0.0`), and each block's 8
+/// A batch is assembled as in `portable::block_row` (same four-run sum from `0.0`), and each block's 8
 /// partial sums of squares (lane `i mod 8`, one ymm per block, added chunk after chunk as
-/// `blocks::sum_of_squares` does) are reduced across the batch by [`lane_sums`], which combines
+/// `portable::sum_of_squares` does) are reduced across the batch by [`lane_sums`], which combines
 /// the lanes of each block in the same order ((0+4)+(2+6))+((1+5)+(3+7)) with vertical adds.
 /// The square root and division are then done for the eight blocks in one vector; IEEE `sqrt`
 /// and `/` are correctly rounded, so each lane has the bits of the scalar ones. Products and sums
@@ -735,7 +691,7 @@ unsafe fn block_batch(bp: &BlockParams, top: &[f32], bottom: &[f32], bx0: usize,
     }
 }
 
-/// Lane `j` = the 8 partial sums of `acc[j]` combined as `blocks::sum_of_squares` does,
+/// Lane `j` = the 8 partial sums of `acc[j]` combined as `portable::sum_of_squares` does,
 /// ((0+4)+(2+6))+((1+5)+(3+7)), every add with the same operands in the same order.
 #[target_feature(enable = "avx2,fma")]
 fn lane_sums(acc: &[__m256; BLOCK_BATCH]) -> __m256 {

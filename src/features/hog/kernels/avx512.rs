@@ -6,12 +6,13 @@
 
 use std::arch::x86_64::*;
 
-use super::super::approx::{self, MicroGrid, Taps, LEFT_PROFILES, RIGHT_PROFILES};
-use super::super::cells::{cell_len, cell_slot, live_profiles};
-use super::super::gradient::{self, gradient_row, CellScratch};
-use super::super::input::Planes;
+use super::super::gradient::{self, gradient_row};
+use super::super::types::{
+    cell_len, cell_slot, live_profiles, CellScratch, MicroGrid, Planes, Taps, LEFT_PROFILES,
+    REGISTER_MAX_BINS, RIGHT_PROFILES,
+};
 use super::super::{HogSpec, CELL_SIZE, PROFILES};
-use super::REGISTER_MAX_BINS;
+use super::portable;
 
 /// `gradient::gradient_pass` compiled for AVX-512F (as [`cells_strip`]).
 ///
@@ -22,18 +23,18 @@ pub(crate) unsafe fn gradient_pass(p: &Planes, nb: usize) {
     gradient::gradient_pass(p, nb)
 }
 
-/// `cells::cells_strip` with the per-cell accumulation in AVX-512 registers: for every cell, the 16
+/// `portable::cells_strip` with the per-cell accumulation in AVX-512 registers: for every cell, the 16
 /// (y-profile, x-profile) histograms live in 16 zmm registers (bins in lanes) for its 8 pixel rows;
 /// a pixel's two votes become the vector `w0·e(b0) + w1·e(b1)` (`e` = unit vectors), added with the
 /// x-profile weights into 4 row accumulators, which are added with the y-profile weights into the
 /// 16 cell accumulators (fused multiply-adds). Every lane sees exactly the fused multiply-adds, in
-/// the same order, of the scalar scatter in `cells::cells_strip` (other lanes add `w·0 = +0`), so the
+/// the same order, of the scalar scatter in `portable::cells_strip` (other lanes add `w·0 = +0`), so the
 /// result is bit-identical. Measured ≈1.4x less CPU for the cell stage than the AVX2 build of the
 /// scalar scatter, which stalls on store-to-load forwarding.
 ///
 /// # Safety
 /// The CPU must support AVX-512F/BW/VL, AVX2 and FMA, `spec.nbins() ≤ 16`, and the profiles of
-/// `spec` must be zero outside `cells::live_profiles` (`cells::profiles_have_fixed_zeros`).
+/// `spec` must be zero outside `types::live_profiles` (`types::profiles_have_fixed_zeros`).
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
 pub(crate) unsafe fn cells_strip(
     spec: &HogSpec,
@@ -49,7 +50,7 @@ pub(crate) unsafe fn cells_strip(
 /// [`cells_strip`] for one cell row `cy` that also pools the row's 2x2-pixel micro-cells
 /// (its 4 micro rows, `(p.width / 2) · nbins` half floats each, into `micro`) from the same
 /// gradients: each micro-cell is the sum of its 4 pixels' one-hot vote vectors, in the pixel
-/// order of `approx::micro_rows` (rows, then columns; other lanes add +0),
+/// order of `portable::micro_rows` (rows, then columns; other lanes add +0),
 /// rounded to half floats as it does — the same bits, without computing the gradients twice.
 /// Micro-cells right of the last whole cell are summed by a scalar loop in the same order.
 ///
@@ -175,17 +176,17 @@ unsafe fn cells_strip_body<const MICRO: bool>(
             }
         }
         if MICRO && ncx * PER_CELL < nmx {
-            approx::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
+            portable::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
         }
     }
 }
 
-/// `approx::fill_cell_row` one cell at a time, everything in registers: for each micro row landing in
+/// `portable::fill_cell_row` one cell at a time, everything in registers: for each micro row landing in
 /// cell row `cy` (in order), the cell's run of micro-cells is summed into four 16-lane registers
 /// (one per x-profile, bins in lanes), and those are added with the row's four y-profile weights
 /// (times the gain) into the cell's 16 profile histograms, which stay in registers until the cell
 /// is stored into its slots. The same fused multiply-adds in the same order as
-/// `approx::fill_cell_row` (every value is a chain over micro rows, each term a chain
+/// `portable::fill_cell_row` (every value is a chain over micro rows, each term a chain
 /// over micro-cells from `+0`), so the same bits; but no `[y-profile][cell][x-profile][bin]` row
 /// buffer goes through L2 per micro row, and no permutation pass follows.
 ///

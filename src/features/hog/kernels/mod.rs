@@ -1,12 +1,16 @@
 //! The HOG kernels per instruction-set path: which build of each hot loop runs for the process's
 //! [`Isa`] ([`crate::kernels::isa`]), and the dispatch to it.
 //!
-//! The algorithm files (`cells`, `blocks`, `gradient`, `input`, `approx`) hold the portable
-//! kernels, written once as `#[inline(always)]` bodies: they are the oracles, and they are also
-//! compiled per ISA by the wrappers in [`avx2`], [`avx512`] and [`neon`] (LLVM vectorises their
-//! gradient, magnitude and angle passes). The register kernels in those files are written with
-//! intrinsics for the loops the compiler cannot vectorise (the scatter of orientation votes into
-//! histograms, the L2-Hys reduction chains, the half-float conversions):
+//! [`portable`] (with the gradient rows of `gradient`) holds the portable kernels, written once as
+//! `#[inline(always)]` bodies: they are the oracles, and they are also compiled per ISA by the
+//! wrappers in [`avx2`], [`avx512`] and [`neon`] (LLVM vectorises their gradient, magnitude and
+//! angle passes). The register kernels in those files are written with intrinsics for the loops
+//! the compiler cannot vectorise (the scatter of orientation votes into histograms, the L2-Hys
+//! reduction chains); [`f16`] holds the half-float row conversions.
+//!
+//! The stages (`input`, `cells`, `blocks`, `approx`, `grid`) call down into this dispatch; the
+//! files here import only the shared types (`types`), the spec, `gradient` and each other
+//! downwards (`portable` and the ISA files read `f16`; nothing here imports this file):
 //!
 //! | kernel | scalar | AVX2 + FMA | AVX-512 | NEON |
 //! |---|---|---|---|---|
@@ -20,31 +24,30 @@
 //! the same fused multiply-adds (or adds), in the same order, as the scalar code performs on that
 //! value, and lanes the scalar code does not touch only ever add `+0` to sums that are `≥ +0`.
 //! The register cell and fill kernels need ≤ [`REGISTER_MAX_BINS`] bins and the profiles' fixed
-//! zeros (`cells::profiles_have_fixed_zeros`); other specs take the portable kernel compiled for
+//! zeros (`types::profiles_have_fixed_zeros`); other specs take the portable kernel compiled for
 //! the same ISA.
 //!
 //! Dispatch checks what it relies on, once per call: a kernel of a path this CPU cannot run, or a
 //! register kernel for a spec it does not fit, runs the portable code instead (so an `unsafe` call
 //! is reached only with the CPU features its `# Safety` section names).
 
-use super::approx::{fill_cell_row, micro_rows as micro_rows_portable, FillScratch, MicroGrid, Taps};
-use super::blocks::block_row as block_row_portable;
-use super::cells::{cells_strip, profiles_have_fixed_zeros};
-use super::gradient::{gradient_pass, CellScratch};
-use super::input::{gamma_in_place_generic, Planes};
+use super::gradient::gradient_pass;
+use super::types::{
+    cell_len, profiles_have_fixed_zeros, CellScratch, FillScratch, MicroGrid, Planes, Taps, REGISTER_MAX_BINS,
+};
 use super::{HogSpec, CELL_SIZE};
 use crate::kernels::Isa;
+use portable::micro_rows as micro_rows_portable;
+use portable::{block_row as block_row_portable, cells_strip, fill_cell_row, gamma_in_place_generic};
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx512;
+pub(crate) mod f16;
 #[cfg(target_arch = "aarch64")]
 pub(crate) mod neon;
-
-/// Most bins the register cell and fill kernels hold (one 16-lane AVX-512 register; two AVX2 or
-/// four NEON registers per histogram).
-pub(crate) const REGISTER_MAX_BINS: usize = 16;
+pub(crate) mod portable;
 
 /// Whether the register kernels fit `spec`.
 fn registers_fit(spec: &HogSpec) -> bool {
@@ -54,7 +57,7 @@ fn registers_fit(spec: &HogSpec) -> bool {
 /// Which build of the cell-histogram kernel runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum CellKernel {
-    /// The portable kernel (`cells::cells_strip`) for the baseline target: the oracle.
+    /// The portable kernel (`portable::cells_strip`) for the baseline target: the oracle.
     Scalar,
     /// The portable kernel compiled for AVX2 + FMA (the AVX2 and AVX-512 paths' kernel for specs
     /// the register kernels do not fit).
@@ -150,7 +153,7 @@ impl CellKernel {
 
     /// One cell row `cy` (`row`: `p.width / 8` cells) and its 4 rows of 2x2-pixel micro-cells
     /// (`micro`: `4 · (p.width / 2) · nbins` half floats), from one gradient pass: the bits of
-    /// [`Self::cells_strip`] and of `approx::micro_rows` at micro-cell size 2. `false` (nothing
+    /// [`Self::cells_strip`] and of `portable::micro_rows` at micro-cell size 2. `false` (nothing
     /// written) when this kernel does not pool micro-cells or the buffers have other sizes.
     pub(crate) fn cells_micro_row(
         self,
@@ -162,7 +165,7 @@ impl CellKernel {
         micro: &mut [u16],
     ) -> bool {
         let nb = spec.nbins();
-        let sizes_ok = row.len() == p.width / CELL_SIZE * super::cells::cell_len(nb)
+        let sizes_ok = row.len() == p.width / CELL_SIZE * cell_len(nb)
             && micro.len() == CELL_SIZE / 2 * (p.width / 2) * nb
             && cs.bins.len() >= CELL_SIZE * (p.width / 2 * 2)
             && cs.wts.len() >= CELL_SIZE * (p.width / 2 * 2);
@@ -210,7 +213,7 @@ impl CellKernel {
     }
 }
 
-/// One block row (`blocks::block_row`) with the `isa` build: the batched AVX2 kernel on the x86 paths
+/// One block row (`portable::block_row`) with the `isa` build: the batched AVX2 kernel on the x86 paths
 /// (AVX-512 adds nothing to its 8-block chains), the portable one elsewhere.
 pub(crate) fn block_row(isa: Isa, spec: &HogSpec, ncx: usize, top: &[f32], bottom: &[f32], row: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
@@ -222,7 +225,7 @@ pub(crate) fn block_row(isa: Isa, spec: &HogSpec, ncx: usize, top: &[f32], botto
     block_row_portable(spec, ncx, top, bottom, row)
 }
 
-/// HOG's gamma on one row with the `isa` build (`input::gamma_in_place_generic`, vectorised).
+/// HOG's gamma on one row with the `isa` build (`portable::gamma_in_place_generic`, vectorised).
 pub(crate) fn gamma_in_place(isa: Isa, row: &mut [f32], gamma: bool) {
     #[cfg(target_arch = "x86_64")]
     if matches!(isa, Isa::Avx2 | Isa::Avx512) && Isa::Avx2.is_available() {
@@ -233,7 +236,7 @@ pub(crate) fn gamma_in_place(isa: Isa, row: &mut [f32], gamma: bool) {
     gamma_in_place_generic(row, gamma)
 }
 
-/// Micro-cell rows (`approx::micro_rows`) with the `isa` build.
+/// Micro-cell rows (`portable::micro_rows`) with the `isa` build.
 pub(crate) fn micro_rows(isa: Isa, p: &Planes, nb: usize, size: usize, my0: usize, chunk: &mut [u16]) {
     #[cfg(target_arch = "x86_64")]
     if matches!(isa, Isa::Avx2 | Isa::Avx512) && Isa::Avx2.is_available() {
@@ -243,45 +246,7 @@ pub(crate) fn micro_rows(isa: Isa, p: &Planes, nb: usize, size: usize, my0: usiz
     micro_rows_portable(isa, p, nb, size, my0, chunk)
 }
 
-/// `out[i] = f16_bits(src[i])` (round to nearest even) for `min(len)` values, with the `isa`
-/// conversion instructions (F16C `vcvtps2ph`, NEON `fcvtn`) or in software.
-pub(crate) fn to_f16_row(isa: Isa, src: &[f32], out: &mut [u16]) {
-    #[cfg(target_arch = "x86_64")]
-    if matches!(isa, Isa::Avx2 | Isa::Avx512) && Isa::Avx2.is_available() {
-        // SAFETY: F16C (part of the AVX2 path) checked on this CPU just above.
-        return unsafe { avx2::to_f16_row(src, out) };
-    }
-    #[cfg(target_arch = "aarch64")]
-    if isa == Isa::Neon && Isa::Neon.is_available() {
-        // SAFETY: NEON checked on this CPU just above.
-        return unsafe { neon::to_f16_row(src, out) };
-    }
-    let _ = isa;
-    for (o, &v) in out.iter_mut().zip(src) {
-        *o = super::approx::f16_bits(v);
-    }
-}
-
-/// `out[i] = f32_from_f16(src[i])` (exact) for `min(len)` values, with the `isa` conversion
-/// instructions (F16C `vcvtph2ps`, NEON `fcvtl`) or in software.
-pub(crate) fn from_f16_row(isa: Isa, src: &[u16], out: &mut [f32]) {
-    #[cfg(target_arch = "x86_64")]
-    if matches!(isa, Isa::Avx2 | Isa::Avx512) && Isa::Avx2.is_available() {
-        // SAFETY: F16C (part of the AVX2 path) checked on this CPU just above.
-        return unsafe { avx2::from_f16_row(src, out) };
-    }
-    #[cfg(target_arch = "aarch64")]
-    if isa == Isa::Neon && Isa::Neon.is_available() {
-        // SAFETY: NEON checked on this CPU just above.
-        return unsafe { neon::from_f16_row(src, out) };
-    }
-    let _ = isa;
-    for (o, &h) in out.iter_mut().zip(src) {
-        *o = super::approx::f32_from_f16(h);
-    }
-}
-
-/// Which build of the approximated levels' cell-row fill (`approx::fill_cell_row`) runs.
+/// Which build of the approximated levels' cell-row fill (`portable::fill_cell_row`) runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum FillKernel {
     /// The portable fill, software half floats: the oracle.

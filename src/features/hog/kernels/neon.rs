@@ -12,74 +12,14 @@
 //! Every function here needs NEON; its callers in `kernels` check it first.
 
 use std::arch::aarch64::*;
-use std::arch::asm;
 
-use super::super::approx::{self, MicroGrid, Taps, LEFT_PROFILES, RIGHT_PROFILES};
-use super::super::cells::{cell_len, cell_slot, live_profiles};
-use super::super::gradient::{gradient_row, CellScratch};
-use super::super::input::Planes;
+use super::super::gradient::gradient_row;
+use super::super::types::{
+    cell_len, cell_slot, live_profiles, CellScratch, MicroGrid, Planes, Taps, LEFT_PROFILES, RIGHT_PROFILES,
+};
 use super::super::{HogSpec, CELL_SIZE, PROFILES};
-
-/// Four half floats (bits) to `f32`, exactly (`fcvtl`).
-#[target_feature(enable = "neon")]
-fn f32x4_from_f16(h: uint16x4_t) -> float32x4_t {
-    let r: float32x4_t;
-    // SAFETY: `fcvtl` reads and writes registers only.
-    unsafe {
-        asm!("fcvtl {0:v}.4s, {1:v}.4h", out(vreg) r, in(vreg) h, options(pure, nomem, nostack, preserves_flags))
-    };
-    r
-}
-
-/// Four `f32` to half-float bits, rounded to nearest even (`fcvtn`, the rounding mode Linux
-/// leaves in FPCR), as `approx::f16_bits`.
-#[target_feature(enable = "neon")]
-fn f16x4_from_f32(v: float32x4_t) -> uint16x4_t {
-    let r: uint16x4_t;
-    // SAFETY: `fcvtn` reads and writes registers only.
-    unsafe {
-        asm!("fcvtn {0:v}.4h, {1:v}.4s", out(vreg) r, in(vreg) v, options(pure, nomem, nostack, preserves_flags))
-    };
-    r
-}
-
-/// `out[i] = f16_bits(src[i])` with `fcvtn`, 4 values at a time.
-///
-/// # Safety
-/// The CPU must support NEON.
-#[target_feature(enable = "neon")]
-pub(crate) unsafe fn to_f16_row(src: &[f32], out: &mut [u16]) {
-    let n = src.len().min(out.len());
-    let (src, out) = (&src[..n], &mut out[..n]);
-    let mut s4 = src.chunks_exact(4);
-    let mut o4 = out.chunks_exact_mut(4);
-    for (s, o) in (&mut s4).zip(&mut o4) {
-        // SAFETY: `s` and `o` hold 4 values each.
-        unsafe { vst1_u16(o.as_mut_ptr(), f16x4_from_f32(vld1q_f32(s.as_ptr()))) };
-    }
-    for (o, &v) in o4.into_remainder().iter_mut().zip(s4.remainder()) {
-        *o = approx::f16_bits(v);
-    }
-}
-
-/// `out[i] = f32_from_f16(src[i])` with `fcvtl` (exact), 4 values at a time.
-///
-/// # Safety
-/// The CPU must support NEON.
-#[target_feature(enable = "neon")]
-pub(crate) unsafe fn from_f16_row(src: &[u16], out: &mut [f32]) {
-    let n = src.len().min(out.len());
-    let (src, out) = (&src[..n], &mut out[..n]);
-    let mut s4 = src.chunks_exact(4);
-    let mut o4 = out.chunks_exact_mut(4);
-    for (s, o) in (&mut s4).zip(&mut o4) {
-        // SAFETY: `s` and `o` hold 4 values each.
-        unsafe { vst1q_f32(o.as_mut_ptr(), f32x4_from_f16(vld1_u16(s.as_ptr()))) };
-    }
-    for (o, &h) in o4.into_remainder().iter_mut().zip(s4.remainder()) {
-        *o = approx::f32_from_f16(h);
-    }
-}
+use super::f16::neon::{f16x4_from_f32, f32x4_from_f16};
+use super::portable;
 
 /// The first `dst.len()` (≤ 4·R) lanes of `v` into `dst`.
 #[target_feature(enable = "neon")]
@@ -141,7 +81,7 @@ fn vote<const R: usize>(t: &[uint8x16_t; R], [w0, w1]: [f32; 2]) -> [float32x4_t
 ///
 /// # Safety
 /// The CPU must support NEON; `spec` has ≤ 16 bins and its profiles have the fixed zeros
-/// (`cells::profiles_have_fixed_zeros`).
+/// (`types::profiles_have_fixed_zeros`).
 #[target_feature(enable = "neon")]
 pub(crate) unsafe fn cells_strip(
     spec: &HogSpec,
@@ -162,7 +102,7 @@ pub(crate) unsafe fn cells_strip(
 }
 
 /// [`cells_strip`] for one cell row `cy` that also pools its 4 rows of 2x2-pixel micro-cells into
-/// `micro` from the same votes (the bits of `approx::micro_rows`).
+/// `micro` from the same votes (the bits of `portable::micro_rows`).
 ///
 /// # Safety
 /// As [`cells_strip`]; `chunk` is one cell row and `micro` holds its 4 micro rows; the scratch
@@ -297,7 +237,7 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
             }
         }
         if MICRO && ncx * PER_CELL < nmx {
-            approx::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
+            portable::micro_margin(bins, wts, stride, nb, ncx * PER_CELL, micro);
         }
     }
 }
@@ -311,7 +251,7 @@ unsafe fn cells_body<const MICRO: bool, const R: usize>(
 ///    four with 3 idle lanes each). Kept per row in a small buffer.
 /// 2. **y pass**, per y-profile: the rows' x sums times the row's y weight.
 ///
-/// The same fused multiply-adds in the same order as `approx::fill_cell_row`, so the same bits;
+/// The same fused multiply-adds in the same order as `portable::fill_cell_row`, so the same bits;
 /// where the portable fill skips an x-profile whose weight is exactly 0, the tail lanes add
 /// `0·v` = +0 to a sum ≥ +0, which changes no bit.
 ///
