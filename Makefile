@@ -155,7 +155,7 @@ fuzz fuzz-smoke: export MOSAICD_FUZZ_SCRATCH := $(FUZZ_SCRATCH)
 fuzz fuzz-smoke: export RAYON_NUM_THREADS := 1
 
 # --target keeps RUSTFLAGS off build scripts and proc macros.
-fuzz-build:
+fuzz-build: setup
 	RUSTFLAGS="$(FUZZ_RUSTFLAGS)" $(CARGO) build --release --quiet --manifest-path fuzz/Cargo.toml \
 		--target $(FUZZ_HOST) --target-dir $(FUZZ_TARGET_DIR)
 
@@ -166,7 +166,7 @@ fuzz-build:
 # removes that build first.
 FUZZ_SMOKE_BIN := $(FUZZ_TARGET_DIR)/$(FUZZ_HOST)/smoke
 FUZZ_SMOKE_STAMP := $(FUZZ_TARGET_DIR)/smoke-wrapper.stamp
-fuzz-smoke-build:
+fuzz-smoke-build: setup
 	if [ fuzz/smoke_rustc.sh -nt $(FUZZ_SMOKE_STAMP) ]; then rm -rf $(FUZZ_SMOKE_BIN); fi
 	FUZZ_RUSTFLAGS="$(FUZZ_RUSTFLAGS)" RUSTC_WRAPPER=$(CURDIR)/fuzz/smoke_rustc.sh $(CARGO) build \
 		--profile smoke --quiet --manifest-path fuzz/Cargo.toml --target $(FUZZ_HOST) \
