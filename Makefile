@@ -22,7 +22,7 @@ test-note:
 	$(TEST_NOTE)
 
 .PHONY: setup demo recording test oracle skimage-negatives lint doc bench cross-build cross-lint cross-test \
-	fuzz fuzz-smoke fuzz-build deb deb-arm64 deb-test
+	fuzz fuzz-smoke fuzz-build fuzz-smoke-build deb deb-arm64 deb-test
 
 setup:
 	@bash scripts/setup.sh
@@ -155,20 +155,35 @@ fuzz fuzz-smoke: export MOSAICD_FUZZ_SCRATCH := $(FUZZ_SCRATCH)
 fuzz fuzz-smoke: export RAYON_NUM_THREADS := 1
 
 # --target keeps RUSTFLAGS off build scripts and proc macros.
-fuzz-build:
+fuzz-build: setup
 	RUSTFLAGS="$(FUZZ_RUSTFLAGS)" $(CARGO) build --release --quiet --manifest-path fuzz/Cargo.toml \
 		--target $(FUZZ_HOST) --target-dir $(FUZZ_TARGET_DIR)
 
-# A few seconds per target (not part of `make test`: docs/fuzzing.md), from the seeds alone (a fresh corpus each
+# The smoke run's own build, cheap enough for CI (docs/fuzzing.md, "The CI smoke build"): the fuzz
+# crate's `smoke` profile (opt-level 1, no debug info) with the fuzz flags on the crates that parse
+# input only (fuzz/smoke_rustc.sh); -> $(FUZZ_TARGET_DIR)/<host>/smoke. `make fuzz` keeps the full
+# build above. Cargo does not see the wrapper's flags, so a wrapper newer than the last smoke build
+# removes that build first.
+FUZZ_SMOKE_BIN := $(FUZZ_TARGET_DIR)/$(FUZZ_HOST)/smoke
+FUZZ_SMOKE_STAMP := $(FUZZ_TARGET_DIR)/smoke-wrapper.stamp
+fuzz-smoke-build: setup
+	if [ fuzz/smoke_rustc.sh -nt $(FUZZ_SMOKE_STAMP) ]; then rm -rf $(FUZZ_SMOKE_BIN); fi
+	FUZZ_RUSTFLAGS="$(FUZZ_RUSTFLAGS)" RUSTC_WRAPPER=$(CURDIR)/fuzz/smoke_rustc.sh $(CARGO) build \
+		--profile smoke --quiet --manifest-path fuzz/Cargo.toml --target $(FUZZ_HOST) \
+		--target-dir $(FUZZ_TARGET_DIR)
+	touch $(FUZZ_SMOKE_STAMP)
+
+# A few seconds per target (CI runs it: .ci/run), from the seeds alone (a fresh corpus each
 # time, so that what long runs found does not make the smoke run differ), each bounded by
-# `timeout` (libFuzzer's own timeout handler can hang without a sanitizer runtime).
-fuzz-smoke: fuzz-build
+# `timeout` (libFuzzer's own timeout handler can hang without a sanitizer runtime). Any crash,
+# timeout or leftover failure of a target fails the make target.
+fuzz-smoke: fuzz-smoke-build
 	rm -rf $(FUZZ_TARGET_DIR)/smoke-corpus
 	bash fuzz/seed.sh $(FUZZ_TARGET_DIR)/smoke-corpus
 	mkdir -p $(FUZZ_TARGET_DIR)/artifacts
 	for t in $(FUZZ_TARGETS); do \
 		$(FUZZ_MAX_LEN) \
-		out=$$(timeout $$(( $(FUZZ_SMOKE_SECONDS) + 60 )) $(FUZZ_BIN)/$$t $(FUZZ_FLAGS) \
+		out=$$(timeout $$(( $(FUZZ_SMOKE_SECONDS) + 60 )) $(FUZZ_SMOKE_BIN)/$$t $(FUZZ_FLAGS) \
 			-max_total_time=$(FUZZ_SMOKE_SECONDS) -artifact_prefix=$(FUZZ_TARGET_DIR)/artifacts/$$t- \
 			$(FUZZ_TARGET_DIR)/smoke-corpus/$$t 2>&1); rc=$$?; \
 		echo "$$out" | grep -aE '^Done' | sed "s/^/fuzz $$t: /"; \

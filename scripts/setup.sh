@@ -12,6 +12,8 @@ pkgs=()
 if ! ls /usr/lib/llvm-*/lib/libclang.so* /usr/lib/x86_64-linux-gnu/libclang*.so* >/dev/null 2>&1; then
   pkgs+=(libclang-dev clang)
 fi
+# libfuzzer-sys compiles libFuzzer (C++) for the fuzz targets (`make fuzz-smoke`, run by CI).
+command -v c++ >/dev/null 2>&1 || pkgs+=(g++)
 # A TrueType font for the text in evaluation plots.
 [ -f /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] || pkgs+=(fonts-dejavu-core)
 # systemd-analyze verifies the units in systemd/.

@@ -116,6 +116,66 @@ fn a_cut_recording_gives_the_frames_before_the_cut_and_a_clear_error() {
     }
 }
 
+/// A recording of bare (unchunked) Message records cut inside a Message's record header (in its
+/// opcode and length) or inside its fixed fields (channel id, sequence, times): a cut like any
+/// other, exit 3, not exit 2 for an unreadable file (the reader used to unpack the short bytes and
+/// fail with `struct.error`).
+#[test]
+fn a_bare_message_cut_inside_its_header_is_a_cut() {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    {
+        let mut w = mcap::WriteOptions::new()
+            .use_chunks(false)
+            .create(&mut buf)
+            .unwrap();
+        let schema = w.add_schema("note", "jsonschema", b"{}").unwrap();
+        let channel = w
+            .add_channel(schema, "/notes", "json", &Default::default())
+            .unwrap();
+        for sequence in 0..2 {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence,
+                log_time: u64::from(sequence),
+                publish_time: u64::from(sequence),
+            };
+            w.write_to_known_channel(&header, br#"{"n":1}"#).unwrap();
+        }
+        w.finish().unwrap();
+    }
+    let bytes = buf.into_inner();
+    // The records after the magic: opcode (1 byte), length (8), body. The second Message.
+    let mut at = 8;
+    let mut messages = Vec::new();
+    while at + 9 <= bytes.len() {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        if bytes[at] == 0x05 {
+            messages.push(at);
+        }
+        at += 9 + len;
+    }
+    assert_eq!(messages.len(), 2, "two bare Message records");
+    let second = messages[1];
+    let dir = tempfile::tempdir().unwrap();
+    let cut = dir.path().join("cut.mcap");
+    // In the length, in the channel id, in the sequence, in the publish time.
+    for into in [5, 10, 12, 30] {
+        std::fs::write(&cut, &bytes[..second + into]).unwrap();
+        let out = read_recording(&[cut.as_os_str(), "--topic".as_ref(), "/notes".as_ref()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(3),
+            "cut {into} bytes into the record: {err}"
+        );
+        assert!(
+            err.contains("cut short after 1 complete messages"),
+            "cut {into} bytes into the record: {err}"
+        );
+        assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 1);
+    }
+}
+
 #[test]
 fn a_corrupt_frame_message_is_a_value_error_naming_it() {
     let script = r#"

@@ -97,6 +97,25 @@ def decode_raw_frame(data: bytes, where: str = "message") -> tuple[dict, np.ndar
     return header, mosaic.astype(np.uint16) if bits == 16 else mosaic
 
 
+class _WholeReads:
+    """The recording file as the MCAP stream reader reads it: past the 8-byte magic, a read that the
+    end of the file cuts short raises :class:`EndOfFile`, as an empty read does. (The reader unpacks
+    what it got, so a file cut inside a record's opcode and length, or inside a bare Message's fixed
+    fields, failed with ``struct.error`` and was reported as unreadable instead of cut short.) A
+    regular file returns fewer bytes than asked only at its end. A file shorter than the magic is
+    left to the reader's magic check: it is not known to be a recording."""
+
+    def __init__(self, f):
+        self._f = f
+
+    def read(self, n: int = -1) -> bytes:
+        start = self._f.tell()
+        data = self._f.read(n)
+        if start >= 8 and n > 0 and len(data) < n:
+            raise EndOfFile(f"the file ends after {len(data)} of the {n} bytes of a field or record")
+        return data
+
+
 def messages(path: str, channels: dict[int, Channel] | None = None) -> Iterator[tuple[Channel, Schema | None, Message]]:
     """Every message of the recording in file order, with its channel and schema; read as a stream
     with CRC checks, so a recording without its summary (cut short) is read up to the cut.
@@ -107,7 +126,7 @@ def messages(path: str, channels: dict[int, Channel] | None = None) -> Iterator[
     count = 0
     def records(f):
         reader = StreamReader(
-            f, skip_magic=False, emit_chunks=True, validate_crcs=True, record_size_limit=MAX_RECORD_BYTES
+            _WholeReads(f), skip_magic=False, emit_chunks=True, validate_crcs=True, record_size_limit=MAX_RECORD_BYTES
         )
         for r in reader.records:
             if isinstance(r, Chunk):
