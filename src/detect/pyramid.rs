@@ -1,6 +1,11 @@
-//! Image pyramids for the sliding-window detector: bilinear resize like `cv2.resize(INTER_LINEAR)`
-//! for grey/colour planes, and a CFA-preserving mosaic resize (each of the four 2x2 super-pixel
-//! planes resized on its own, then re-interleaved).
+//! The detectors' one bilinear resize, like `cv2.resize(INTER_LINEAR)`: grey/colour planes, a
+//! CFA-preserving mosaic resize (each of the four 2x2 super-pixel planes resized on its own, then
+//! re-interleaved), and several planes stored one after another. Each may apply a row operation
+//! to every output row while it is in cache. The HOG detector's pyramid levels
+//! ([`resize_then`], with HOG's gamma or 8-bit rounding as the row operation), the ACF channel
+//! pyramid's exact levels ([`resize_bilinear`], [`resize_mosaic`]) and its approximated levels
+//! ([`resize_planes_scaled`]: the ten channel planes, each multiplied by its channel's power-law
+//! factor in the row pass, [`mod@crate::detect::channels::pyramid`]) all run it.
 //!
 //! ```
 //! use mosaicd::detect::pyramid::{resize_bilinear, resize_mosaic};
@@ -16,7 +21,18 @@
 //! # Math
 //! Output pixel `d` samples the source at `s = (d + ½)·(W_src/W_dst) − ½` (half-pixel centres), with
 //! OpenCV's border rule: `s < 0` → first pixel, `s ≥ W_src − 1` → last pixel. Separable: horizontal
-//! then vertical linear interpolation in f32.
+//! then vertical linear interpolation in f32. The vertical pass also multiplies by a factor,
+//! `(r0 + (r1 − r0)·fy)·k` with each operation rounded on its own: `k` is the plane's factor in
+//! [`resize_planes_scaled`] and 1 elsewhere (a product by one is exact: the interpolation's bits).
+//!
+//! One resize has one set of taps (`taps` per axis), computed once and shared by its parallel
+//! tasks (strips of 16 output rows of one plane; whole planes of a several-plane resize). Each
+//! task keeps the horizontally resampled source rows it still needs (two per tile phase) and
+//! interpolates each output row between two of them. Per kernel path (`detect::kernels`): the
+//! horizontal pass picks each group's taps from a few consecutive source values by register
+//! permutes where they fit (AVX2 `vpermps`, AVX-512 `vpermt2ps`, NEON `tbl`) and computes the
+//! others one at a time; every path does the scalar pass's operations in its order (no fused
+//! multiply-add), so every path gives the same bits.
 //!
 //! The mosaic resize follows the super-pixel scale space of the paper: a mosaic of size W x H is four
 //! planes of W/2 x H/2 (one per tile position); each plane is resized to new_w/2 x new_h/2 and the
@@ -26,8 +42,8 @@
 //! OpenCV resizes 8-bit images in 11-bit fixed point; we resize f32, so pyramid levels other than
 //! the first differ from OpenCV's by up to ±0.5 grey level. The float resizes compute what
 //! `features::superpixel::{resize_bilinear, resize_mosaic}` compute (a test holds them within
-//! 1e-3 grey levels); the detector keeps its own for the strips that fuse a row operation into
-//! the resize and for its reused buffers.
+//! 1e-3 grey levels); the detectors keep this one for the strips that fuse a row operation into
+//! the resize, the several-plane resize with its factors, and the reused buffers.
 
 use rayon::prelude::*;
 
@@ -51,6 +67,27 @@ pub enum PyramidError {
         /// Destination width.
         dst_w: usize,
         /// Destination height.
+        dst_h: usize,
+    },
+    /// Planes stored one after another whose buffers do not hold one plane per factor.
+    #[error(
+        "{planes} planes of {src_w}x{src_h} -> {dst_w}x{dst_h} need {} source and {} destination \
+         values, got {src_len} and {dst_len}", planes * src_w * src_h, planes * dst_w * dst_h
+    )]
+    Planes {
+        /// Planes (factors).
+        planes: usize,
+        /// Values in the source buffer.
+        src_len: usize,
+        /// Source plane width.
+        src_w: usize,
+        /// Source plane height.
+        src_h: usize,
+        /// Values in the destination buffer.
+        dst_len: usize,
+        /// Destination plane width.
+        dst_w: usize,
+        /// Destination plane height.
         dst_h: usize,
     },
     /// A mosaic size that is odd.
@@ -88,94 +125,138 @@ pub(crate) fn taps(src: usize, dst: usize) -> Vec<(usize, f32)> {
         .collect()
 }
 
-/// Column taps of the whole output row: source columns `p`, `q` and weight `fx` of
-/// `a[p] + (a[q] − a[p])·fx`, for a plane interleaved with `step` (1 = plain image, 2 = mosaic:
-/// output column `x` samples plane `x % 2` at plane column `x / 2`).
-fn column_taps(sw: usize, dw: usize, step: usize) -> Vec<(u32, u32, f32)> {
-    let tx = taps(sw, dw);
-    (0..dw * step)
-        .map(|x| {
-            let (ox, dx) = (x % step, x / step);
-            let (ix, fx) = tx[dx];
-            let ix1 = (ix + 1).min(sw - 1);
-            ((ox + ix * step) as u32, (ox + ix1 * step) as u32, fx)
-        })
-        .collect()
+/// Column taps of a whole output row, one array per field (the SIMD passes load 8 or 16 of each
+/// at once): output `x` is `a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`.
+#[derive(Debug, Clone, Default)]
+struct ColumnTaps {
+    p: Vec<u32>,
+    q: Vec<u32>,
+    f: Vec<f32>,
 }
 
-/// Bilinear resize core for a plane (`step` 1) or the four interleaved planes of a mosaic
-/// (`step` 2, each plane `sw x sh` → `dw x dh`): one pass over the output rows, each row from two
-/// source rows of the same tile phase. Per pixel the arithmetic is
-/// `r0 = a[p] + (a[q] − a[p])·fx`, `r1` likewise from the lower row, `r0 + (r1 − r0)·fy`.
-#[allow(clippy::too_many_arguments)]
-fn resize_planes(
-    src: ImageView<'_, f32>,
+/// The column taps of a plane interleaved with `step` (1 = plain image, 2 = mosaic: output column
+/// `x` samples plane `x % 2` at plane column `x / 2`).
+fn column_taps(sw: usize, dw: usize, step: usize) -> ColumnTaps {
+    let tx = taps(sw, dw);
+    let n = dw * step;
+    let mut t = ColumnTaps {
+        p: Vec::with_capacity(n),
+        q: Vec::with_capacity(n),
+        f: Vec::with_capacity(n),
+    };
+    for x in 0..n {
+        let (ox, dx) = (x % step, x / step);
+        let (ix, fx) = tx[dx];
+        let ix1 = (ix + 1).min(sw - 1);
+        t.p.push((ox + ix * step) as u32);
+        t.q.push((ox + ix1 * step) as u32);
+        t.f.push(fx);
+    }
+    t
+}
+
+/// One resize (planes of `sw x sh` to `dw x dh`, interleaved with `step`) on kernel path `isa`:
+/// its taps, computed once and shared by every run of output rows.
+struct Plan {
     step: usize,
-    sw: usize,
     sh: usize,
-    dw: usize,
     dh: usize,
-    dst: &mut [f32],
-    row_op: &RowOp,
+    tc: ColumnTaps,
+    ty: Vec<(usize, f32)>,
+    perms: PermTaps,
     isa: Isa,
-) {
-    let tc = column_taps(sw, dw, step);
-    let ty = taps(sh, dh);
-    let w = dw * step;
-    let perms = PermTaps::new(isa, &tc, src.width());
-    dst.par_chunks_mut(w * STRIP_ROWS)
-        .enumerate()
-        .for_each(|(s, chunk)| {
-            // Horizontally resampled source rows, two per tile phase: consecutive output rows of a
-            // phase usually share a source row (scale < 2), so each is resampled once.
-            let mut cache: Vec<[(usize, Vec<f32>); 2]> = (0..step)
-                .map(|_| [(usize::MAX, vec![0.0f32; w]), (usize::MAX, vec![0.0f32; w])])
-                .collect();
-            for (k, row) in chunk.chunks_mut(w).enumerate() {
-                let y = s * STRIP_ROWS + k;
-                let (oy, dy) = (y % step, y / step);
-                let (iy, fy) = ty[dy];
-                let iy1 = (iy + 1).min(sh - 1);
-                let (ra, rb) = (oy + iy * step, oy + iy1 * step);
-                let slots = &mut cache[oy];
-                // Keep the slot that holds a needed row; refill the other(s).
-                if slots[0].0 != ra && slots[0].0 != rb {
-                    slots.swap(0, 1);
-                }
-                let (s0, s1) = slots.split_at_mut(1);
-                let (sa, sb) = if s0[0].0 == rb {
-                    (&mut s1[0], &mut s0[0])
-                } else {
-                    (&mut s0[0], &mut s1[0])
-                };
-                for (slot, r) in [(&mut *sa, ra), (&mut *sb, rb)] {
-                    if slot.0 != r {
-                        horizontal(src.row(r), &tc, &perms, &mut slot.1, isa);
-                        slot.0 = r;
-                    }
-                }
-                // Ask for the next output row's new source row now: its loads (a full-resolution
-                // row, usually not in cache) then overlap the vertical pass and the row op.
-                let yn = y + 1;
-                if yn < dh * step {
-                    let (on, dn) = (yn % step, yn / step);
-                    let iyn = ty[dn].0;
-                    let next = [on + iyn * step, on + (iyn + 1).min(sh - 1) * step];
-                    let held = [cache[on][0].0, cache[on][1].0];
-                    if let Some(&r) = next.iter().find(|r| !held.contains(r)) {
-                        prefetch_row(src.row(r));
-                    }
-                }
-                let slots = &cache[oy];
-                let (sa, sb) = if slots[0].0 == ra {
-                    (&slots[0], &slots[1])
-                } else {
-                    (&slots[1], &slots[0])
-                };
-                vertical(&sa.1, &sb.1, fy, row, isa);
-                row_op(row);
+}
+
+impl Plan {
+    /// The plan of a resize whose source rows hold `row_len` values.
+    fn new(
+        step: usize,
+        (sw, sh): (usize, usize),
+        (dw, dh): (usize, usize),
+        row_len: usize,
+        isa: Isa,
+    ) -> Self {
+        let tc = column_taps(sw, dw, step);
+        let perms = PermTaps::new(isa, &tc, row_len);
+        Self {
+            step,
+            sh,
+            dh,
+            tc,
+            ty: taps(sh, dh),
+            perms,
+            isa,
+        }
+    }
+
+    /// Output values per row.
+    fn width(&self) -> usize {
+        self.tc.p.len()
+    }
+
+    /// Output rows `y0, y0 + 1, …` into `rows` (whole rows), each from two source rows of the
+    /// same tile phase (`src_row(r)` is source row `r`) and multiplied by `k`, then `row_op` on
+    /// each while it is in cache. Per pixel the arithmetic is `r0 = a[p] + (a[q] − a[p])·fx`, `r1`
+    /// likewise from the lower row, `(r0 + (r1 − r0)·fy)·k` (`k = 1`: the interpolation's bits).
+    fn run<'a>(
+        &self,
+        src_row: impl Fn(usize) -> &'a [f32],
+        y0: usize,
+        rows: &mut [f32],
+        k: f32,
+        row_op: &RowOp,
+    ) {
+        let (step, sh, w, isa) = (self.step, self.sh, self.width(), self.isa);
+        // Horizontally resampled source rows, two per tile phase: consecutive output rows of a
+        // phase usually share a source row (scale < 2), so each is resampled once.
+        let mut cache: Vec<[(usize, Vec<f32>); 2]> = (0..step)
+            .map(|_| [(usize::MAX, vec![0.0f32; w]), (usize::MAX, vec![0.0f32; w])])
+            .collect();
+        for (i, row) in rows.chunks_mut(w).enumerate() {
+            let y = y0 + i;
+            let (oy, dy) = (y % step, y / step);
+            let (iy, fy) = self.ty[dy];
+            let iy1 = (iy + 1).min(sh - 1);
+            let (ra, rb) = (oy + iy * step, oy + iy1 * step);
+            let slots = &mut cache[oy];
+            // Keep the slot that holds a needed row; refill the other(s).
+            if slots[0].0 != ra && slots[0].0 != rb {
+                slots.swap(0, 1);
             }
-        });
+            let (s0, s1) = slots.split_at_mut(1);
+            let (sa, sb) = if s0[0].0 == rb {
+                (&mut s1[0], &mut s0[0])
+            } else {
+                (&mut s0[0], &mut s1[0])
+            };
+            for (slot, r) in [(&mut *sa, ra), (&mut *sb, rb)] {
+                if slot.0 != r {
+                    horizontal(src_row(r), &self.tc, &self.perms, &mut slot.1, isa);
+                    slot.0 = r;
+                }
+            }
+            // Ask for the next output row's new source row now: its loads (a full-resolution
+            // row, usually not in cache) then overlap the vertical pass and the row op.
+            let yn = y + 1;
+            if yn < self.dh * step {
+                let (on, dn) = (yn % step, yn / step);
+                let iyn = self.ty[dn].0;
+                let next = [on + iyn * step, on + (iyn + 1).min(sh - 1) * step];
+                let held = [cache[on][0].0, cache[on][1].0];
+                if let Some(&r) = next.iter().find(|r| !held.contains(r)) {
+                    prefetch_row(src_row(r));
+                }
+            }
+            let slots = &cache[oy];
+            let (sa, sb) = if slots[0].0 == ra {
+                (&slots[0], &slots[1])
+            } else {
+                (&slots[1], &slots[0])
+            };
+            vertical(&sa.1, &sb.1, fy, k, row, isa);
+            row_op(row);
+        }
+    }
 }
 
 /// Most 32-value source windows a [`Perm16`] may span (128 values: scale ≲ 3.9 for a mosaic,
@@ -193,7 +274,7 @@ struct PermTaps {
 
 impl PermTaps {
     /// [`perm_taps`] on the AVX-512 path, nothing elsewhere.
-    fn new(isa: Isa, tc: &[(u32, u32, f32)], row_len: usize) -> Self {
+    fn new(isa: Isa, tc: &ColumnTaps, row_len: usize) -> Self {
         match isa {
             Isa::Avx512 if isa.is_available() => Self {
                 row_len,
@@ -206,14 +287,17 @@ impl PermTaps {
 
 /// [`Perm16`] of every 16 outputs of `tc` (source rows of `row_len` values), `None` where the taps
 /// span more than `32·MAX_PAIRS` values, the row is shorter than the window, or the chunk is short.
-fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
-    tc.chunks(16)
-        .map(|c| {
-            let lo = c.iter().map(|t| t.0.min(t.1)).min()?;
-            let top = c.iter().map(|t| t.0.max(t.1)).max()?;
+fn perm_taps(tc: &ColumnTaps, row_len: usize) -> Vec<Option<Perm16>> {
+    (0..tc.p.len())
+        .step_by(16)
+        .map(|k| {
+            let e = (k + 16).min(tc.p.len());
+            let (p, q, f) = (&tc.p[k..e], &tc.q[k..e], &tc.f[k..e]);
+            let lo = p.iter().zip(q).map(|(&a, &b)| a.min(b)).min()?;
+            let top = p.iter().zip(q).map(|(&a, &b)| a.max(b)).max()?;
             let pairs = (top - lo) / 32 + 1;
             let span = 32 * pairs as usize;
-            if c.len() < 16 || pairs > MAX_PAIRS || span > row_len {
+            if p.len() < 16 || pairs > MAX_PAIRS || span > row_len {
                 return None;
             }
             // Slide the window left where it would run past the row (top < row_len keeps every
@@ -226,57 +310,75 @@ fn perm_taps(tc: &[(u32, u32, f32)], row_len: usize) -> Vec<Option<Perm16>> {
                 q: [0; 16],
                 fx: [0.0; 16],
             };
-            for (k, t) in c.iter().enumerate() {
-                (pm.p[k], pm.q[k], pm.fx[k]) = (t.0 - base, t.1 - base, t.2);
+            for k in 0..16 {
+                (pm.p[k], pm.q[k], pm.fx[k]) = (p[k] - base, q[k] - base, f[k]);
             }
             Some(pm)
         })
         .collect()
 }
 
-/// `out[x] = a[p] + (a[q] − a[p])·fx` for the column taps `(p, q, fx)` on kernel path `isa`
-/// (every path gives the same bits; the AVX-512 one permutes with `perms` where it has them).
-fn horizontal(a: &[f32], tc: &[(u32, u32, f32)], perms: &PermTaps, out: &mut [f32], isa: Isa) {
+/// `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]` for the column taps `tc` on kernel path `isa`
+/// (every path gives the same bits; AVX2 and NEON pick a group's taps from a few consecutive
+/// values by register permutes where they fit, AVX-512 permutes with `perms` where it has them).
+///
+/// # Panics
+/// If `tc` has fewer taps than `out` values, or `perms` was built for other taps or longer rows.
+fn horizontal(a: &[f32], tc: &ColumnTaps, perms: &PermTaps, out: &mut [f32], isa: Isa) {
+    let n = out.len();
+    assert!(
+        tc.p.len() >= n && tc.q.len() >= n && tc.f.len() >= n,
+        "horizontal pass: {n} outputs, {} / {} / {} taps",
+        tc.p.len(),
+        tc.q.len(),
+        tc.f.len()
+    );
+    let (p, q, f) = (&tc.p[..], &tc.q[..], &tc.f[..]);
     #[cfg(not(target_arch = "x86_64"))]
     let _ = perms;
     match isa {
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 if !perms.perms.is_empty() && isa.is_available() => {
-            // The bound every Perm16 relies on: built for rows of row_len values, a holds them.
+            // The bounds every Perm16 relies on: built for these taps and rows of row_len
+            // values, and a holds them.
             assert!(
-                perms.row_len <= a.len(),
-                "permute taps built for rows of {} values, row has {}",
+                perms.row_len <= a.len() && perms.perms.len() == n.div_ceil(16),
+                "permute taps built for rows of {} values and {} outputs, row has {}, {n} outputs",
                 perms.row_len,
+                16 * perms.perms.len(),
                 a.len()
             );
             // SAFETY: the path is available (AVX-512F, AVX2, FMA); perm_taps made each Perm16 with
-            // base + 32·pairs ≤ row_len ≤ a.len() and offsets < 32·pairs.
-            unsafe { super::kernels::avx512::horizontal(a, tc, &perms.perms, out) }
+            // base + 32·pairs ≤ row_len ≤ a.len() and offsets < 32·pairs; one per 16 outputs
+            // (checked above), p/q/f hold n values.
+            unsafe { super::kernels::avx512::horizontal(a, (p, q, f), &perms.perms, out) }
         }
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: the path is available: AVX2 and FMA (the AVX-512 path includes both). The
-        // kernel indexes with bounds checks.
+        // SAFETY: the path is available: AVX2 and FMA (the AVX-512 path includes both); p/q/f
+        // hold n values (checked above); the kernel checks its loads from a.
         Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe {
-            super::kernels::avx2::horizontal(a, tc, out)
+            super::kernels::avx2::horizontal(a, p, q, f, out)
         },
-        // NEON has no gather: the taps are arbitrary columns, so the portable loop (whose
-        // arithmetic the compiler already emits as NEON) is the NEON path.
-        _ => horizontal_row(a, tc, out),
+        #[cfg(target_arch = "aarch64")]
+        // SAFETY: NEON is part of every aarch64 CPU; p/q/f hold n values (checked above); the
+        // kernel checks its loads from a.
+        Isa::Neon => unsafe { super::kernels::neon::horizontal(a, p, q, f, out) },
+        _ => horizontal_row(a, p, q, f, out, 0),
     }
 }
 
-/// `out[x] = r0[x] + (r1[x] − r0[x])·fy` on kernel path `isa` (the same bits on every path).
-fn vertical(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32], isa: Isa) {
+/// `out[x] = (r0[x] + (r1[x] − r0[x])·fy)·k` on kernel path `isa` (the same bits on every path).
+fn vertical(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32], isa: Isa) {
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the path is available: AVX2 and FMA. The kernel indexes with bounds checks.
         Isa::Avx2 | Isa::Avx512 if isa.is_available() => unsafe {
-            super::kernels::avx2::vertical(r0, r1, fy, out)
+            super::kernels::avx2::vertical(r0, r1, fy, k, out)
         },
         #[cfg(target_arch = "aarch64")]
         // SAFETY: NEON is part of every aarch64 CPU; the kernel stays within the shortest slice.
-        Isa::Neon => unsafe { super::kernels::neon::vertical(r0, r1, fy, out) },
-        _ => vertical_row(r0, r1, fy, out),
+        Isa::Neon => unsafe { super::kernels::neon::vertical(r0, r1, fy, k, out) },
+        _ => vertical_row(r0, r1, fy, k, out),
     }
 }
 
@@ -347,8 +449,90 @@ fn resize_then_with(
         });
     }
     dst.reshape(new_w, new_h);
-    let (sw, sh, dw, dh) = (w / step, h / step, new_w / step, new_h / step);
-    resize_planes(src, step, sw, sh, dw, dh, dst.as_mut_slice(), row_op, isa);
+    let plan = Plan::new(step, (w / step, h / step), (new_w / step, new_h / step), w, isa);
+    // Strips of output rows in parallel: one plane has too few for a task per plane.
+    dst.as_mut_slice()
+        .par_chunks_mut(new_w * STRIP_ROWS)
+        .enumerate()
+        .for_each(|(s, strip)| plan.run(|r| src.row(r), s * STRIP_ROWS, strip, 1.0, row_op));
+    Ok(())
+}
+
+/// Bilinear resize ([`resize_bilinear`]'s taps and arithmetic) of the planes of `src_w x src_h`
+/// values stored one after another in `src` into the planes of `new_w x new_h` values of `dst`
+/// (as many), every output value of plane `c` multiplied by `factors[c]` (the ACF pyramid's
+/// per-channel power law, [`mod@crate::detect::channels::pyramid`]). The factor is applied to each
+/// output row in the vertical pass, a rounding of its own after the interpolation's: the bits of
+/// [`resize_bilinear`] followed by a multiplication (a factor of 1 changes nothing). The planes
+/// share one set of taps and run in parallel, each plane's rows in order.
+///
+/// ```
+/// use mosaicd::detect::pyramid::resize_planes_scaled;
+/// // two 4x2 planes halved to 2x1, the second multiplied by 10
+/// let src = [0.0, 1.0, 2.0, 3.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0, 8.0, 8.0, 4.0, 4.0, 8.0, 8.0];
+/// let mut dst = [0.0; 4];
+/// resize_planes_scaled(&src, 4, 2, 2, 1, &mut dst, &[1.0, 10.0]).unwrap();
+/// assert_eq!(dst, [0.5, 2.5, 40.0, 80.0]);
+/// ```
+pub fn resize_planes_scaled(
+    src: &[f32],
+    src_w: usize,
+    src_h: usize,
+    new_w: usize,
+    new_h: usize,
+    dst: &mut [f32],
+    factors: &[f32],
+) -> Result<(), PyramidError> {
+    resize_planes_scaled_with(
+        src,
+        src_w,
+        src_h,
+        new_w,
+        new_h,
+        dst,
+        factors,
+        crate::kernels::isa(),
+    )
+}
+
+/// [`resize_planes_scaled`] on kernel path `isa` (every path gives the same bits).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn resize_planes_scaled_with(
+    src: &[f32],
+    src_w: usize,
+    src_h: usize,
+    new_w: usize,
+    new_h: usize,
+    dst: &mut [f32],
+    factors: &[f32],
+    isa: Isa,
+) -> Result<(), PyramidError> {
+    let (n_src, n_dst) = (src_w * src_h, new_w * new_h);
+    if n_src == 0 || n_dst == 0 {
+        return Err(PyramidError::Empty {
+            src_w,
+            src_h,
+            dst_w: new_w,
+            dst_h: new_h,
+        });
+    }
+    let planes = factors.len();
+    if src.len() != planes * n_src || dst.len() != planes * n_dst {
+        return Err(PyramidError::Planes {
+            planes,
+            src_len: src.len(),
+            src_w,
+            src_h,
+            dst_len: dst.len(),
+            dst_w: new_w,
+            dst_h: new_h,
+        });
+    }
+    let plan = Plan::new(1, (src_w, src_h), (new_w, new_h), src_w, isa);
+    dst.par_chunks_mut(n_dst)
+        .zip(src.par_chunks(n_src))
+        .zip(factors)
+        .for_each(|((out, plane), &k)| plan.run(|r| &plane[r * src_w..][..src_w], 0, out, k, &|_| {}));
     Ok(())
 }
 
@@ -422,23 +606,107 @@ mod tests {
         }
     }
 
+    /// The scalar horizontal pass over a whole row.
+    fn h_row(a: &[f32], tc: &ColumnTaps, out: &mut [f32]) {
+        horizontal_row(a, &tc.p, &tc.q, &tc.f, out, 0);
+    }
+
     #[test]
     fn kernel_paths_row_passes_equal_the_scalar_ones_bit_for_bit() {
-        // 37 outputs: whole vectors of every path and a tail.
-        let a: Vec<f32> = (0..50).map(|i| (i * 7 % 13) as f32 * 1.3).collect();
-        let b: Vec<f32> = (0..37).map(|i| (i * 5 % 11) as f32 * 2.1).collect();
-        let tc = column_taps(50, 37, 1);
-        let none = PermTaps::default();
-        let (mut h, mut v) = (vec![0.0; 37], vec![0.0; 37]);
-        horizontal_row(&a, &tc, &mut h);
-        vertical_row(&h, &b, 0.37, &mut v);
-        for isa in Isa::available() {
-            let (mut h2, mut v2) = (vec![0.0; 37], vec![0.0; 37]);
-            horizontal(&a, &tc, &none, &mut h2, isa);
-            vertical(&h2, &b, 0.37, &mut v2, isa);
-            assert_eq!(bits(&h2), bits(&h), "{isa}");
-            assert_eq!(bits(&v2), bits(&v), "{isa}");
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        // Planes and mosaics shrunk by up to 2.2x (AVX2 groups of 8 spanning more than 16 values
+        // and NEON groups of 4 spanning more than 8 fall back to the scalar pass) and enlarged,
+        // every path's whole vectors and tails.
+        for (sw, dw, step) in [
+            (480usize, 440usize, 1usize),
+            (480, 339, 1),
+            (480, 240, 1),
+            (480, 218, 1),
+            (240, 311, 1),
+            (50, 37, 1),
+            (33, 31, 1),
+            (9, 8, 1),
+            (5, 7, 1),
+            (1, 3, 1),
+            (240, 200, 2),
+            (240, 120, 2),
+            (240, 109, 2),
+            (120, 155, 2),
+        ] {
+            let a: Vec<f32> = (0..sw * step).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let b: Vec<f32> = (0..dw * step).map(|_| rng.random_range(-2.0..2.0)).collect();
+            let mut tc = column_taps(sw, dw, step);
+            if dw > 20 {
+                // taps out of order (not a resize's): still the scalar pass's values
+                tc.p.swap(3, 17);
+                tc.q.swap(9, 2);
+            }
+            let none = PermTaps::default();
+            let (mut h, mut v) = (vec![f32::NAN; dw * step], vec![f32::NAN; dw * step]);
+            h_row(&a, &tc, &mut h);
+            vertical_row(&h, &b, 0.37, 1.08, &mut v);
+            for isa in Isa::available() {
+                let (mut h2, mut v2) = (vec![f32::NAN; dw * step], vec![f32::NAN; dw * step]);
+                horizontal(&a, &tc, &none, &mut h2, isa);
+                vertical(&h2, &b, 0.37, 1.08, &mut v2, isa);
+                assert_eq!(bits(&h2), bits(&h), "{isa} horizontal {sw} -> {dw}, step {step}");
+                assert_eq!(bits(&v2), bits(&v), "{isa} vertical {dw}, step {step}");
+            }
         }
+    }
+
+    #[test]
+    fn several_planes_resize_as_one_each_then_the_factor_bit_for_bit() {
+        // The ACF pyramid's resampling: ten planes, each resized as resize_bilinear does, then
+        // multiplied by its factor (one rounding after the resize's), on every kernel path.
+        let (sw, sh) = (121, 67);
+        let src: Vec<f32> = (0..10 * sw * sh)
+            .map(|i| ((i * 37 + i / 13) % 251) as f32 * 0.013 + 0.001)
+            .collect();
+        let k: Vec<f32> = (0..10)
+            .map(|c| 0.8f32.powf(-0.11 * c as f32) + c as f32 * 0.01)
+            .collect();
+        for (w, h) in [(110, 61), (85, 47), (60, 33), (144, 80), (121, 67), (1, 1)] {
+            let mut want = vec![0.0f32; 10 * w * h];
+            for (c, out) in want.chunks_mut(w * h).enumerate() {
+                let plane = Image::from_vec(sw, sh, src[c * sw * sh..][..sw * sh].to_vec()).unwrap();
+                let mut d = Image::new(0, 0);
+                resize_bilinear(plane.view(), w, h, &mut d).unwrap();
+                for (o, &v) in out.iter_mut().zip(d.as_slice()) {
+                    *o = v * k[c];
+                }
+            }
+            for isa in Isa::available() {
+                let mut got = vec![f32::NAN; 10 * w * h];
+                resize_planes_scaled_with(&src, sw, sh, w, h, &mut got, &k, isa).unwrap();
+                assert_eq!(bits(&got), bits(&want), "{isa} {w}x{h}");
+            }
+        }
+    }
+
+    #[test]
+    fn planes_that_do_not_fit_their_buffers_are_refused() {
+        let src = vec![0.0f32; 2 * 6 * 4];
+        let mut dst = vec![0.0f32; 2 * 3 * 2];
+        let k = [1.0, 2.0];
+        assert!(resize_planes_scaled(&src, 6, 4, 3, 2, &mut dst, &k).is_ok());
+        assert!(matches!(
+            resize_planes_scaled(&src[1..], 6, 4, 3, 2, &mut dst, &k),
+            Err(PyramidError::Planes { src_len: 47, .. })
+        ));
+        assert!(matches!(
+            resize_planes_scaled(&src, 6, 4, 3, 2, &mut dst[1..], &k),
+            Err(PyramidError::Planes { dst_len: 11, .. })
+        ));
+        assert!(matches!(
+            resize_planes_scaled(&src, 6, 4, 3, 2, &mut dst, &k[..1]),
+            Err(PyramidError::Planes { planes: 1, .. })
+        ));
+        assert!(matches!(
+            resize_planes_scaled(&src, 6, 4, 0, 2, &mut dst, &k),
+            Err(PyramidError::Empty { dst_w: 0, .. })
+        ));
     }
 
     fn bits(v: &[f32]) -> Vec<u32> {
@@ -463,9 +731,9 @@ mod tests {
             for (y, out) in want.chunks_mut(w).enumerate() {
                 let (iy, fy) = ty[y / step];
                 let iy1 = (iy + 1).min(230 / step - 1);
-                horizontal_row(src.row(y % step + iy * step), &tc, &mut rows.0);
-                horizontal_row(src.row(y % step + iy1 * step), &tc, &mut rows.1);
-                vertical_row(&rows.0, &rows.1, fy, out);
+                h_row(src.row(y % step + iy * step), &tc, &mut rows.0);
+                h_row(src.row(y % step + iy1 * step), &tc, &mut rows.1);
+                vertical_row(&rows.0, &rows.1, fy, 1.0, out);
             }
             for isa in Isa::available() {
                 let mut got = Image::new(0, 0);
@@ -497,7 +765,7 @@ mod tests {
         for (sw, dw, step) in cases {
             let tc = column_taps(sw, dw, step);
             let mut want = vec![0.0; dw * step];
-            horizontal_row(&a, &tc, &mut want);
+            h_row(&a, &tc, &mut want);
             let perms = perm_taps(&tc, a.len());
             if sw < dw * 3 {
                 assert!(perms.iter().filter(|p| p.is_some()).count() > perms.len() / 2);

@@ -6,7 +6,8 @@
 //! resized to `4·round(s·W/4) x 4·round(s·H/4)` (CFA-preserving on a mosaic) and its channels
 //! computed. Every other level is resampled (bilinear) from the unsmoothed channels of the
 //! nearest exact level `R` (nearest in level index, as Dollár) and scaled per channel type by the
-//! power law
+//! power law (both in one pass: the detector's one bilinear resize with a factor per plane,
+//! [`crate::detect::pyramid::resize_planes_scaled`])
 //!
 //! ```text
 //! C_s ≈ resample(C_R) · (s / s_R)^(−λ_Ω)
@@ -24,12 +25,11 @@
 
 use rayon::prelude::*;
 
-use crate::detect::pyramid::{resize_bilinear, resize_mosaic, taps};
+use crate::detect::pyramid::{resize_bilinear, resize_mosaic, resize_planes_scaled_with};
 use crate::image::{Image, ImageView};
 
 use crate::kernels::Isa;
 
-use super::kernels::{blend_rows, lerp_row};
 use super::{
     channels_unsmoothed_on, smooth_channels_on, ChannelInput, ChannelSpec, Channels, ChannelsError,
     MAG_CHANNEL, N_CHANNELS, SHRINK,
@@ -186,54 +186,20 @@ fn resized_channels(
     }
 }
 
-/// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio[c]`:
-/// the shared bilinear resize ([`crate::detect::pyramid::resize_bilinear`]: each needed source
-/// row resampled horizontally, then each output row interpolated between two of them), then the
-/// factor, in the same operations and order, so the same bits; here through the channel kernels
-/// ([`super::kernels::lerp_row`], [`super::kernels::blend_rows`]) with the factor fused into the
-/// vertical pass, the ten planes in parallel.
+/// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio(c)`: the
+/// detector's one bilinear resize with a factor per plane
+/// ([`crate::detect::pyramid::resize_planes_scaled`], the ten planes in parallel), on kernel
+/// path `isa`.
 fn resample_channels(
     isa: Isa,
     src: &Channels,
     w: usize,
     h: usize,
-    ratio: impl Fn(usize) -> f32 + Sync,
+    ratio: impl Fn(usize) -> f32,
 ) -> Result<Channels, ChannelsError> {
-    let (sw, sh) = (src.width(), src.height());
-    if sw == 0 || sh == 0 || w == 0 || h == 0 {
-        return Err(crate::detect::pyramid::PyramidError::Empty {
-            src_w: sw,
-            src_h: sh,
-            dst_w: w,
-            dst_h: h,
-        }
-        .into());
-    }
-    let tx = taps(sw, w);
-    let p: Vec<u32> = tx.iter().map(|&(i, _)| i as u32).collect();
-    let q: Vec<u32> = tx.iter().map(|&(i, _)| (i + 1).min(sw - 1) as u32).collect();
-    let f: Vec<f32> = tx.iter().map(|&(_, f)| f).collect();
-    let ty = taps(sh, h);
+    let k: [f32; N_CHANNELS] = std::array::from_fn(ratio);
     let mut out = Channels::zeros(w, h);
-    out.data.par_chunks_mut(w * h).enumerate().for_each(|(c, plane)| {
-        let sp = src.plane(c);
-        let k = ratio(c);
-        // two horizontally resampled source rows (row index, values), refilled as the output
-        // rows move down
-        let mut slots = [(usize::MAX, vec![0.0f32; w]), (usize::MAX, vec![0.0f32; w])];
-        for (row, &(iy, fy)) in plane.chunks_mut(w).zip(&ty) {
-            let need = [iy, (iy + 1).min(sh - 1)];
-            for r in need {
-                if slots[0].0 != r && slots[1].0 != r {
-                    let s = usize::from(need.contains(&slots[0].0));
-                    lerp_row(isa, &sp[r * sw..(r + 1) * sw], &p, &q, &f, &mut slots[s].1);
-                    slots[s].0 = r;
-                }
-            }
-            let at = |r: usize| &slots[usize::from(slots[0].0 != r)].1;
-            blend_rows(isa, at(need[0]), at(need[1]), fy, k, row);
-        }
-    });
+    resize_planes_scaled_with(&src.data, src.width(), src.height(), w, h, &mut out.data, &k, isa)?;
     Ok(out)
 }
 

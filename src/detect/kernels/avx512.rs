@@ -155,16 +155,18 @@ unsafe fn pick16(src: *const f32, pairs: u32, idx: __m512i) -> __m512 {
 }
 
 /// The pyramid's horizontal pass with AVX-512 permutes for the outputs that have a [`Perm16`]
-/// (same arithmetic, no fused operations: the same bits as [`horizontal_row`]).
+/// (same arithmetic, no fused operations: the same bits as [`horizontal_row`]), the scalar pass
+/// for the others.
 ///
 /// # Safety
-/// The CPU must support AVX-512F, and every [`Perm16`] of `perms` must lie inside `a`
+/// The CPU must support AVX-512F; `perms` holds one entry per 16 outputs and `p`, `q`, `f` at
+/// least `out.len()` values; every [`Perm16`] of `perms` must lie inside `a`
 /// (`base + 32·pairs ≤ a.len()`, offsets < `32·pairs`): [`crate::detect::pyramid`] builds them
 /// for rows of `a`'s length and checks that once per call.
 #[target_feature(enable = "avx512f,avx2,fma")]
 pub(crate) unsafe fn horizontal(
     a: &[f32],
-    tc: &[(u32, u32, f32)],
+    (p, q, f): (&[u32], &[u32], &[f32]),
     perms: &[Option<Perm16>],
     out: &mut [f32],
 ) {
@@ -181,7 +183,10 @@ pub(crate) unsafe fn horizontal(
                     _mm512_storeu_ps(o.as_mut_ptr(), r);
                 }
             }
-            _ => horizontal_row(a, &tc[i * 16..], o),
+            _ => {
+                let k = i * 16;
+                horizontal_row(a, &p[k..], &q[k..], &f[k..], o, 0)
+            }
         }
     }
 }

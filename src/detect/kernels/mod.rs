@@ -1,7 +1,8 @@
-//! Per-instruction-set kernels of the detector's SVM stage ([`super::score`]) and pyramid resize
-//! ([`super::pyramid`]): every intrinsic of those two modules lives here, one file per ISA, with
-//! the scalar pieces the kernels share with those modules (the 8-bit quantiser, the window-sum
-//! and resize row loops), so that nothing here imports from above.
+//! Per-instruction-set kernels of the detector's SVM stage ([`super::score`]) and of the
+//! detectors' one bilinear resize ([`super::pyramid`]: HOG's levels, the ACF channel pyramid's
+//! exact and approximated levels): every intrinsic of those two modules lives here, one file per
+//! ISA, with the scalar pieces the kernels share with those modules (the 8-bit quantiser, the
+//! window-sum and resize row loops), so that nothing here imports from above.
 //!
 //! The algorithm files choose a kernel from [`crate::kernels::isa`] (and, inside a path, the
 //! sub-features of [`crate::kernels::features`]), check every length a kernel relies on once
@@ -13,7 +14,7 @@
 //! | f32 block products | `mul_add` chain | 8 lanes, 12-position tiles | 16 lanes, 21-position tiles | 2×4 lanes, `fmla` by lane, 12-position tiles |
 //! | 8-bit block products | i32 arithmetic | `vpmaddubsw` + `vpmaddwd`, or `vpdpbusd` ymm (AVX-VNNI) | `vpdpbusd` zmm (AVX-512 VNNI) | `sdot` (dotprod), else `smull`/`sadalp` |
 //! | 8-bit quantiser | `round(180·v)` | 8 lanes | 16 lanes + gathers | 4 lanes |
-//! | pyramid rows | plain loops | the loops compiled for AVX2 | `vpermt2ps` taps | vertical pass 4 lanes |
+//! | pyramid rows (HOG levels, ACF exact and approximated levels) | plain loops | horizontal: 8 outputs from 16 loaded values (`vpermps`); vertical: the loop compiled for AVX2 | horizontal: 16 outputs by `vpermt2ps` taps | horizontal: 4 outputs from 8 loaded values (`tbl`); vertical: 4 lanes |
 //! | SVM window sums | plain loops | the loops compiled for AVX2 | (AVX2's) | plain loops |
 
 use std::ops::AddAssign;
@@ -106,19 +107,22 @@ pub(crate) struct Perm16 {
     pub(crate) fx: [f32; 16],
 }
 
-/// The scalar horizontal pass (the reference of every path).
+/// The scalar horizontal pass of the bilinear resize from output `from` on (the reference of every
+/// path, and the SIMD passes' tails and fallbacks): `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`.
 #[inline(always)]
-pub(crate) fn horizontal_row(a: &[f32], tc: &[(u32, u32, f32)], out: &mut [f32]) {
-    for (o, &(p, q, fx)) in out.iter_mut().zip(tc) {
-        let (p, q) = (p as usize, q as usize);
-        *o = a[p] + (a[q] - a[p]) * fx;
+pub(crate) fn horizontal_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32], from: usize) {
+    for x in from..out.len() {
+        let (ap, aq) = (a[p[x] as usize], a[q[x] as usize]);
+        out[x] = ap + (aq - ap) * f[x];
     }
 }
 
-/// The scalar vertical pass (the reference of every path).
+/// The scalar vertical pass and a factor (the reference of every path):
+/// `out[x] = (r0[x] + (r1[x] − r0[x])·fy)·k`, each operation rounded on its own (`k = 1` leaves
+/// the interpolation's bits unchanged: a product by one is exact).
 #[inline(always)]
-pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32]) {
     for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
-        *o = v0 + (v1 - v0) * fy;
+        *o = (v0 + (v1 - v0) * fy) * k;
     }
 }

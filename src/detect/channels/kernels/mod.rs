@@ -8,8 +8,10 @@
 //! | `out = Σ_k t_k·src_k` from 0, in tap order (the triangle filter's passes) | per value | 8 values | 4 values |
 //! | block aggregation: magnitude and six orientation sums of 4x4 pixels | per block | 8 blocks (4x8 transposition) | 8 blocks (`vld4`) |
 //! | Dollár's LUV of `(r, g, b)` | per value | 8 values | 4 values |
-//! | bilinear resampling, horizontal: `a[p] + (a[q] − a[p])·f` with increasing taps | per value | 8 values from 16 loaded (`vpermps`) | 4 values from 8 loaded (`tbl`) |
-//! | bilinear resampling, vertical and power-law factor: `(r₀ + (r₁ − r₀)·f_y)·k` | per value | 8 values | 4 values |
+//!
+//! The resampling of the approximated levels is the detector's one bilinear resize
+//! ([`crate::detect::pyramid::resize_planes_scaled`]), whose kernels are in
+//! [`crate::detect::kernels`].
 //!
 //! Every kernel is the same IEEE operations in the same order on every path (multiplications
 //! and additions kept separate, never fused; `sqrt` and division correctly rounded; each block
@@ -180,62 +182,6 @@ pub(crate) fn luv_row(isa: Isa, rgb: [&[f32]; 3], luv: [&mut [f32]; 3]) {
     }
 }
 
-/// `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`: the horizontal pass of a bilinear resampling.
-/// The SIMD paths pick a group's taps from the few consecutive values of `a` at the group's
-/// first tap `p[x]` when every tap of the group lies there (the resize's taps are
-/// nondecreasing), and compute any other group one value at a time.
-///
-/// # Panics
-/// If `p`, `q` or `f` is shorter than `out`, or a tap is outside `a`.
-pub(crate) fn lerp_row(isa: Isa, a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32]) {
-    let n = out.len();
-    assert!(
-        p.len() >= n && q.len() >= n && f.len() >= n,
-        "lerp_row: {n} outputs, {} / {} / {} taps",
-        p.len(),
-        q.len(),
-        f.len()
-    );
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: AVX2 is available on these paths (`Isa::is_available`); the slices hold n
-        // values (checked above); the kernel loads a's values only at p[x] and p[x] + 8 after
-        // checking p[x] + 16 ≤ a.len() (a group's taps are then picked by register permutes)
-        // and indexes a with bounds checks otherwise.
-        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::lerp_row(a, p, q, f, out) },
-        #[cfg(target_arch = "aarch64")]
-        // SAFETY: NEON is part of every aarch64 target; lengths checked above; loads at p[x]
-        // and p[x] + 4 only after checking p[x] + 8 ≤ a.len(), bounds-checked indexing
-        // otherwise.
-        Isa::Neon => unsafe { neon::lerp_row(a, p, q, f, out) },
-        _ => scalar::lerp_row_scalar(a, p, q, f, out, 0),
-    }
-}
-
-/// `out[x] = (r0[x] + (r1[x] − r0[x])·fy)·k`: the vertical pass of a bilinear resampling and a
-/// factor (each a separate rounding, as a resize followed by a multiplication).
-///
-/// # Panics
-/// If `r0` or `r1` is shorter than `out`.
-pub(crate) fn blend_rows(isa: Isa, r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32]) {
-    let n = out.len();
-    assert!(
-        r0.len() >= n && r1.len() >= n,
-        "blend_rows: {n} outputs from rows of {} and {}",
-        r0.len(),
-        r1.len()
-    );
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: AVX2 is available on these paths (`Isa::is_available`); lengths checked.
-        Isa::Avx2 | Isa::Avx512 => unsafe { avx2::blend_rows(r0, r1, fy, k, out) },
-        #[cfg(target_arch = "aarch64")]
-        // SAFETY: NEON is part of every aarch64 target; lengths checked.
-        Isa::Neon => unsafe { neon::blend_rows(r0, r1, fy, k, out) },
-        _ => scalar::blend_rows_scalar(r0, r1, fy, k, out, 0),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -268,55 +214,6 @@ mod tests {
                 let mut got_n = vec![0.0f32; len];
                 normalise(isa, &m, &nn, 0.005, &mut got_n);
                 assert_eq!(bits(&got_n), bits(&want_n), "{isa} normalised, {len}");
-            }
-        }
-    }
-
-    #[test]
-    fn kernel_paths_resampling_equal_the_scalar_oracle() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
-        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        // the pyramid's taps: downsampling by up to 2.2x (groups of 8 spanning more than 16
-        // values fall back to the oracle) and upsampling, every output width's tail
-        for (sw, dw) in [
-            (480usize, 440usize),
-            (480, 339),
-            (480, 240),
-            (480, 218),
-            (240, 311),
-            (33, 31),
-            (9, 8),
-            (5, 7),
-            (1, 3),
-        ] {
-            let a: Vec<f32> = (0..sw).map(|_| rng.random_range(-2.0..2.0)).collect();
-            let t = crate::detect::pyramid::taps(sw, dw);
-            let p: Vec<u32> = t.iter().map(|&(i, _)| i as u32).collect();
-            let q: Vec<u32> = t.iter().map(|&(i, _)| (i + 1).min(sw - 1) as u32).collect();
-            let f: Vec<f32> = t.iter().map(|&(_, f)| f).collect();
-            let (mut p, mut q) = (p, q);
-            if dw > 20 {
-                // taps out of order (not the resize's): still the oracle's values
-                p.swap(3, 17);
-                q.swap(9, 2);
-            }
-            let mut want = vec![f32::NAN; dw];
-            scalar::lerp_row_scalar(&a, &p, &q, &f, &mut want, 0);
-            // the oracle is the shared resize's horizontal pass
-            let tc: Vec<(u32, u32, f32)> = (0..dw).map(|x| (p[x], q[x], f[x])).collect();
-            let mut shared = vec![0.0f32; dw];
-            crate::detect::kernels::horizontal_row(&a, &tc, &mut shared);
-            assert_eq!(bits(&want), bits(&shared), "{sw} -> {dw}");
-            let r1: Vec<f32> = (0..dw).map(|_| rng.random_range(-2.0..2.0)).collect();
-            let mut want_v = vec![f32::NAN; dw];
-            scalar::blend_rows_scalar(&want, &r1, 0.37, 1.08, &mut want_v, 0);
-            for isa in Isa::available() {
-                let mut got = vec![f32::NAN; dw];
-                lerp_row(isa, &a, &p, &q, &f, &mut got);
-                assert_eq!(bits(&got), bits(&want), "{isa} lerp_row {sw} -> {dw}");
-                let mut got_v = vec![f32::NAN; dw];
-                blend_rows(isa, &want, &r1, 0.37, 1.08, &mut got_v);
-                assert_eq!(bits(&got_v), bits(&want_v), "{isa} blend_rows {dw}");
             }
         }
     }

@@ -106,23 +106,6 @@ pub(crate) fn luv_row_scalar(rgb: [&[f32]; 3], luv: [&mut [f32]; 3], from: usize
     }
 }
 
-/// The scalar oracle of `lerp_row` from index `from` on (also the SIMD tails and the groups
-/// whose taps span too many values): `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`.
-pub(crate) fn lerp_row_scalar(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32], from: usize) {
-    for x in from..out.len() {
-        let (ap, aq) = (a[p[x] as usize], a[q[x] as usize]);
-        out[x] = ap + (aq - ap) * f[x];
-    }
-}
-
-/// The scalar oracle of `blend_rows` from index `from` on: `out[x] = (r0[x] + (r1[x] −
-/// r0[x])·fy)·k`.
-pub(crate) fn blend_rows_scalar(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32], from: usize) {
-    for x in from..out.len() {
-        out[x] = (r0[x] + (r1[x] - r0[x]) * fy) * k;
-    }
-}
-
 // Dollár's rgbConvert LUV constants (rgbConvertMex.cpp, `rgb2luv_setup`).
 pub(crate) const LUV_MR: [f32; 3] = [0.430574, 0.222015, 0.020183];
 pub(crate) const LUV_MG: [f32; 3] = [0.341550, 0.706655, 0.129553];
