@@ -783,17 +783,18 @@ mod tests {
     #[test]
     fn a_row_shorter_than_the_permute_taps_is_refused() {
         // The AVX-512 pass's bound is a real check (a release build too), not a debug assertion.
+        // Taps of a 400-value row (they end at 399), permutes built for rows of 410 values.
         let tc = column_taps(400, 300, 1);
         let pt = PermTaps {
-            row_len: 400,
-            perms: perm_taps(&tc, 400),
+            row_len: 410,
+            perms: perm_taps(&tc, 410),
         };
         let r = std::panic::catch_unwind(|| {
             let mut out = vec![0.0; 300];
-            horizontal(&[0.0; 399], &tc, &pt, &mut out, Isa::Avx512);
+            horizontal(&[0.0; 400], &tc, &pt, &mut out, Isa::Avx512);
         });
-        // Only the AVX-512 path reads through the taps; others fall back to checked indexing,
-        // which this row satisfies (its taps end at 399).
+        // Only the AVX-512 path reads through the permute taps; without AVX-512 the pass falls
+        // back to checked indexing, which this row satisfies.
         assert_eq!(r.is_err(), Isa::Avx512.is_available());
     }
 
