@@ -483,26 +483,16 @@ pub fn resize_planes_scaled(
     dst: &mut [f32],
     factors: &[f32],
 ) -> Result<(), PyramidError> {
-    resize_planes_scaled_with(
-        src,
-        src_w,
-        src_h,
-        new_w,
-        new_h,
-        dst,
-        factors,
-        crate::kernels::isa(),
-    )
+    let isa = crate::kernels::isa();
+    resize_planes_scaled_with(src, (src_w, src_h), (new_w, new_h), dst, factors, isa)
 }
 
-/// [`resize_planes_scaled`] on kernel path `isa` (every path gives the same bits).
-#[allow(clippy::too_many_arguments)]
+/// [`resize_planes_scaled`] (source planes `src_w x src_h`, output planes `new_w x new_h`) on
+/// kernel path `isa` (every path gives the same bits).
 pub(crate) fn resize_planes_scaled_with(
     src: &[f32],
-    src_w: usize,
-    src_h: usize,
-    new_w: usize,
-    new_h: usize,
+    (src_w, src_h): (usize, usize),
+    (new_w, new_h): (usize, usize),
     dst: &mut [f32],
     factors: &[f32],
     isa: Isa,
@@ -679,7 +669,7 @@ mod tests {
             }
             for isa in Isa::available() {
                 let mut got = vec![f32::NAN; 10 * w * h];
-                resize_planes_scaled_with(&src, sw, sh, w, h, &mut got, &k, isa).unwrap();
+                resize_planes_scaled_with(&src, (sw, sh), (w, h), &mut got, &k, isa).unwrap();
                 assert_eq!(bits(&got), bits(&want), "{isa} {w}x{h}");
             }
         }

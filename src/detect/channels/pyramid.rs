@@ -199,7 +199,8 @@ fn resample_channels(
 ) -> Result<Channels, ChannelsError> {
     let k: [f32; N_CHANNELS] = std::array::from_fn(ratio);
     let mut out = Channels::zeros(w, h);
-    resize_planes_scaled_with(&src.data, src.width(), src.height(), w, h, &mut out.data, &k, isa)?;
+    let (sw, sh) = (src.width(), src.height());
+    resize_planes_scaled_with(&src.data, (sw, sh), (w, h), &mut out.data, &k, isa)?;
     Ok(out)
 }
 
