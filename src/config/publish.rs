@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::ConfigError;
+use super::value;
 
 /// `[publish]`: iceoryx2 services `<prefix>/<camera>/{detections,gradients,stats}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -81,7 +81,8 @@ impl Default for PublishConfig {
 pub struct FoxgloveConfig {
     /// Address to listen on, `"host:port"` (e.g. `"127.0.0.1:8765"`, Foxglove's default; port 0
     /// picks a free one, logged at start). Unset: no live view, no socket.
-    pub listen: Option<String>,
+    #[serde(deserialize_with = "value::listen_de", serialize_with = "value::listen_ser")]
+    pub listen: Option<std::net::SocketAddr>,
     /// The live preview keeps every n-th 2x2 tile of the mosaic (`1..=16`; 2 makes a 1080p frame
     /// a 960x540 `foxglove.RawImage`, 518 kB).
     pub preview_decimation: u32,
@@ -102,20 +103,6 @@ impl Default for FoxgloveConfig {
 }
 
 impl FoxgloveConfig {
-    /// The validated listen address (`None`: live view off).
-    pub fn listen_addr(&self) -> Result<Option<std::net::SocketAddr>, ConfigError> {
-        self.listen
-            .as_deref()
-            .map(|l| {
-                l.parse().map_err(|_| ConfigError::OutOfRange {
-                    key: "foxglove.listen".into(),
-                    value: format!("{l:?}"),
-                    allowed: "an IP address and port, e.g. \"127.0.0.1:8765\" or \"[::1]:8765\"".into(),
-                })
-            })
-            .transpose()
-    }
-
     /// Whether the live view is on.
     pub fn enabled(&self) -> bool {
         self.listen.is_some()
