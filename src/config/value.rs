@@ -125,12 +125,13 @@ fn key_at(
     })
 }
 
+/// [`key_at`] for one value `v` of key `key`.
 fn value_at(
     v: &toml::Spanned<toml::de::DeValue<'_>>,
     span: &std::ops::Range<usize>,
     key: String,
 ) -> Option<(String, String)> {
-    // (a table's span is its header's: no pruning by span)
+    // (not pruned by span: a table's span is its header's, not its keys')
     match v.get_ref() {
         toml::de::DeValue::String(s) if v.span() == *span => Some((key, s.to_string())),
         toml::de::DeValue::Table(t) => key_at(t, span, key),
@@ -150,6 +151,7 @@ pub(super) fn cfa_de<'de, D: Deserializer<'de>>(d: D) -> Result<Cfa, D::Error> {
 pub(super) fn cfa_ser<S: Serializer>(v: &Cfa, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(v.name())
 }
+
 /// `camera.fourcc` (optional): 4 ASCII characters, as bytes
 /// ([`crate::capture::v4l2_formats::parse_fourcc`]).
 pub(super) fn fourcc_de<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[u8; 4]>, D::Error> {
@@ -172,6 +174,7 @@ pub(super) fn fourcc_ser<S: Serializer>(v: &Option<[u8; 4]>, s: S) -> Result<S::
 pub(super) fn fourcc_text(f: [u8; 4]) -> String {
     f.iter().map(|&b| b as char).collect()
 }
+
 /// `compute.detector`: [`DetectorKind`], written by its name.
 pub(super) fn detector_de<'de, D: Deserializer<'de>>(d: D) -> Result<DetectorKind, D::Error> {
     parse_str(d, "one of \"hog\", \"acf\"", |s| s.parse().ok())
@@ -180,6 +183,7 @@ pub(super) fn detector_de<'de, D: Deserializer<'de>>(d: D) -> Result<DetectorKin
 pub(super) fn detector_ser<S: Serializer>(v: &DetectorKind, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(v.name())
 }
+
 /// `compute.svm`: what the config asks for, `"auto"` or a precision ([`SvmSetting`]).
 pub(super) fn svm_de<'de, D: Deserializer<'de>>(d: D) -> Result<SvmSetting, D::Error> {
     parse_str(d, "one of \"f32\", \"i8\", \"auto\"", |s| {
@@ -194,32 +198,40 @@ pub(super) fn svm_de<'de, D: Deserializer<'de>>(d: D) -> Result<SvmSetting, D::E
 pub(super) fn svm_ser<S: Serializer>(v: &SvmSetting, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(v.name())
 }
+
 /// How `"model"` (the model file's own setting, `None`) is written in `compute.mosaic_taps` and
 /// `compute.mosaic_tone`.
 const MODEL: &str = "model";
 
-/// `compute.mosaic_taps`: `None` for `"model"`, else [`MosaicTaps`].
-pub(super) fn mosaic_taps_de<'de, D: Deserializer<'de>>(d: D) -> Result<Option<MosaicTaps>, D::Error> {
-    parse_str(d, "one of \"model\", \"same-site\", \"paper\"", |s| match s {
+/// A `"model"`-or-value key: `None` for `"model"`, else the value parsed by `T`'s `FromStr`.
+fn model_or<'de, D: Deserializer<'de>, T: std::str::FromStr>(
+    d: D,
+    allowed: &'static str,
+) -> Result<Option<T>, D::Error> {
+    parse_str(d, allowed, |s| match s {
         MODEL => Some(None),
         s => s.parse().ok().map(Some),
     })
+}
+
+/// `compute.mosaic_taps`: `None` for `"model"`, else [`MosaicTaps`].
+pub(super) fn mosaic_taps_de<'de, D: Deserializer<'de>>(d: D) -> Result<Option<MosaicTaps>, D::Error> {
+    model_or(d, "one of \"model\", \"same-site\", \"paper\"")
 }
 
 pub(super) fn mosaic_taps_ser<S: Serializer>(v: &Option<MosaicTaps>, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(v.map_or(MODEL, MosaicTaps::name))
 }
+
 /// `compute.mosaic_tone`: `None` for `"model"`, else [`MosaicTone`].
 pub(super) fn mosaic_tone_de<'de, D: Deserializer<'de>>(d: D) -> Result<Option<MosaicTone>, D::Error> {
-    parse_str(d, "one of \"model\", \"linear\", \"srgb\"", |s| match s {
-        MODEL => Some(None),
-        s => s.parse().ok().map(Some),
-    })
+    model_or(d, "one of \"model\", \"linear\", \"srgb\"")
 }
 
 pub(super) fn mosaic_tone_ser<S: Serializer>(v: &Option<MosaicTone>, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(v.map_or(MODEL, MosaicTone::name))
 }
+
 /// `compute.wb_gains`: [`Gains`] ([`Gains`]' `FromStr`), fixed gains finite, > 0 and < 16 (what
 /// [`NormaliseOptions::build`] accepts).
 pub(super) fn wb_gains_de<'de, D: Deserializer<'de>>(d: D) -> Result<Gains, D::Error> {
@@ -253,6 +265,7 @@ pub(super) fn wb_gains_text(g: Gains) -> String {
         Gains::Fixed([r, g, b]) => format!("{r},{g},{b}"),
     }
 }
+
 /// `foxglove.listen` (optional): a [`SocketAddr`].
 pub(super) fn listen_de<'de, D: Deserializer<'de>>(d: D) -> Result<Option<SocketAddr>, D::Error> {
     parse_str(
