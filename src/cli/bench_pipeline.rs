@@ -23,7 +23,7 @@ use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
 use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 use mosaicd::pipeline::stage::Stage;
 use mosaicd::pool::BufferPool;
-use mosaicd::publish::service::{create_node, detections_service, subscriber};
+use mosaicd::publish::{create_node, detections_service, subscriber};
 
 use super::detect_common::SvmArg;
 
@@ -194,7 +194,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         let node = create_node(
             &format!("mosaicd-bench-stall-{}", std::process::id()),
             true,
-            &mosaicd::publish::service::root_dir(&PublishConfig::default().root)?,
+            &mosaicd::publish::root_dir(&PublishConfig::default().root)?,
         )?;
         let svc = detections_service(
             &node,

@@ -21,7 +21,7 @@ pub struct PublishConfig {
     /// Keep every n-th gradient pixel in x and y (`1..=64`).
     pub gradients_decimation: usize,
     /// The directory iceoryx2 keeps its files in: `"auto"` (the default: resolved per process by
-    /// [`crate::publish::service::resolve_root`], so that it works under systemd, as root and as an
+    /// [`crate::publish::resolve_root`], so that it works under systemd, as root and as an
     /// ordinary user alike) or an absolute path. Created `0750` when missing; one of another user
     /// is refused. Subscribers (`mosaicd listen`, the Python client) of the same user resolve
     /// `"auto"` to the same directory; with a path, pass them the same `--root`.
@@ -32,7 +32,7 @@ pub struct PublishConfig {
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(from = "PathBuf", into = "PathBuf")]
 pub enum Iox2Root {
-    /// Chosen from the process's environment and user ([`crate::publish::service::resolve_root`]).
+    /// Chosen from the process's environment and user ([`crate::publish::resolve_root`]).
     #[default]
     Auto,
     /// This directory (must be absolute: [`Config::validate`](super::Config::validate) refuses a relative one).
