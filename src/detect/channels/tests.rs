@@ -410,3 +410,55 @@ fn kernel_paths_give_the_same_channels_and_pyramid() {
         }
     }
 }
+
+#[test]
+fn stale_pool_buffers_change_no_value() {
+    // the channel pass and the smoothing take pooled buffers without zeroing them: every value
+    // must be written. Fill the pool with NaN buffers of many sizes and compare with the
+    // channels and pyramids computed before, bit for bit, for every input kind and option set.
+    let rgb = scene(206, 150);
+    let m = mosaic_of(&rgb, Cfa::Rggb);
+    let grey = rgb.map(|p| p[1]);
+    let inputs = [
+        ChannelInput::Mosaic {
+            image: m.view(),
+            cfa: Cfa::Rggb,
+        },
+        ChannelInput::Rgb8(rgb.view()),
+        ChannelInput::GreyU8(grey.view()),
+    ];
+    let specs = [
+        ChannelSpec::default(),
+        raw_spec(),
+        ChannelSpec::new(ChannelOptions {
+            input_smooth: 1.0,
+            ..ChannelOptions::default()
+        })
+        .unwrap(),
+    ];
+    let opts = PyramidOptions {
+        min_size: (16, 32),
+        ..PyramidOptions::default()
+    };
+    let bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|v| v.to_bits()).collect() };
+    let run = || -> Vec<Vec<u32>> {
+        let mut out = vec![];
+        for spec in &specs {
+            for input in &inputs {
+                out.push(bits(channels(input, spec).unwrap().as_slice()));
+                let p = super::pyramid::pyramid(input, spec, &opts).unwrap();
+                out.extend(p.levels.iter().map(|l| bits(l.channels.as_slice())));
+            }
+        }
+        out
+    };
+    let want = run();
+    for _ in 0..3 {
+        let mut cap = 16.0f64;
+        while cap < 400_000.0 {
+            super::pool::give(vec![f32::NAN; cap as usize]);
+            cap *= 1.25;
+        }
+        assert!(run() == want, "a stale pooled value reached the channels");
+    }
+}
