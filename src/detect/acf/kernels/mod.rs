@@ -112,6 +112,17 @@ mod tests {
         want
     }
 
+    /// `n` random trees reading offsets below `max_off`.
+    fn random_trees(rng: &mut impl Rng, n: usize, max_off: u32) -> Vec<Tree2> {
+        (0..n)
+            .map(|_| Tree2 {
+                off: std::array::from_fn(|_| rng.random_range(0..max_off)),
+                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
+                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
+            })
+            .collect()
+    }
+
     #[test]
     fn kernel_paths_equal_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
@@ -124,13 +135,7 @@ mod tests {
                 }
             })
             .collect();
-        let trees: Vec<Tree2> = (0..300)
-            .map(|_| Tree2 {
-                off: std::array::from_fn(|_| rng.random_range(0..3000)),
-                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
-                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
-            })
-            .collect();
+        let trees = random_trees(&mut rng, 300, 3000);
         for reject in [vec![f32::NEG_INFINITY; 300], vec![-1.0; 300], {
             (0..300).map(|k| -3.0 + k as f32 * 0.01).collect()
         }] {
@@ -215,13 +220,7 @@ mod tests {
         }
         // random trees and no rejection threshold: every window through every tree
         let data: Vec<f32> = (0..500).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let trees: Vec<Tree2> = (0..70)
-            .map(|_| Tree2 {
-                off: std::array::from_fn(|_| rng.random_range(0..200)),
-                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
-                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
-            })
-            .collect();
+        let trees = random_trees(&mut rng, 70, 200);
         let (_, counts) = every_path_equals_the_oracle(&trees, &[f32::NEG_INFINITY; 70], &data, 0, 300);
         assert!(counts.iter().all(|&c| c == 70));
     }
