@@ -2,8 +2,12 @@
 //!
 //! The daemon reads one TOML file (`config/mosaicd.toml` by default; every key is documented
 //! there). Parsing is strict: an unknown key is refused, a value of the wrong type is refused with
-//! its key, and [`Config::validate`] checks every range once, at start-up, with an error that NAMES
-//! the key and the allowed range ([`ConfigError`]). Nothing downstream re-checks.
+//! its key, a key written as a string that names something typed (`camera.cfa`,
+//! `camera.fourcc`, `compute.detector`, `compute.svm`, `compute.mosaic_taps`,
+//! `compute.mosaic_tone`, `compute.wb_gains`, `foxglove.listen`) is parsed into its type once,
+//! when the file is read, and [`Config::validate`] checks every range and every rule between
+//! keys once, at start-up. Each error NAMES the key, the value and what is allowed
+//! ([`ConfigError`]). Nothing downstream re-checks or re-parses: the fields hold typed values.
 //!
 //! **Relative paths in a file** ([`Config::load`], [`Config::resolve_paths`]) never depend on the
 //! working directory for inputs: a model file (`compute.model`) is looked for in the config
@@ -37,8 +41,9 @@
 //!
 //! This file holds [`Config`], loading, path resolution and [`Config::validate`]; one file per
 //! section below it, importing nothing from it: `daemon` (`[daemon]`, `[limits]`, `[metrics]`),
-//! `publish` (`[publish]`, `[foxglove]`), `record`, `compute`, `camera`, and `error`
-//! ([`ConfigError`]).
+//! `publish` (`[publish]`, `[foxglove]`), `record`, `compute`, `camera`, `error`
+//! ([`ConfigError`]), and `value` (how the typed string keys are read and written, and how a
+//! refused one's error finds its key).
 
 use std::path::{Path, PathBuf};
 
@@ -52,6 +57,7 @@ mod daemon;
 mod error;
 mod publish;
 mod record;
+mod value;
 
 pub use camera::{CameraConfig, SourceType};
 pub use compute::{ComputeConfig, DEFAULT_ACF_MODEL};
@@ -59,6 +65,7 @@ pub use daemon::{DaemonConfig, LimitsConfig, MetricsConfig};
 pub use error::ConfigError;
 pub use publish::{FoxgloveConfig, Iox2Root, PublishConfig, AUTO_ROOT};
 pub use record::RecordConfig;
+pub use value::SvmSetting;
 
 /// Largest worker pool we accept (a sanity bound, not a tuning hint).
 const MAX_THREADS: usize = 256;
@@ -180,7 +187,7 @@ impl Config {
     /// `camera.sidecar` become `config_dir/path`. Returns what it changed, in key order.
     pub fn resolve_paths(&mut self, config_dir: &Path, model_dirs: &[PathBuf]) -> Vec<ResolvedPath> {
         let mut out = Vec::new();
-        let acf = matches!(self.compute.detector_kind(), Ok(DetectorKind::Acf));
+        let acf = self.compute.detector == DetectorKind::Acf;
         let (key, model) = if acf {
             ("compute.acf_model", &mut self.compute.acf_model)
         } else {
@@ -220,10 +227,7 @@ impl Config {
     }
 
     fn parse(s: &str, origin: &str) -> Result<Self, ConfigError> {
-        let cfg: Config = toml::from_str(s).map_err(|e| ConfigError::Parse {
-            origin: origin.into(),
-            message: e.to_string().trim().replace('\n', " "),
-        })?;
+        let cfg: Config = toml::from_str(s).map_err(|e| ConfigError::from_toml(s, origin, &e))?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -282,7 +286,6 @@ impl Config {
         range("record.rotate_secs", self.record.rotate_secs, 0, 31_536_000)?;
         range("record.max_files", self.record.max_files, 0, 1_000_000)?;
         range("record.retry_ms", self.record.retry_ms, 0, 86_400_000)?;
-        self.foxglove.listen_addr()?;
         range(
             "foxglove.preview_decimation",
             self.foxglove.preview_decimation,
@@ -326,7 +329,7 @@ impl Config {
         range("compute.orientation_bins", c.orientation_bins, 1, 36)?;
         range("compute.strip_rows", c.strip_rows, 2, 4096)?;
         // ACF scores are sums over up to thousands of trees: a wider scale than the SVM's.
-        let hit = match c.detector_kind()? {
+        let hit = match c.detector {
             DetectorKind::Hog => 10.0,
             DetectorKind::Acf => 100.0,
         };
@@ -335,11 +338,7 @@ impl Config {
         range("compute.max_levels", c.max_levels, 1, 64)?;
         range("compute.upsample", c.upsample, 1.0, 4.0)?;
         range("compute.approx_levels", c.approx_levels, 1, 64)?;
-        c.svm_precision()?;
-        let (model_key, model) = c.model_key()?;
-        c.mosaic_taps_override()?;
-        c.mosaic_tone_override()?;
-        c.wb_gains()?;
+        let (model_key, model) = c.model_key();
         for (key, on) in [
             ("compute.keypoint_descriptors", c.keypoint_descriptors),
             ("compute.keypoints_double", c.keypoints_double),
@@ -355,7 +354,10 @@ impl Config {
         if model.is_empty() {
             return Err(ConfigError::Missing {
                 key: model_key.into(),
-                when: format!("compute.detect = true and compute.detector = {:?}", c.detector),
+                when: format!(
+                    "compute.detect = true and compute.detector = {:?}",
+                    c.detector.name()
+                ),
             });
         }
         if !c.strip_rows.is_multiple_of(2) {
@@ -408,13 +410,6 @@ impl Config {
                 });
             }
             range(&key("bit_depth"), cam.bit_depth, 8, 16)?;
-            if cam.cfa.parse::<crate::raw::Cfa>().is_err() {
-                return Err(ConfigError::OutOfRange {
-                    key: key("cfa"),
-                    value: format!("{:?}", cam.cfa),
-                    allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
-                });
-            }
             if !(cam.fps > 0.0 && cam.fps <= 1000.0) {
                 return Err(ConfigError::OutOfRange {
                     key: key("fps"),
@@ -438,7 +433,10 @@ impl Config {
                 _ => {}
             }
             let v4l2_only = [
-                ("fourcc", cam.fourcc.as_ref().map(|f| format!("{f:?}"))),
+                (
+                    "fourcc",
+                    cam.fourcc.map(|f| format!("{:?}", value::fourcc_text(f))),
+                ),
                 ("black", cam.black.map(|v| v.to_string())),
                 ("white", cam.white.map(|v| v.to_string())),
             ];
@@ -459,15 +457,6 @@ impl Config {
                     value: format!("{:?}", s.display().to_string()),
                     allowed: "only with source = \"files\"".into(),
                 });
-            }
-            if let Some(f) = &cam.fourcc {
-                if !f.is_ascii() || crate::capture::v4l2_formats::parse_fourcc(f).is_none() {
-                    return Err(ConfigError::OutOfRange {
-                        key: key("fourcc"),
-                        value: format!("{f:?}"),
-                        allowed: "4 ASCII characters, e.g. \"pRAA\" or \"RGGB\"".into(),
-                    });
-                }
             }
             match (cam.black, cam.white) {
                 (Some(_), None) => {
@@ -518,12 +507,12 @@ mod tests {
         let c =
             Config::from_toml_str(&format!("{v4l2}fourcc = \"pRAA\"\nblack = 64\nwhite = 1023\n")).unwrap();
         let cam = &c.cameras[0];
-        assert_eq!(cam.fourcc_bytes(), Some(*b"pRAA"));
+        assert_eq!(cam.fourcc, Some(*b"pRAA"));
         assert_eq!(cam.levels(), Some(crate::raw::Levels::uniform(64, 1023)));
         let c = Config::from_toml_str(&format!("{v4l2}white = 4095\n")).unwrap();
         assert_eq!(c.cameras[0].levels(), Some(crate::raw::Levels::uniform(0, 4095)));
         let c = Config::from_toml_str(v4l2).unwrap();
-        assert_eq!((c.cameras[0].levels(), c.cameras[0].fourcc_bytes()), (None, None));
+        assert_eq!((c.cameras[0].levels(), c.cameras[0].fourcc), (None, None));
         for (extra, key, says) in [
             ("fourcc = \"RGB\"\n", "camera[0].fourcc", "4 ASCII characters"),
             ("black = 64\n", "camera[0].white", "camera[0].black is set"),
@@ -587,7 +576,7 @@ mod tests {
         let c = Config::from_toml_str(MIN).unwrap();
         assert_eq!(c.daemon, DaemonConfig::default());
         assert_eq!(c.compute.orientation_bins, 9);
-        assert_eq!(c.cameras[0].cfa().unwrap(), Cfa::Rggb);
+        assert_eq!(c.cameras[0].cfa, Cfa::Rggb);
     }
 
     #[test]
@@ -678,53 +667,179 @@ mod tests {
     #[test]
     fn mosaic_tone_and_gains_default_to_the_model_and_auto_and_parse() {
         let c = Config::from_toml_str(MIN).unwrap();
-        assert_eq!(c.compute.mosaic_tone_override().unwrap(), None);
-        assert_eq!(c.compute.wb_gains().unwrap(), Gains::Auto);
+        assert_eq!(c.compute.mosaic_tone, None);
+        assert_eq!(c.compute.wb_gains, Gains::Auto);
         let c = Config::from_toml_str(&format!(
             "[compute]\nmosaic_tone = \"linear\"\nwb_gains = \"1.9, 1, 1.6\"\n{MIN}"
         ))
         .unwrap();
-        assert_eq!(
-            c.compute.mosaic_tone_override().unwrap(),
-            Some(MosaicTone::Linear)
-        );
-        assert_eq!(c.compute.wb_gains().unwrap(), Gains::Fixed([1.9, 1.0, 1.6]));
+        assert_eq!(c.compute.mosaic_tone, Some(MosaicTone::Linear));
+        assert_eq!(c.compute.wb_gains, Gains::Fixed([1.9, 1.0, 1.6]));
         for (text, g) in [
             ("file", Gains::FromFile),
             ("grey-world", Gains::GreyWorld),
             ("none", Gains::None),
         ] {
             let c = Config::from_toml_str(&format!("[compute]\nwb_gains = \"{text}\"\n{MIN}")).unwrap();
-            assert_eq!(c.compute.wb_gains().unwrap(), g);
+            assert_eq!(c.compute.wb_gains, g);
         }
     }
 
     #[test]
     fn mosaic_taps_default_to_the_model_and_parse() {
         let c = Config::from_toml_str(MIN).unwrap();
-        assert_eq!(c.compute.mosaic_taps_override().unwrap(), None);
+        assert_eq!(c.compute.mosaic_taps, None);
         let c = Config::from_toml_str(&format!("[compute]\nmosaic_taps = \"paper\"\n{MIN}")).unwrap();
-        assert_eq!(c.compute.mosaic_taps_override().unwrap(), Some(MosaicTaps::Paper));
+        assert_eq!(c.compute.mosaic_taps, Some(MosaicTaps::Paper));
         let c = Config::from_toml_str(&format!("[compute]\nmosaic_taps = \"same-site\"\n{MIN}")).unwrap();
-        assert_eq!(
-            c.compute.mosaic_taps_override().unwrap(),
-            Some(MosaicTaps::SameSite)
+        assert_eq!(c.compute.mosaic_taps, Some(MosaicTaps::SameSite));
+    }
+
+    #[test]
+    fn a_refused_typed_value_names_its_key_the_value_and_what_is_allowed() {
+        let v4l2 = "[[camera]]\nname = \"v\"\nsource = \"v4l2\"\ndevice = \"/dev/video0\"\n";
+        let cases = [
+            (
+                format!("{MIN}cfa = \"RGBW\"\n"),
+                "`camera[0].cfa` = \"RGBW\" is out of range: allowed one of RGGB, BGGR, GRBG, GBRG",
+            ),
+            // the key carries the camera's index, in an inline table too
+            (
+                format!("{MIN}{v4l2}cfa = \"rggbx\"\n"),
+                "`camera[1].cfa` = \"rggbx\" is out of range: allowed one of RGGB, BGGR, GRBG, GBRG",
+            ),
+            (
+                "camera = [{ name = \"a\", source = \"synthetic\" }, { name = \"b\", source = \"synthetic\", cfa = \"X\" }]\n"
+                    .to_string(),
+                "`camera[1].cfa` = \"X\" is out of range: allowed one of RGGB, BGGR, GRBG, GBRG",
+            ),
+            (
+                format!("{MIN}{v4l2}fourcc = \"RGB\"\n"),
+                "`camera[1].fourcc` = \"RGB\" is out of range: allowed 4 ASCII characters, e.g. \"pRAA\" or \"RGGB\"",
+            ),
+            (
+                format!("{v4l2}fourcc = \"RGé\"\n"),
+                "`camera[0].fourcc` = \"RGé\" is out of range: allowed 4 ASCII characters, e.g. \"pRAA\" or \"RGGB\"",
+            ),
+            (
+                format!("[compute]\ndetector = \"ACF\"\n{MIN}"),
+                "`compute.detector` = \"ACF\" is out of range: allowed one of \"hog\", \"acf\"",
+            ),
+            (
+                format!("[compute]\nsvm = \"f16\"\n{MIN}"),
+                "`compute.svm` = \"f16\" is out of range: allowed one of \"f32\", \"i8\", \"auto\"",
+            ),
+            (
+                format!("[compute]\nmosaic_taps = \"Paper\"\n{MIN}"),
+                "`compute.mosaic_taps` = \"Paper\" is out of range: allowed one of \"model\", \"same-site\", \"paper\"",
+            ),
+            (
+                format!("[compute]\nmosaic_tone = \"gamma\"\n{MIN}"),
+                "`compute.mosaic_tone` = \"gamma\" is out of range: allowed one of \"model\", \"linear\", \"srgb\"",
+            ),
+            // a dotted key outside its table
+            (
+                format!("compute.wb_gains = \"2,0,1\"\n{MIN}"),
+                "`compute.wb_gains` = \"2,0,1\" is out of range: allowed \"auto\", \"file\", \"grey-world\", \"none\" or \"R,G,B\" (each finite, > 0 and < 16)",
+            ),
+            (
+                format!("[foxglove]\nlisten = \"localhost\"\n{MIN}"),
+                "`foxglove.listen` = \"localhost\" is out of range: allowed an IP address and port, e.g. \"127.0.0.1:8765\" or \"[::1]:8765\"",
+            ),
+            // a refused value that reads like the message itself
+            (
+                format!("[compute]\nsvm = \"x is out of range: allowed y\"\n{MIN}"),
+                "`compute.svm` = \"x is out of range: allowed y\" is out of range: allowed one of \"f32\", \"i8\", \"auto\"",
+            ),
+        ];
+        for (text, want) in cases {
+            let err = Config::from_toml_str(&text).unwrap_err();
+            assert!(matches!(err, ConfigError::OutOfRange { .. }), "{text}: {err:?}");
+            assert_eq!(err.to_string(), format!("config key {want}"), "{text}");
+        }
+        // A value of the wrong type is the parser's error, naming the key and the line.
+        let msg = Config::from_toml_str(&format!("{MIN}cfa = 3\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("config <string>: TOML parse error at line 4") && msg.contains("cfa = 3"),
+            "{msg}"
         );
+    }
+
+    #[test]
+    fn typed_values_are_written_back_as_their_names() {
+        let c = Config::from_toml_str(MIN).unwrap();
+        let text = toml::to_string(&c).unwrap();
+        for line in [
+            "detector = \"hog\"",
+            "svm = \"auto\"",
+            "mosaic_taps = \"model\"",
+            "mosaic_tone = \"model\"",
+            "wb_gains = \"auto\"",
+            "cfa = \"RGGB\"",
+        ] {
+            assert!(text.contains(line), "{line} not in {text}");
+        }
+        assert_eq!(Config::from_toml_str(&text).unwrap(), c);
+        let set = "[compute]\ndetector = \"acf\"\nsvm = \"i8\"\nmosaic_taps = \"paper\"\nmosaic_tone = \"srgb\"\n\
+             wb_gains = \"1.9,1,1.6\"\n[foxglove]\nlisten = \"[::1]:8765\"\n\
+             [[camera]]\nname = \"v\"\nsource = \"v4l2\"\ndevice = \"/dev/video0\"\ncfa = \"GBRG\"\nfourcc = \"pRAA\"\n";
+        let c = Config::from_toml_str(set).unwrap();
+        assert_eq!(
+            (
+                c.compute.detector,
+                c.compute.svm,
+                c.compute.mosaic_taps,
+                c.compute.mosaic_tone
+            ),
+            (
+                DetectorKind::Acf,
+                SvmSetting::Fixed(ScorePrecision::I8),
+                Some(MosaicTaps::Paper),
+                Some(MosaicTone::Srgb)
+            )
+        );
+        assert_eq!(
+            (c.cameras[0].cfa, c.cameras[0].fourcc),
+            (Cfa::Gbrg, Some(*b"pRAA"))
+        );
+        assert_eq!(c.foxglove.listen, Some("[::1]:8765".parse().unwrap()));
+        let text = toml::to_string(&c).unwrap();
+        for line in [
+            "detector = \"acf\"",
+            "svm = \"i8\"",
+            "mosaic_taps = \"paper\"",
+            "mosaic_tone = \"srgb\"",
+            "wb_gains = \"1.9,1,1.6\"",
+            "listen = \"[::1]:8765\"",
+            "cfa = \"GBRG\"",
+            "fourcc = \"pRAA\"",
+        ] {
+            assert!(text.contains(line), "{line} not in {text}");
+        }
+        assert_eq!(Config::from_toml_str(&text).unwrap(), c);
+        for g in ["file", "grey-world", "none"] {
+            let c = Config::from_toml_str(&format!("[compute]\nwb_gains = {g:?}\n{MIN}")).unwrap();
+            assert!(toml::to_string(&c)
+                .unwrap()
+                .contains(&format!("wb_gains = {g:?}")));
+        }
     }
 
     #[test]
     fn svm_precision_is_f32_i8_or_auto() {
         // The defaults: the SVM this CPU runs fastest, the approximate pyramid, the built-in model.
         let c = Config::from_toml_str(MIN).unwrap();
-        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::auto());
+        assert_eq!(c.compute.svm.precision(), ScorePrecision::auto());
         assert_eq!(c.compute.approx_levels, crate::detect::DEFAULT_APPROX_LEVELS);
         assert_eq!(c.compute.model, crate::detect::DEFAULT_MODEL);
         let c = Config::from_toml_str(&format!("[compute]\nsvm = \"f32\"\n{MIN}")).unwrap();
-        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::F32);
+        assert_eq!(c.compute.svm.precision(), ScorePrecision::F32);
         let c = Config::from_toml_str(&format!("[compute]\nsvm = \"i8\"\n{MIN}")).unwrap();
-        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::I8);
+        assert_eq!(c.compute.svm.precision(), ScorePrecision::I8);
         let c = Config::from_toml_str(&format!("[compute]\nsvm = \"auto\"\n{MIN}")).unwrap();
-        assert_eq!(c.compute.svm_precision().unwrap(), ScorePrecision::auto());
+        assert_eq!(c.compute.svm.precision(), ScorePrecision::auto());
         let msg = Config::from_toml_str(&format!("[compute]\nsvm = \"int8\"\n{MIN}"))
             .unwrap_err()
             .to_string();
@@ -774,18 +889,15 @@ mod tests {
     #[test]
     fn the_detector_is_hog_or_acf_and_acf_reads_its_own_model_key() {
         let c = Config::from_toml_str(MIN).unwrap();
-        assert_eq!(c.compute.detector_kind().unwrap(), DetectorKind::Hog);
+        assert_eq!(c.compute.detector, DetectorKind::Hog);
         assert_eq!(c.compute.acf_model, DEFAULT_ACF_MODEL);
         assert_eq!(
-            c.compute.model_key().unwrap(),
+            c.compute.model_key(),
             ("compute.model", crate::detect::DEFAULT_MODEL)
         );
         let c = Config::from_toml_str(&format!("[compute]\ndetector = \"acf\"\n{MIN}")).unwrap();
-        assert_eq!(c.compute.detector_kind().unwrap(), DetectorKind::Acf);
-        assert_eq!(
-            c.compute.model_key().unwrap(),
-            ("compute.acf_model", DEFAULT_ACF_MODEL)
-        );
+        assert_eq!(c.compute.detector, DetectorKind::Acf);
+        assert_eq!(c.compute.model_key(), ("compute.acf_model", DEFAULT_ACF_MODEL));
         for bad in ["ACF", "svm", ""] {
             let msg = Config::from_toml_str(&format!("[compute]\ndetector = {bad:?}\n{MIN}"))
                 .unwrap_err()

@@ -1,7 +1,8 @@
 //! The shipped ACF model (`models/acf-mosaic.json`) scores the same boxes with the same scores in
 //! the daemon (an MCAP recording replayed with `compute.detector = "acf"`), in `mosaicd detect`
 //! and in `mosaicd eval detection`, and the daemon's results are byte-identical for 1 and 2
-//! threads. One 8-bit frame serves all three: its RGB image read as a mosaic (`detect --as
+//! threads. `mosaicd replay` of the same recording writes the same boxes to its MCAP output: the
+//! `mosaicd.Detections` channel, and the `foxglove.ImageAnnotations` drawn on the preview. One 8-bit frame serves all three: its RGB image read as a mosaic (`detect --as
 //! mosaic`, `eval --inputs sampled`: the image sampled through RGGB, values as they are) and the
 //! same RGGB mosaic as raw files recorded into an MCAP (the daemon reads it in the linear tone,
 //! black 0, white 255: the same values). No shared data is read.
@@ -11,6 +12,8 @@ use std::process::{Command, Output};
 
 mod common;
 use common::frame_results;
+use mosaicd::wire::read::{read_annotations, read_detections, RecordingInfo};
+use mosaicd::wire::schema::annotations_from_detections;
 
 const EXE: &str = env!("CARGO_BIN_EXE_mosaicd");
 /// Low enough that the textured frame has boxes (the model's cascade threshold is below it).
@@ -215,4 +218,51 @@ fn the_acf_model_scores_the_same_in_the_daemon_detect_and_eval() {
             .collect(),
     );
     assert_eq!(daemon, detect, "the daemon and detect differ");
+
+    // the same boxes in the daemon's MCAP output: the detections channel, and the Foxglove
+    // annotations drawn on the preview (decimation 2 halves the coordinates)
+    let replay_cfg = d.join("acf-replay.toml");
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(&replay_cfg, format!("[record]\npreview_decimation = 2\n{text}")).unwrap();
+    let out_mcap = d.join("out.mcap");
+    ok(
+        Command::new(EXE)
+            .args([
+                "replay",
+                rec.to_str().unwrap(),
+                "--config",
+                replay_cfg.to_str().unwrap(),
+            ])
+            .args(["--out", out_mcap.to_str().unwrap(), "--no-publish"])
+            .output()
+            .unwrap(),
+        "replay",
+    );
+    let msgs = read_detections(&out_mcap, "replay").unwrap();
+    let topics = || {
+        format!(
+            "{:?}",
+            RecordingInfo::read(&out_mcap).map(|i| i.channels.into_keys().collect::<Vec<_>>())
+        )
+    };
+    assert_eq!(msgs.len(), 1, "one frame's detections; channels {}", topics());
+    let recorded = sorted(
+        msgs[0]
+            .detections
+            .iter()
+            .map(|b| [b.x, b.y, b.width, b.height, b.score])
+            .collect(),
+    );
+    assert_eq!(
+        recorded, daemon,
+        "the MCAP detections and the results file differ"
+    );
+    let ann = read_annotations(&out_mcap, "replay").unwrap();
+    assert_eq!(ann.len(), 1, "one frame's annotations");
+    assert_eq!(ann[0].message.points.len(), daemon.len());
+    assert_eq!(
+        ann[0].message,
+        annotations_from_detections(msgs[0].timestamp_ns, &msgs[0].detections, 2.0),
+        "the annotations are not the detections' boxes on the preview"
+    );
 }

@@ -114,6 +114,40 @@ fn check_exits_1_naming_the_key_of_every_problem() {
 }
 
 #[test]
+fn check_names_the_key_the_value_and_the_allowed_values_of_a_refused_typed_value() {
+    // Typed keys are parsed when the file is read; the message is the range errors' own, with
+    // the camera's index, not the TOML parser's.
+    let (_dir, cfg) = config_dir("[[camera]]\nname = \"two\"\nsource = \"synthetic\"\ncfa = \"RGBW\"\n");
+    let o = mosaicd(&["check", "--config", cfg.to_str().unwrap()]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains(
+            "\n  config key `camera[0].cfa` = \"RGBW\" is out of range: allowed one of RGGB, BGGR, GRBG, GBRG\n"
+        ),
+        "{t}"
+    );
+    assert!(!t.contains("TOML parse error"), "{t}");
+    let cases: [(&str, &str); 3] = [
+        (
+            "svm = \"int8\"",
+            "config key `compute.svm` = \"int8\" is out of range: allowed one of \"f32\", \"i8\", \"auto\"",
+        ),
+        (
+            "wb_gains = \"warm\"",
+            "config key `compute.wb_gains` = \"warm\" is out of range: allowed \"auto\", \"file\", \"grey-world\", \"none\" or \"R,G,B\" (each finite, > 0 and < 16)",
+        ),
+        (
+            "mosaic_tone = \"gamma\"",
+            "config key `compute.mosaic_tone` = \"gamma\" is out of range: allowed one of \"model\", \"linear\", \"srgb\"",
+        ),
+    ];
+    for (extra, want) in cases {
+        check_fails_naming(extra, &[want]);
+    }
+}
+
+#[test]
 fn check_opens_no_camera_and_no_shared_memory() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("iox");

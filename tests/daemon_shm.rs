@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStderr, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use mosaicd::publish::service::{create_node, detections_service, publisher, segment_prefix, PublishError};
+use mosaicd::publish::{create_node, detections_service, publisher, segment_prefix, PublishError};
 
 mod common;
 

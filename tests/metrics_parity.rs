@@ -3,9 +3,7 @@
 //! tests/oracle/gen_metrics.py: run `make oracle`).
 
 use mosaicd::image::Image;
-use mosaicd::metrics::gmsd::gmsd_xue2014;
-use mosaicd::metrics::psnr::{mse, psnr};
-use mosaicd::metrics::ssim::{mssim, mssim_per_channel, ssim_map, SsimOptions};
+use mosaicd::metrics::{gmsd_xue2014, mse, mssim, mssim_per_channel, psnr, ssim_map, SsimOptions};
 use mosaicd::npy::NpyArray;
 use std::path::PathBuf;
 

@@ -5,7 +5,7 @@
 
 use std::process::Command;
 
-use mosaicd::publish::service::{create_node, detections_service, subscriber};
+use mosaicd::publish::{create_node, detections_service, subscriber};
 
 #[test]
 fn a_stalled_subscriber_does_not_block_publishing() {
@@ -13,7 +13,7 @@ fn a_stalled_subscriber_does_not_block_publishing() {
     let node = create_node(
         &format!("stalltest{}", std::process::id()),
         false,
-        &mosaicd::publish::service::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
+        &mosaicd::publish::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
     )
     .unwrap();
     let svc = detections_service(&node, &prefix, &camera, 2).unwrap();

@@ -32,7 +32,7 @@ fn python() -> Command {
 #[test]
 fn python_resolves_the_root_and_segment_prefix_as_the_daemon() {
     use mosaicd::config::Iox2Root;
-    use mosaicd::publish::service::{resolve_root, segment_prefix, RootEnv};
+    use mosaicd::publish::{resolve_root, segment_prefix, RootEnv};
     let t = tempfile::tempdir().unwrap();
     let base = t.path();
     std::fs::create_dir(base.join("xdg")).unwrap();
@@ -265,12 +265,12 @@ fn a_python_process_reads_what_the_daemon_publishes() {
 /// subscriber buffer than it asks for, and a keypoints service of another message version.
 #[test]
 fn an_incompatible_service_is_a_clear_error() {
-    use mosaicd::publish::service::{create_node, detections_service};
+    use mosaicd::publish::{create_node, detections_service};
     let prefix = format!("pyx{}", std::process::id());
     let node = create_node(
         &format!("pyx-test-{}", std::process::id()),
         false,
-        &mosaicd::publish::service::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
+        &mosaicd::publish::root_dir(&mosaicd::config::Iox2Root::Auto).unwrap(),
     )
     .unwrap();
     let _det = detections_service(&node, &prefix, "c", 4).unwrap();

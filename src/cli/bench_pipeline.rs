@@ -14,15 +14,16 @@ use serde_json::json;
 
 use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
 use mosaicd::clock::ReplayClock;
-use mosaicd::config::Config;
 use mosaicd::config::PublishConfig;
+use mosaicd::config::{Config, SvmSetting};
+use mosaicd::detect::people::DetectorKind;
 use mosaicd::detect::ScorePrecision;
 use mosaicd::pipeline::daemon::{load_detector, stage_spec};
 use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
 use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
 use mosaicd::pipeline::stage::Stage;
 use mosaicd::pool::BufferPool;
-use mosaicd::publish::service::{create_node, detections_service, subscriber};
+use mosaicd::publish::{create_node, detections_service, subscriber};
 
 use super::detect_common::SvmArg;
 
@@ -159,7 +160,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
     let mut cfg = Config::default();
     cfg.compute.detect = !a.no_detect;
     if let Some(m) = &a.acf_model {
-        cfg.compute.detector = "acf".into();
+        cfg.compute.detector = DetectorKind::Acf;
         cfg.compute.acf_model = m.clone();
     }
     let detector = match &a.acf_model {
@@ -173,11 +174,11 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         (None, false) => format!("on (hog, approx {}, svm {})", a.approx_levels, svm),
     };
     cfg.compute.approx_levels = a.approx_levels;
-    cfg.compute.svm = svm.name().into();
+    cfg.compute.svm = SvmSetting::Fixed(svm);
     cfg.compute.keypoints = a.keypoints;
     cfg.compute.keypoint_descriptors = a.descriptors;
     cfg.compute.keypoints_double = a.keypoints_double;
-    let stage = Stage::new(stage_spec(&cfg)?, load_detector(&cfg)?)?;
+    let stage = Stage::new(stage_spec(&cfg), load_detector(&cfg)?)?;
     let cam = format!("bench{}", std::process::id());
     let (fps, p50, p99) = one_run(&a, &cam, &stage)?;
     println!(
@@ -193,7 +194,7 @@ pub fn run(a: BenchPipelineArgs) -> anyhow::Result<()> {
         let node = create_node(
             &format!("mosaicd-bench-stall-{}", std::process::id()),
             true,
-            &mosaicd::publish::service::root_dir(&PublishConfig::default().root)?,
+            &mosaicd::publish::root_dir(&PublishConfig::default().root)?,
         )?;
         let svc = detections_service(
             &node,

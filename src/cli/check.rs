@@ -45,11 +45,8 @@ pub fn problems(path: &Path, info: &mut Vec<String>) -> Vec<String> {
         ));
     }
     if cfg.compute.detect {
-        // the key of the configured detector's model (a bad compute.detector fails the load)
-        let (key, model) = cfg
-            .compute
-            .model_key()
-            .unwrap_or(("compute.model", &cfg.compute.model));
+        // the key of the configured detector's model
+        let (key, model) = cfg.compute.model_key();
         match mosaicd::pipeline::daemon::load_detector(&cfg) {
             Ok(_) => info.push(format!(
                 "{key}: {model} loads ({} detector)",

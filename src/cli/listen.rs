@@ -20,7 +20,7 @@ use iceoryx2::node::NodeWaitFailure;
 
 use mosaicd::config::Iox2Root;
 use mosaicd::publish::messages::{DescriptorsMsg, DetectionsMsg, KeypointsMsg};
-use mosaicd::publish::service::{
+use mosaicd::publish::{
     create_node, descriptors_service, detections_service, gradients_service, keypoints_service, root_dir,
     stats_service, subscriber,
 };

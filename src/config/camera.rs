@@ -1,10 +1,11 @@
-//! `[[camera]]`: one camera's source and sensor.
+//! `[[camera]]`: one camera's source and sensor. Its string keys `cfa` and `fourcc` are typed,
+//! parsed when the file is read ([`super::value`]).
 
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::ConfigError;
+use super::value;
 use crate::raw::Cfa;
 
 /// Which kind of source a camera reads.
@@ -71,8 +72,12 @@ pub struct CameraConfig {
     #[serde(default = "default_bit_depth")]
     pub bit_depth: u8,
     /// CFA pattern (synthetic): `RGGB`, `BGGR`, `GRBG`, `GBRG`.
-    #[serde(default = "default_cfa")]
-    pub cfa: String,
+    #[serde(
+        default = "default_cfa",
+        deserialize_with = "value::cfa_de",
+        serialize_with = "value::cfa_ser"
+    )]
+    pub cfa: Cfa,
     /// Frame rate (synthetic when live, V4L2 request) (`0 < fps <= 1000`).
     #[serde(default = "default_fps")]
     pub fps: f64,
@@ -83,9 +88,14 @@ pub struct CameraConfig {
     #[serde(default)]
     pub live: bool,
     /// V4L2 only: the preferred FourCC (4 characters, e.g. `"pRAA"`); default: the first Bayer
-    /// format the driver offers, in our preference order.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fourcc: Option<String>,
+    /// format the driver offers, in our preference order. The code's bytes (ASCII).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "value::fourcc_de",
+        serialize_with = "value::fourcc_ser"
+    )]
+    pub fourcc: Option<[u8; 4]>,
     /// V4L2 only: the sensor's black level in raw units (V4L2 does not report it); needs `white`.
     /// Default 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -108,8 +118,8 @@ pub(super) fn default_bit_depth() -> u8 {
     12
 }
 
-pub(super) fn default_cfa() -> String {
-    "RGGB".into()
+pub(super) fn default_cfa() -> Cfa {
+    Cfa::Rggb
 }
 
 pub(super) fn default_fps() -> f64 {
@@ -144,21 +154,5 @@ impl CameraConfig {
     pub fn levels(&self) -> Option<crate::raw::Levels> {
         self.white
             .map(|w| crate::raw::Levels::uniform(self.black.unwrap_or(0), w))
-    }
-
-    /// The preferred FourCC for a V4L2 camera (validated by [`Config::validate`](super::Config::validate)).
-    pub fn fourcc_bytes(&self) -> Option<[u8; 4]> {
-        self.fourcc
-            .as_deref()
-            .and_then(crate::capture::v4l2_formats::parse_fourcc)
-    }
-
-    /// The parsed CFA pattern (validated by [`Config::validate`](super::Config::validate)).
-    pub fn cfa(&self) -> Result<Cfa, ConfigError> {
-        self.cfa.parse::<Cfa>().map_err(|_| ConfigError::OutOfRange {
-            key: "camera.cfa".into(),
-            value: format!("{:?}", self.cfa),
-            allowed: "one of RGGB, BGGR, GRBG, GBRG".into(),
-        })
     }
 }

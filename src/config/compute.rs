@@ -1,12 +1,14 @@
-//! `[compute]`: the per-frame stages and the detector, with the accessors that read its settings.
+//! `[compute]`: the per-frame stages and the detector. Its string keys are typed: `detector`,
+//! `svm`, `mosaic_taps`, `mosaic_tone` and `wb_gains` are parsed when the file is read
+//! ([`super::value`]).
 
 use serde::{Deserialize, Serialize};
 
-use super::error::ConfigError;
+use super::value::{self, SvmSetting};
 use crate::detect::people::DetectorKind;
-use crate::detect::ScorePrecision;
-use crate::features::hog::{MosaicTaps, MosaicTone};
-use crate::raw::levels::{Compression, Gains, NormaliseOptions};
+use crate::features::hog::MosaicTaps;
+use crate::raw::levels::Gains;
+use crate::raw::tone::MosaicTone;
 
 /// The default `compute.acf_model`: the shipped raw-mosaic ACF model (`models/acf-mosaic.json`,
 /// installed into [`SYSTEM_MODEL_DIR`](super::SYSTEM_MODEL_DIR)).
@@ -20,8 +22,12 @@ pub struct ComputeConfig {
     pub detect: bool,
     /// Which detector: `"hog"` (multi-scale HOG + linear SVM with the model of `model`; the
     /// default) or `"acf"` (aggregated channel features, boosted trees with a soft cascade, with
-    /// the model file of `acf_model`; docs/acf.md). [`ComputeConfig::detector_kind`] parses it.
-    pub detector: String,
+    /// the model file of `acf_model`; docs/acf.md).
+    #[serde(
+        deserialize_with = "value::detector_de",
+        serialize_with = "value::detector_ser"
+    )]
+    pub detector: DetectorKind,
     /// With `detector = "acf"`: the ACF model file (`mosaicd train --detector acf`; default
     /// `acf-mosaic.json`, the shipped raw-mosaic model `models/acf-mosaic.json`). A relative path
     /// is looked for like `model`'s: in the config file's directory, then in [`SYSTEM_MODEL_DIR`](super::SYSTEM_MODEL_DIR).
@@ -53,23 +59,36 @@ pub struct ComputeConfig {
     /// exact integer sums, scores within ≈0.04 of f32: measured faster than f32 on x86-64, most
     /// with AVX-512 VNNI or AVX-VNNI; on aarch64 without the dot product it is not, which is
     /// warned about at start-up) or `"auto"` (`"i8"` where it was measured faster, `"f32"`
-    /// elsewhere: [`ScorePrecision::auto_for`]; the default).
-    pub svm: String,
+    /// elsewhere: [`ScorePrecision::auto_for`](crate::detect::ScorePrecision::auto_for); the default).
+    #[serde(deserialize_with = "value::svm_de", serialize_with = "value::svm_ser")]
+    pub svm: SvmSetting,
     /// Derivative of the detector's mosaic features: `"model"` (what the model file says; OpenCV
     /// weights and files without the field: same-site), `"same-site"` (`(I(x+2) − I(x−2))/2`) or
     /// `"paper"` (`I(x+1) − I(x−1)`, the paper's `[-1, 0, 1]` on the mosaic: better on clean
-    /// frames, worse under noise; docs/detection.md, "The mosaic derivative").
-    pub mosaic_taps: String,
+    /// frames, worse under noise; docs/detection.md, "The mosaic derivative"). `None` is `"model"`.
+    #[serde(
+        deserialize_with = "value::mosaic_taps_de",
+        serialize_with = "value::mosaic_taps_ser"
+    )]
+    pub mosaic_taps: Option<MosaicTaps>,
     /// How raw values become the detector's mosaic: `"model"` (what the model file says; OpenCV's
     /// weights and files without the field: `linear`), `"linear"` (black-subtracted and
     /// scaled, the paper's raw mosaic) or `"srgb"` (each site white balanced, clipped and
-    /// sRGB-encoded; no demosaicing: docs/detection.md, "The mosaic's tone").
-    pub mosaic_tone: String,
+    /// sRGB-encoded; no demosaicing: docs/detection.md, "The mosaic's tone"). `None` is `"model"`.
+    #[serde(
+        deserialize_with = "value::mosaic_tone_de",
+        serialize_with = "value::mosaic_tone_ser"
+    )]
+    pub mosaic_tone: Option<MosaicTone>,
     /// White-balance gains of the `srgb` tone: `"auto"` (the frame's own when its source has them,
     /// otherwise a grey-world estimate from each frame), `"file"` (the frame's own; a frame
     /// without them is an error), `"grey-world"`, `"none"` or `"R,G,B"` (fixed, e.g. the
-    /// camera's daylight gains).
-    pub wb_gains: String,
+    /// camera's daylight gains; each finite, > 0 and < 16).
+    #[serde(
+        deserialize_with = "value::wb_gains_de",
+        serialize_with = "value::wb_gains_ser"
+    )]
+    pub wb_gains: Gains,
     /// Orientation bins over 0..180 degrees (`1..=36`, the paper uses 9).
     pub orientation_bins: usize,
     /// Rows per parallel strip (`2..=4096`, even).
@@ -90,7 +109,7 @@ impl Default for ComputeConfig {
     fn default() -> Self {
         Self {
             detect: true,
-            detector: DetectorKind::Hog.name().into(),
+            detector: DetectorKind::Hog,
             acf_model: DEFAULT_ACF_MODEL.into(),
             model: crate::detect::DEFAULT_MODEL.into(),
             hit_threshold: 0.0,
@@ -98,10 +117,10 @@ impl Default for ComputeConfig {
             max_levels: 64,
             upsample: 1.0,
             approx_levels: crate::detect::DEFAULT_APPROX_LEVELS,
-            svm: "auto".into(),
-            mosaic_taps: "model".into(),
-            mosaic_tone: "model".into(),
-            wb_gains: "auto".into(),
+            svm: SvmSetting::Auto,
+            mosaic_taps: None,
+            mosaic_tone: None,
+            wb_gains: Gains::Auto,
             orientation_bins: 9,
             strip_rows: 64,
             keypoints: false,
@@ -111,83 +130,13 @@ impl Default for ComputeConfig {
     }
 }
 
-/// A `"model"`-or-value key: `None` for `"model"` (the model file's own), else `value` parsed.
-pub(super) fn model_override<T: std::str::FromStr>(
-    key: &str,
-    value: &str,
-    allowed: &str,
-) -> Result<Option<T>, ConfigError> {
-    match value {
-        "model" => Ok(None),
-        s => s.parse().map(Some).map_err(|_| ConfigError::OutOfRange {
-            key: key.into(),
-            value: format!("{value:?}"),
-            allowed: allowed.into(),
-        }),
-    }
-}
-
 impl ComputeConfig {
-    /// `detector` parsed.
-    pub fn detector_kind(&self) -> Result<DetectorKind, ConfigError> {
-        self.detector.parse().map_err(|_| ConfigError::OutOfRange {
-            key: "compute.detector".into(),
-            value: format!("{:?}", self.detector),
-            allowed: "one of \"hog\", \"acf\"".into(),
-        })
-    }
-
     /// The model file or name the configured detector reads, and its key: `acf_model` for
     /// `detector = "acf"`, else `model`.
-    pub fn model_key(&self) -> Result<(&'static str, &str), ConfigError> {
-        Ok(match self.detector_kind()? {
+    pub fn model_key(&self) -> (&'static str, &str) {
+        match self.detector {
             DetectorKind::Hog => ("compute.model", &self.model),
             DetectorKind::Acf => ("compute.acf_model", &self.acf_model),
-        })
-    }
-
-    /// `mosaic_taps` parsed: `None` = the model's own.
-    pub fn mosaic_taps_override(&self) -> Result<Option<MosaicTaps>, ConfigError> {
-        model_override(
-            "compute.mosaic_taps",
-            &self.mosaic_taps,
-            "one of \"model\", \"same-site\", \"paper\"",
-        )
-    }
-
-    /// `mosaic_tone` parsed: `None` = the model's own.
-    pub fn mosaic_tone_override(&self) -> Result<Option<MosaicTone>, ConfigError> {
-        model_override(
-            "compute.mosaic_tone",
-            &self.mosaic_tone,
-            "one of \"model\", \"linear\", \"srgb\"",
-        )
-    }
-
-    /// `wb_gains` parsed (fixed gains checked: finite, > 0 and < 16).
-    pub fn wb_gains(&self) -> Result<Gains, ConfigError> {
-        let bad = || ConfigError::OutOfRange {
-            key: "compute.wb_gains".into(),
-            value: format!("{:?}", self.wb_gains),
-            allowed: "\"auto\", \"file\", \"grey-world\", \"none\" or \"R,G,B\" (each finite, > 0 and < 16)"
-                .into(),
-        };
-        let g: Gains = self.wb_gains.parse().map_err(|_| bad())?;
-        NormaliseOptions {
-            gains: g,
-            compression: Compression::None,
         }
-        .build()
-        .map_err(|_| bad())?;
-        Ok(g)
-    }
-
-    /// `svm` parsed (`"auto"` resolved for this CPU's kernel path).
-    pub fn svm_precision(&self) -> Result<ScorePrecision, ConfigError> {
-        self.svm.parse().map_err(|_| ConfigError::OutOfRange {
-            key: "compute.svm".into(),
-            value: format!("{:?}", self.svm),
-            allowed: "one of \"f32\", \"i8\", \"auto\"".into(),
-        })
     }
 }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::ConfigError;
+use super::value;
 
 /// `[publish]`: iceoryx2 services `<prefix>/<camera>/{detections,gradients,stats}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -21,7 +21,7 @@ pub struct PublishConfig {
     /// Keep every n-th gradient pixel in x and y (`1..=64`).
     pub gradients_decimation: usize,
     /// The directory iceoryx2 keeps its files in: `"auto"` (the default: resolved per process by
-    /// [`crate::publish::service::resolve_root`], so that it works under systemd, as root and as an
+    /// [`crate::publish::resolve_root`], so that it works under systemd, as root and as an
     /// ordinary user alike) or an absolute path. Created `0750` when missing; one of another user
     /// is refused. Subscribers (`mosaicd listen`, the Python client) of the same user resolve
     /// `"auto"` to the same directory; with a path, pass them the same `--root`.
@@ -32,7 +32,7 @@ pub struct PublishConfig {
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(from = "PathBuf", into = "PathBuf")]
 pub enum Iox2Root {
-    /// Chosen from the process's environment and user ([`crate::publish::service::resolve_root`]).
+    /// Chosen from the process's environment and user ([`crate::publish::resolve_root`]).
     #[default]
     Auto,
     /// This directory (must be absolute: [`Config::validate`](super::Config::validate) refuses a relative one).
@@ -81,7 +81,8 @@ impl Default for PublishConfig {
 pub struct FoxgloveConfig {
     /// Address to listen on, `"host:port"` (e.g. `"127.0.0.1:8765"`, Foxglove's default; port 0
     /// picks a free one, logged at start). Unset: no live view, no socket.
-    pub listen: Option<String>,
+    #[serde(deserialize_with = "value::listen_de", serialize_with = "value::listen_ser")]
+    pub listen: Option<std::net::SocketAddr>,
     /// The live preview keeps every n-th 2x2 tile of the mosaic (`1..=16`; 2 makes a 1080p frame
     /// a 960x540 `foxglove.RawImage`, 518 kB).
     pub preview_decimation: u32,
@@ -102,20 +103,6 @@ impl Default for FoxgloveConfig {
 }
 
 impl FoxgloveConfig {
-    /// The validated listen address (`None`: live view off).
-    pub fn listen_addr(&self) -> Result<Option<std::net::SocketAddr>, ConfigError> {
-        self.listen
-            .as_deref()
-            .map(|l| {
-                l.parse().map_err(|_| ConfigError::OutOfRange {
-                    key: "foxglove.listen".into(),
-                    value: format!("{l:?}"),
-                    allowed: "an IP address and port, e.g. \"127.0.0.1:8765\" or \"[::1]:8765\"".into(),
-                })
-            })
-            .transpose()
-    }
-
     /// Whether the live view is on.
     pub fn enabled(&self) -> bool {
         self.listen.is_some()

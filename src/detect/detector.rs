@@ -166,7 +166,6 @@ impl Detector {
         let hog = model.hog_spec("detector model")?;
         let score_weights = ScoreWeights::new(&hog, &model.weights, model.bias)?;
         opts.svm.warn_if_slow();
-        crate::features::hog::warn_if_approx_slow(opts.approx_levels, hog.nbins());
         let score_weights_i8 = match opts.svm {
             ScorePrecision::F32 => None,
             ScorePrecision::I8 => Some(ScoreWeightsI8::new(&score_weights)?),

@@ -31,7 +31,7 @@
 //! three sources agree with `usc_boxes_derived.csv` box for box).
 //!
 //! # Matching and AP
-//! [`crate::metrics::detection::match_detections`]: detections of all images sorted by score, each
+//! `metrics::detection::match_detections`: detections of all images sorted by score, each
 //! matched to the unmatched ground-truth box of its image with the highest IoU ≥ 0.5, otherwise a
 //! false positive (duplicates included); AP is the VOC 2010+ all-points area under the monotone
 //! precision envelope; recall is the fraction of boxes matched at the loosest threshold.
@@ -60,7 +60,7 @@ use crate::metrics::detection::{
     average_precision, log_average_miss_rate, match_detections, mr_fppi_curve, ApMethod, DetPoint,
     ImageDetections, MatchedDetections, Rect,
 };
-/// Re-exported from [`crate::metrics::interval`], where it lives.
+/// Re-exported from [`crate::metrics`], where it lives.
 pub use crate::metrics::interval::Interval;
 use crate::raw::levels::Gains;
 use crate::raw::Cfa;
@@ -839,7 +839,7 @@ impl PerImageMatches {
     }
 
     /// The matched detections of the images `idx` (repeats allowed), ranked by score; ties keep
-    /// the order of `idx`. Equal to [`match_detections`] of those images.
+    /// the order of `idx`. Equal to `match_detections` of those images.
     pub fn resample(&self, idx: &[usize]) -> MatchedDetections {
         let mut ranked: Vec<(f32, bool)> = idx
             .iter()

@@ -129,9 +129,8 @@ pub use crate::raw::tone::{
     mosaic_from_raw_with, MosaicTone, ToneTables,
 };
 pub use approx::{
-    approx_block_rows, approx_slow_reason, block_and_micro_grids_from_gamma_planes, block_grid_dims,
-    blocks_from_micro_grid, micro_grid_from_gamma_planes, warn_if_approx_slow, ApproxLevel, MicroGrid,
-    SweepBuffers, MICRO_CELL,
+    approx_block_rows, block_and_micro_grids_from_gamma_planes, block_grid_dims, blocks_from_micro_grid,
+    micro_grid_from_gamma_planes, ApproxLevel, MicroGrid, SweepBuffers, MICRO_CELL,
 };
 pub use blocks::{block_grid_from_gamma_planes, blocks_from_cells, BlockGrid, BAND_BLOCK_ROWS};
 pub use cells::{cell_grid, cell_grid_from_gamma_planes, CellGrid};

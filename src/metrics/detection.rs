@@ -1,7 +1,7 @@
 //! Detection metrics: DET curves (miss rate vs FPPW / FPPI) and PASCAL average precision.
 //!
 //! ```
-//! use mosaicd::metrics::detection::{det_curve, miss_rate_at_fppw};
+//! use mosaicd::metrics::{det_curve, miss_rate_at_fppw};
 //! // Positive windows score high, negative windows low, one negative is a hard false positive.
 //! let pos = [2.0, 1.5, 0.5, -0.2];
 //! let neg = [0.7, -1.0, -1.2, -2.0];
@@ -39,11 +39,11 @@
 use super::{MetricsError, Result};
 use crate::geometry::Detection;
 /// Re-exported from [`crate::geometry`], where it lives.
-pub use crate::geometry::Rect;
+pub(crate) use crate::geometry::Rect;
 use serde::{Deserialize, Serialize};
 
 /// PASCAL's overlap threshold for a true positive.
-pub const PASCAL_IOU: f64 = 0.5;
+pub(crate) const PASCAL_IOU: f64 = 0.5;
 /// Dalal & Triggs' reference false-positive-per-window rate.
 pub const DALAL_FPPW: f64 = 1e-4;
 
@@ -122,7 +122,7 @@ pub fn miss_rate_at_fppw(curve: &[DetPoint], target: f64) -> f64 {
 }
 
 /// Intersection over union of two boxes (0 when either is empty).
-pub fn iou(a: &Rect, b: &Rect) -> f64 {
+pub(crate) fn iou(a: &Rect, b: &Rect) -> f64 {
     let (ax0, ay0, ax1, ay1) = (
         a.x as f64,
         a.y as f64,
@@ -149,7 +149,7 @@ pub fn iou(a: &Rect, b: &Rect) -> f64 {
 
 /// How the area under the precision/recall curve is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ApMethod {
+pub(crate) enum ApMethod {
     /// VOC 2010+: area under the monotone (non-increasing) precision envelope at every recall step.
     AllPoints,
     /// VOC 2007: mean of the envelope's precision at recall 0, 0.1, …, 1.
@@ -177,7 +177,7 @@ pub struct MatchedDetections {
 }
 
 /// Greedy PASCAL matching of every image's detections (highest score first) to its ground truth.
-pub fn match_detections(images: &[ImageDetections], iou_threshold: f64) -> Result<MatchedDetections> {
+pub(crate) fn match_detections(images: &[ImageDetections], iou_threshold: f64) -> Result<MatchedDetections> {
     if !(iou_threshold > 0.0 && iou_threshold <= 1.0) {
         return Err(MetricsError::InvalidParameter {
             name: "iou_threshold",
@@ -237,7 +237,7 @@ pub struct ApResult {
 }
 
 /// PASCAL average precision of matched detections. With no ground truth the AP is undefined: error.
-pub fn average_precision(m: &MatchedDetections, method: ApMethod) -> Result<ApResult> {
+pub(crate) fn average_precision(m: &MatchedDetections, method: ApMethod) -> Result<ApResult> {
     if m.n_ground_truth == 0 {
         return Err(MetricsError::NoSamples { what: "ground truth" });
     }
@@ -290,14 +290,14 @@ pub fn average_precision(m: &MatchedDetections, method: ApMethod) -> Result<ApRe
     })
 }
 
-/// Convenience: match with [`PASCAL_IOU`] and compute the all-points AP.
+/// Convenience: match with `PASCAL_IOU` (IoU 0.5) and compute the all-points AP.
 pub fn pascal_ap(images: &[ImageDetections]) -> Result<ApResult> {
     average_precision(&match_detections(images, PASCAL_IOU)?, ApMethod::AllPoints)
 }
 
 /// One point of a miss rate vs false positives per image curve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FppiPoint {
+pub(crate) struct FppiPoint {
     /// Score threshold.
     pub threshold: f64,
     /// False positives per image.
@@ -307,7 +307,7 @@ pub struct FppiPoint {
 }
 
 /// Miss rate vs FPPI from matched detections, strictest threshold first.
-pub fn mr_fppi_curve(m: &MatchedDetections) -> Result<Vec<FppiPoint>> {
+pub(crate) fn mr_fppi_curve(m: &MatchedDetections) -> Result<Vec<FppiPoint>> {
     if m.n_ground_truth == 0 {
         return Err(MetricsError::NoSamples { what: "ground truth" });
     }
@@ -342,7 +342,7 @@ pub fn mr_fppi_curve(m: &MatchedDetections) -> Result<Vec<FppiPoint>> {
 
 /// Log-average miss rate over the 9 FPPI points `10^(-2 … 0 step 0.25)`: the geometric mean of the
 /// lowest miss rate at `FPPI ≤` each point (1 when the curve does not reach it).
-pub fn log_average_miss_rate(curve: &[FppiPoint]) -> f64 {
+pub(crate) fn log_average_miss_rate(curve: &[FppiPoint]) -> f64 {
     /// Floor avoiding log(0), as in Dollár's toolbox.
     const MR_FLOOR: f64 = 1e-10;
     let refs = (0..9).map(|k| 10f64.powf(-2.0 + 0.25 * k as f64));

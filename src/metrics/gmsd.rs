@@ -12,7 +12,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::metrics::gmsd::{gmsd, gms_stats, PAPER_C};
+//! use mosaicd::metrics::{gms_stats, gmsd, PAPER_C};
 //! let g = Image::<f32>::from_fn(8, 8, |x, y| (x + y) as f32 / 14.0);
 //! assert_eq!(gmsd(g.view(), g.view(), PAPER_C).unwrap(), 0.0);
 //! let half = g.map(|v| v * 0.5);
@@ -60,7 +60,7 @@ use rayon::prelude::*;
 pub const PAPER_C: f64 = 0.0026;
 
 /// Xue et al.'s constant `T` for luminance on 0..255.
-pub const XUE_T: f64 = 170.0;
+pub(crate) const XUE_T: f64 = 170.0;
 
 /// Rows per rayon task when computing the GMS map.
 const STRIP_ROWS: usize = 32;

@@ -5,10 +5,14 @@
 //!
 //! | file | what |
 //! |---|---|
-//! | [`gmsd`] | gradient magnitude similarity map and deviation between two gradient maps (paper eqs. 21–23), and the reference GMSD of Xue et al. 2014 between two images ([`gmsd::gmsd_xue2014`]) |
-//! | [`psnr`] | mean squared error and peak signal-to-noise ratio with an explicit data range |
-//! | [`ssim`] | SSIM map and mean SSIM (Wang et al. 2004), matching `skimage.metrics.structural_similarity` with Gaussian weights |
-//! | [`detection`] | miss rate vs false positives per window (DET curve) and PASCAL average precision |
+//! | `gmsd.rs` | gradient magnitude similarity map and deviation between two gradient maps (paper eqs. 21–23: [`gms_stats`], [`gmsd`]), and the reference GMSD of Xue et al. 2014 between two images ([`gmsd_xue2014`]) |
+//! | `psnr.rs` | mean squared error and peak signal-to-noise ratio with an explicit data range ([`mse`], [`psnr`]) |
+//! | `ssim.rs` | SSIM map and mean SSIM (Wang et al. 2004), matching `skimage.metrics.structural_similarity` with Gaussian weights ([`ssim_map`], [`mssim`]) |
+//! | `detection.rs` | miss rate vs false positives per window (DET curve: [`det_curve`]) and PASCAL average precision |
+//! | `interval.rs` | a bootstrap confidence interval ([`Interval`]) |
+//!
+//! The files are private behind this facade: what other crates use is re-exported here; the rest
+//! is `pub(crate)`, for the evaluation code and the trainer.
 //!
 //! All image metrics read [`ImageView`] values of `f32` (grey) or `[f32; 3]`
 //! (RGB, via the [`Pixel`] trait) and accumulate in `f64`. The two images must have the same size;
@@ -16,18 +20,24 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::metrics::{psnr::psnr, ssim::{mssim, SsimOptions}};
+//! use mosaicd::metrics::{mssim, psnr, SsimOptions};
 //! let a = Image::<f32>::from_fn(32, 32, |x, y| ((x * 7 + y * 3) % 11) as f32 / 10.0);
 //! assert!(psnr(a.view(), a.view(), 1.0).unwrap().is_infinite());
 //! let spec = SsimOptions::with_data_range(1.0).build().unwrap();
 //! assert!((mssim(a.view(), a.view(), &spec).unwrap() - 1.0).abs() < 1e-12);
 //! ```
 
-pub mod detection;
-pub mod gmsd;
-pub mod interval;
-pub mod psnr;
-pub mod ssim;
+pub(crate) mod detection;
+pub(crate) mod gmsd;
+pub(crate) mod interval;
+pub(crate) mod psnr;
+pub(crate) mod ssim;
+
+pub use detection::{det_curve, miss_rate_at_fppw, pascal_ap, DetPoint, DALAL_FPPW};
+pub use gmsd::{gms_map, gms_map_into, gms_stats, gmsd, gmsd_xue2014, GmsStats, PAPER_C};
+pub use interval::Interval;
+pub use psnr::{mse, psnr, psnr_from_mse};
+pub use ssim::{mssim, mssim_per_channel, ssim_map, SsimOptions, SsimSpec};
 
 use crate::image::ImageView;
 use thiserror::Error;

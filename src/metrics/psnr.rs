@@ -2,7 +2,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::metrics::psnr::{mse, psnr};
+//! use mosaicd::metrics::{mse, psnr};
 //! let a = Image::<f32>::filled(4, 4, 100.0);
 //! let b = Image::<f32>::filled(4, 4, 110.0);
 //! assert_eq!(mse(a.view(), b.view()).unwrap(), 100.0);

@@ -2,7 +2,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::metrics::ssim::{mssim, ssim_map, SsimOptions};
+//! use mosaicd::metrics::{mssim, ssim_map, SsimOptions};
 //! let a = Image::<f32>::from_fn(24, 20, |x, y| ((x * 5 + y * 3) % 13) as f32 * 10.0);
 //! let b = a.map(|v| v * 0.9 + 5.0);
 //! let spec = SsimOptions::with_data_range(255.0).build().unwrap();
@@ -47,13 +47,13 @@ use crate::image::{Image, ImageView};
 use rayon::prelude::*;
 
 /// Gaussian window standard deviation of Wang et al. 2004.
-pub const DEFAULT_SIGMA: f64 = 1.5;
+pub(crate) const DEFAULT_SIGMA: f64 = 1.5;
 /// Luminance stabiliser constant K1 of Wang et al. 2004.
-pub const DEFAULT_K1: f64 = 0.01;
+pub(crate) const DEFAULT_K1: f64 = 0.01;
 /// Contrast stabiliser constant K2 of Wang et al. 2004.
-pub const DEFAULT_K2: f64 = 0.03;
+pub(crate) const DEFAULT_K2: f64 = 0.03;
 /// Truncation of the Gaussian in standard deviations (scikit-image's value).
-pub const DEFAULT_TRUNCATE: f64 = 3.5;
+pub(crate) const DEFAULT_TRUNCATE: f64 = 3.5;
 /// Rows per rayon task in the filter passes.
 const STRIP_ROWS: usize = 16;
 
@@ -263,7 +263,7 @@ fn ssim_map_impl(
 
 /// SSIM map of two grey images into `dst` (resized to the input size). Each window is computed
 /// in `f64`; the map is stored as `f32`.
-pub fn ssim_map_into(
+pub(crate) fn ssim_map_into(
     a: ImageView<'_, f32>,
     b: ImageView<'_, f32>,
     spec: &SsimSpec,
@@ -272,7 +272,7 @@ pub fn ssim_map_into(
     ssim_map_impl(a, b, spec, dst, true)
 }
 
-/// Allocating form of [`ssim_map_into`].
+/// Allocating form of `ssim_map_into`.
 pub fn ssim_map(a: ImageView<'_, f32>, b: ImageView<'_, f32>, spec: &SsimSpec) -> Result<Image<f32>> {
     let mut dst = Image::new(0, 0);
     ssim_map_into(a, b, spec, &mut dst)?;

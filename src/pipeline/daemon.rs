@@ -184,17 +184,17 @@ impl RunSummary {
     }
 }
 
-/// The pipeline stage spec of a config (an unparseable `compute.wb_gains` is an error).
-pub fn stage_spec(cfg: &Config) -> Result<StageSpec, crate::config::ConfigError> {
-    Ok(StageSpec {
+/// The pipeline stage spec of a config.
+pub fn stage_spec(cfg: &Config) -> StageSpec {
+    StageSpec {
         orientation_bins: cfg.compute.orientation_bins,
         strip_rows: cfg.compute.strip_rows,
         detect: cfg.compute.detect,
         keypoints: cfg.compute.keypoints,
         keypoint_descriptors: cfg.compute.keypoint_descriptors,
         keypoints_double: cfg.compute.keypoints_double,
-        wb_gains: cfg.compute.wb_gains()?,
-    })
+        wb_gains: cfg.compute.wb_gains,
+    }
 }
 
 #[cfg(test)]
@@ -208,26 +208,22 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<PeopleDetector>>, Daemon
     if !c.detect {
         return Ok(None);
     }
-    let model_err = |e: crate::config::ConfigError| DaemonError::Model {
-        message: e.to_string(),
-    };
-    let kind = c.detector_kind().map_err(model_err)?;
-    let (key, name) = c.model_key().map_err(model_err)?;
-    let model = PeopleModel::load_as(name, kind, Domain::Mosaic)
+    let (key, name) = c.model_key();
+    let model = PeopleModel::load_as(name, c.detector, Domain::Mosaic)
         .map_err(|e| DaemonError::Model {
-            message: format!("{key} = {name:?} (compute.detector = {:?}): {e}", c.detector),
+            message: format!(
+                "{key} = {name:?} (compute.detector = {:?}): {e}",
+                c.detector.name()
+            ),
         })?
-        .with_overrides(
-            c.mosaic_taps_override().map_err(model_err)?,
-            c.mosaic_tone_override().map_err(model_err)?,
-        );
+        .with_overrides(c.mosaic_taps, c.mosaic_tone);
     let hog = DetectorOptions {
         scale_step: c.scale_step,
         max_levels: c.max_levels,
         upsample: c.upsample,
         hit_threshold: c.hit_threshold,
         approx_levels: c.approx_levels,
-        svm: c.svm_precision().map_err(model_err)?,
+        svm: c.svm.precision(),
         ..DetectorOptions::default()
     };
     let det = model
@@ -273,7 +269,7 @@ pub fn run(
                 message: e.to_string(),
             })?,
     );
-    let stage = Stage::new(stage_spec(cfg)?, load_detector(cfg)?)?;
+    let stage = Stage::new(stage_spec(cfg), load_detector(cfg)?)?;
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -735,9 +731,9 @@ mod tests {
             tone(&format!("model = {shipped:?}\nmosaic_tone = \"linear\"")),
             MosaicTone::Linear
         );
-        assert_eq!(stage_spec(&cfg("")).unwrap().wb_gains, Gains::Auto);
+        assert_eq!(stage_spec(&cfg("")).wb_gains, Gains::Auto);
         assert_eq!(
-            stage_spec(&cfg("wb_gains = \"2,1,1.5\"")).unwrap().wb_gains,
+            stage_spec(&cfg("wb_gains = \"2,1,1.5\"")).wb_gains,
             Gains::Fixed([2.0, 1.0, 1.5])
         );
     }

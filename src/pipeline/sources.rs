@@ -67,7 +67,7 @@ pub fn open_source(
                 width: cam.width,
                 height: cam.height,
                 bit_depth: cam.bit_depth,
-                cfa: cam.cfa()?,
+                cfa: cam.cfa,
                 frames: cam.frames,
                 fps: cam.fps,
                 live: cam.live,
@@ -139,7 +139,7 @@ pub fn v4l2_options(cam: &CameraConfig) -> V4l2Options {
         width: Some(cam.width as u32),
         height: Some(cam.height as u32),
         fps: Some(cam.fps.round() as u32),
-        fourcc: cam.fourcc_bytes(),
+        fourcc: cam.fourcc,
         levels: cam.levels(),
         ..V4l2Options::default()
     }

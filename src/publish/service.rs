@@ -36,7 +36,7 @@
 //! but not open services (docs/daemon.md, "Shared memory and subscribers").
 //!
 //! ```
-//! use mosaicd::publish::service::service_name;
+//! use mosaicd::publish::service_name;
 //! assert_eq!(service_name("mosaicd", "front", "detections"), "mosaicd/front/detections");
 //! ```
 
@@ -58,9 +58,9 @@ use super::messages::{DescriptorsMsg, DetectionsMsg, GradientsHeader, KeypointsM
 /// Publishers per service: only the daemon publishes. A daemon killed with SIGKILL leaves its
 /// publisher behind; the next start's node creation removes it (dead-node clean-up) before the new
 /// publisher takes the slot.
-pub const MAX_PUBLISHERS: usize = 1;
+pub(crate) const MAX_PUBLISHERS: usize = 1;
 /// Prefix of every file and shared-memory segment name iceoryx2 creates for mosaicd.
-pub const SHM_PREFIX: &str = "mosaicd_";
+pub(crate) const SHM_PREFIX: &str = "mosaicd_";
 /// Mode of the root directory the daemon creates (owner all, group traverse and list).
 const ROOT_MODE: u32 = 0o750;
 /// Mode the `/dev/shm` management segment is set to (iceoryx2 creates it `0666`).
@@ -162,7 +162,7 @@ fn check_owner(path: &Path, meta: &std::fs::Metadata) -> Result<(), PublishError
     Ok(())
 }
 
-/// The segment-name prefix of the nodes under `root`: [`SHM_PREFIX`], then the 32-bit FNV-1a hash
+/// The segment-name prefix of the nodes under `root`: `"mosaicd_"`, then the 32-bit FNV-1a hash
 /// of the root's bytes in hex, then `_` (`mosaicd_1a2b3c4d_`). iceoryx2 names its `/dev/shm`
 /// segments (the management segment too) by the prefix alone, not by the root: one prefix per
 /// root keeps the daemons of different users (each with its own root) apart, where one shared
@@ -170,7 +170,7 @@ fn check_owner(path: &Path, meta: &std::fs::Metadata) -> Result<(), PublishError
 /// client computes the same (`segment_prefix`).
 ///
 /// ```
-/// use mosaicd::publish::service::segment_prefix;
+/// use mosaicd::publish::segment_prefix;
 /// assert_eq!(segment_prefix(std::path::Path::new("/run/mosaicd/iceoryx2")), "mosaicd_9ed403be_");
 /// ```
 pub fn segment_prefix(root: &Path) -> String {
@@ -182,7 +182,7 @@ pub fn segment_prefix(root: &Path) -> String {
 
 /// The iceoryx2 config of every mosaicd node: files under `root`, segment names with
 /// [`segment_prefix`]. Built here, so no config file is read (not `./config/iceoryx2.toml`).
-pub fn iox_config(root: &Path) -> Result<Config, PublishError> {
+pub(crate) fn iox_config(root: &Path) -> Result<Config, PublishError> {
     let bad = |why: String| PublishError::BadRoot {
         path: root.to_path_buf(),
         why,
@@ -201,9 +201,9 @@ pub fn iox_config(root: &Path) -> Result<Config, PublishError> {
 }
 
 /// Longest root iceoryx2 accepts, in bytes (its `Path` capacity on Linux).
-pub const MAX_ROOT_LEN: usize = 255;
+pub(crate) const MAX_ROOT_LEN: usize = 255;
 /// The system runtime directory of mosaicd (the units' `RuntimeDirectory=mosaicd`).
-pub const SYSTEM_RUNTIME_DIR: &str = "/run/mosaicd";
+pub(crate) const SYSTEM_RUNTIME_DIR: &str = "/run/mosaicd";
 /// Name of the root inside the runtime directory that holds it.
 const ROOT_NAME: &str = "iceoryx2";
 /// Mode of the private `/tmp/mosaicd-<uid>` directory.
@@ -219,7 +219,7 @@ pub struct RootEnv {
     pub runtime_directory: Option<OsString>,
     /// `$XDG_RUNTIME_DIR` (a login session's `/run/user/<uid>`).
     pub xdg_runtime_dir: Option<OsString>,
-    /// [`SYSTEM_RUNTIME_DIR`].
+    /// `/run/mosaicd`.
     pub system_dir: PathBuf,
     /// `/tmp` (fixed: `$TMPDIR` is not shared by every process of a user).
     pub tmp_dir: PathBuf,
@@ -309,7 +309,7 @@ pub fn resolve_root(setting: &Iox2Root, env: &RootEnv) -> (PathBuf, RootOrigin) 
 /// Create the private directory `dir` (`/tmp/mosaicd-<uid>`) `0700` when missing; refuse it when
 /// another user owns it (planted in the shared `/tmp`) or it is not a directory; narrow its mode to
 /// `0700` otherwise.
-pub fn prepare_private_dir(dir: &Path) -> Result<(), PublishError> {
+pub(crate) fn prepare_private_dir(dir: &Path) -> Result<(), PublishError> {
     let io = |what| {
         move |source| PublishError::Root {
             path: dir.to_path_buf(),
@@ -338,7 +338,7 @@ pub fn prepare_private_dir(dir: &Path) -> Result<(), PublishError> {
 }
 
 /// This process's iceoryx2 root for `setting` ([`resolve_root`] with [`RootEnv::current`]), with
-/// `/tmp/mosaicd-<uid>` prepared ([`prepare_private_dir`]) when that is where it resolved. The
+/// `/tmp/mosaicd-<uid>` prepared (`prepare_private_dir`) when that is where it resolved. The
 /// root itself is prepared by [`create_node`].
 pub fn root_dir(setting: &Iox2Root) -> Result<PathBuf, PublishError> {
     let (root, origin) = resolve_root(setting, &RootEnv::current());
@@ -373,7 +373,7 @@ fn our_segments(root: &Path) -> Vec<(PathBuf, std::fs::Metadata)> {
 /// `owned` (the daemon, which publishes): also refuse a root another user owns, and a segment of
 /// ours in `/dev/shm` ([`SHM_PREFIX`]) that another user (other than root) created. Subscribers
 /// skip the ownership checks: they read what the daemon's user owns, and root may read anything.
-pub fn prepare_root(root: &Path, owned: bool) -> Result<(), PublishError> {
+pub(crate) fn prepare_root(root: &Path, owned: bool) -> Result<(), PublishError> {
     let io = |what| {
         move |source| PublishError::Root {
             path: root.to_path_buf(),
@@ -442,7 +442,7 @@ pub fn service_name(prefix: &str, camera: &str, topic: &str) -> String {
 }
 
 /// Create an ipc node under `root` (`publish.root`). `daemon = true`: the publishing side, whose
-/// root and segments must be its own ([`prepare_root`]), and whose signals are left to the
+/// root and segments must be its own (`prepare_root`), and whose signals are left to the
 /// daemon's own handlers; `false`: a subscriber. Dead nodes of crashed processes, and their
 /// services' shared memory, are cleaned up here.
 pub fn create_node(name: &str, daemon: bool, root: &Path) -> Result<Node<ipc::Service>, PublishError> {
@@ -597,7 +597,7 @@ pub fn publisher<T: std::fmt::Debug + ZeroCopySend>(
 }
 
 /// A publisher of gradient slices (grows its slices on demand).
-pub fn gradients_publisher(
+pub(crate) fn gradients_publisher(
     svc: &PortFactory<ipc::Service, [u8], GradientsHeader>,
 ) -> Result<Publisher<ipc::Service, [u8], GradientsHeader>, PublishError> {
     svc.publisher_builder()

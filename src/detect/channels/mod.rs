@@ -251,8 +251,8 @@ impl ChannelSpec {
 /// Float buffers of dropped channel maps and of the channel pass, reused by the next ones: a
 /// 1080p pyramid allocates about 30 MB of channels per frame, and fresh pages cost a page fault
 /// each (a quarter of the channel time before the pool). Holds at most `POOL_MAX_VALUES` values
-/// in at most `POOL_MAX_BUFFERS` buffers; a buffer is always filled before it is read, so reuse
-/// changes no value.
+/// in at most `POOL_MAX_BUFFERS` buffers; a buffer is zeroed, or handed only to a caller that
+/// writes every value of it (no `memset`), before it is read, so reuse changes no value.
 mod pool {
     use std::sync::Mutex;
 
@@ -264,26 +264,38 @@ mod pool {
 
     static POOL: Mutex<(Vec<Vec<f32>>, usize)> = Mutex::new((Vec::new(), 0));
 
+    /// The pool's smallest buffer of capacity at least `n`, if any.
+    fn pooled(n: usize) -> Option<Vec<f32>> {
+        let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
+        let best =
+            p.0.iter()
+                .enumerate()
+                .filter(|(_, b)| b.capacity() >= n)
+                .min_by_key(|(_, b)| b.capacity())
+                .map(|(i, _)| i)?;
+        let b = p.0.swap_remove(best);
+        p.1 -= b.capacity();
+        Some(b)
+    }
+
     /// A buffer of `n` zeros, from the pool when one is large enough (the smallest such).
     pub(super) fn zeros(n: usize) -> Vec<f32> {
-        let mut v = {
-            let mut p = POOL.lock().unwrap_or_else(|e| e.into_inner());
-            let best =
-                p.0.iter()
-                    .enumerate()
-                    .filter(|(_, b)| b.capacity() >= n)
-                    .min_by_key(|(_, b)| b.capacity())
-                    .map(|(i, _)| i);
-            match best {
-                Some(i) => {
-                    let b = p.0.swap_remove(i);
-                    p.1 -= b.capacity();
-                    b
-                }
-                None => return vec![0.0; n],
-            }
+        let Some(mut v) = pooled(n) else {
+            return vec![0.0; n];
         };
         v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// A buffer of `n` values for a caller that writes every one of them: from the pool when
+    /// one is large enough (the smallest such) with the values of its last use (no `memset`;
+    /// only values past its previous length are zeroed), otherwise new zeros.
+    pub(super) fn overwritten(n: usize) -> Vec<f32> {
+        let Some(mut v) = pooled(n) else {
+            return vec![0.0; n];
+        };
+        v.truncate(n);
         v.resize(n, 0.0);
         v
     }
@@ -561,7 +573,8 @@ fn smooth_channels_on(isa: Isa, ch: &mut Channels, r: f32) {
     };
     // one filter (taps, mirror tables) for the ten planes, written into a new buffer that then
     // replaces the channels' (no copy back); each row the arithmetic of `triangle_filter`
-    let mut out = pool::zeros(N_CHANNELS * w * h);
+    // every value written by the filter
+    let mut out = pool::overwritten(N_CHANNELS * w * h);
     let src = ch.as_slice();
     out.par_chunks_mut(w * h)
         .enumerate()
@@ -787,7 +800,8 @@ fn channels_unsmoothed_on(
                 None => (y0, y1),
             };
             let (ilo, ihi) = (mlo.saturating_sub(1), (mhi + 1).min(h));
-            let mut out = pool::zeros(N_CHANNELS * nb * cw);
+            // every value written: L, U, V by the colour, the rest by the aggregation
+            let mut out = pool::overwritten(N_CHANNELS * nb * cw);
             SCRATCH.with_borrow_mut(|sc| {
                 let Scratch {
                     inp,
@@ -849,7 +863,12 @@ fn channels_unsmoothed_on(
             (by0, out)
         })
         .collect();
-    let mut out = Channels::zeros(cw, ch);
+    // every value written: the bands cover every block row of every channel
+    let mut out = Channels {
+        width: cw,
+        height: ch,
+        data: pool::overwritten(N_CHANNELS * n),
+    };
     for (by0, band) in bands {
         let len = band.len() / N_CHANNELS;
         for (c, part) in band.chunks_exact(len).enumerate() {

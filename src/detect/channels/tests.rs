@@ -356,25 +356,42 @@ fn lambdas_measured_on_scenes() {
     assert!(l[1] > 0.0 && l[2] > 0.0, "{l:?}");
 }
 
-#[test]
-fn kernel_paths_give_the_same_channels_and_pyramid() {
-    // every input kind, every option that changes the pass (input smoothing, the normalisation
-    // radius, none), sizes that are not multiples of a block or of a band: all paths of this CPU
-    // give the scalar oracle's values bit for bit
-    let rgb = scene(206, 150);
-    let m = mosaic_of(&rgb, Cfa::Gbrg);
-    let grey = rgb.map(|p| p[1]);
-    let greyf = rgb.map(|p| p[0] as f32 * 0.7 + 3.0);
-    let inputs = [
-        ChannelInput::Mosaic {
-            image: m.view(),
-            cfa: Cfa::Gbrg,
-        },
-        ChannelInput::Rgb8(rgb.view()),
-        ChannelInput::GreyU8(grey.view()),
-        ChannelInput::GreyF32(greyf.view()),
-    ];
-    let specs = [
+/// A scene as every input kind: a GBRG mosaic, colour, grey bytes and grey floats.
+struct Scenes {
+    rgb: Image<[u8; 3]>,
+    mosaic: Image<f32>,
+    grey: Image<u8>,
+    greyf: Image<f32>,
+}
+
+impl Scenes {
+    fn new() -> Self {
+        let rgb = scene(206, 150);
+        Self {
+            mosaic: mosaic_of(&rgb, Cfa::Gbrg),
+            grey: rgb.map(|p| p[1]),
+            greyf: rgb.map(|p| p[0] as f32 * 0.7 + 3.0),
+            rgb,
+        }
+    }
+
+    fn inputs(&self) -> [ChannelInput<'_>; 4] {
+        [
+            ChannelInput::Mosaic {
+                image: self.mosaic.view(),
+                cfa: Cfa::Gbrg,
+            },
+            ChannelInput::Rgb8(self.rgb.view()),
+            ChannelInput::GreyU8(self.grey.view()),
+            ChannelInput::GreyF32(self.greyf.view()),
+        ]
+    }
+}
+
+/// Every option that changes the channel pass: the defaults, none, input smoothing, another
+/// normalisation radius and output smoothing.
+fn option_sets() -> [ChannelSpec; 4] {
+    [
         ChannelSpec::default(),
         raw_spec(),
         ChannelSpec::new(ChannelOptions {
@@ -388,11 +405,26 @@ fn kernel_paths_give_the_same_channels_and_pyramid() {
             ..ChannelOptions::default()
         })
         .unwrap(),
-    ];
-    let opts = PyramidOptions {
+    ]
+}
+
+/// Pyramid options down to levels of 16x32 pixels (18 levels of the 206x150 scene).
+fn small_levels() -> PyramidOptions {
+    PyramidOptions {
         min_size: (16, 32),
         ..PyramidOptions::default()
-    };
+    }
+}
+
+#[test]
+fn kernel_paths_give_the_same_channels_and_pyramid() {
+    // every input kind, every option that changes the pass (input smoothing, the normalisation
+    // radius, none), sizes that are not multiples of a block or of a band: all paths of this CPU
+    // give the scalar oracle's values bit for bit
+    let s = Scenes::new();
+    let inputs = s.inputs();
+    let specs = option_sets();
+    let opts = small_levels();
     let bits = |p: &ChannelPyramid| -> Vec<u32> {
         p.levels
             .iter()
@@ -408,5 +440,37 @@ fn kernel_paths_give_the_same_channels_and_pyramid() {
                 assert!(bits(&got) == bits(&want), "{isa}: {spec:?}");
             }
         }
+    }
+}
+
+#[test]
+fn stale_pool_buffers_change_no_value() {
+    // the channel pass and the smoothing take pooled buffers without zeroing them: every value
+    // must be written. Fill the pool with NaN buffers of many sizes and compare with the
+    // channels and pyramids computed before, bit for bit, for every input kind and option set.
+    let s = Scenes::new();
+    let inputs = s.inputs();
+    let specs = option_sets();
+    let opts = small_levels();
+    let bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|v| v.to_bits()).collect() };
+    let run = || -> Vec<Vec<u32>> {
+        let mut out = vec![];
+        for spec in &specs {
+            for input in &inputs {
+                out.push(bits(channels(input, spec).unwrap().as_slice()));
+                let p = super::pyramid::pyramid(input, spec, &opts).unwrap();
+                out.extend(p.levels.iter().map(|l| bits(l.channels.as_slice())));
+            }
+        }
+        out
+    };
+    let want = run();
+    for _ in 0..3 {
+        let mut cap = 16.0f64;
+        while cap < 400_000.0 {
+            super::pool::give(vec![f32::NAN; cap as usize]);
+            cap *= 1.25;
+        }
+        assert!(run() == want, "a stale pooled value reached the channels");
     }
 }

@@ -123,7 +123,7 @@ impl std::fmt::Debug for LiveView {
 impl LiveView {
     /// Start the server of `cfg` (`None` when `foxglove.listen` is unset: no live view).
     pub fn start(cfg: &FoxgloveConfig) -> Result<Option<Self>, LiveViewError> {
-        let Some(addr) = cfg.listen_addr()? else {
+        let Some(addr) = cfg.listen else {
             return Ok(None);
         };
         let runtime = tokio::runtime::Builder::new_multi_thread()

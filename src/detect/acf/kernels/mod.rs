@@ -88,6 +88,41 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
+    /// Scores and counts of `n` windows at `base0` on every available path, each checked equal
+    /// (bit for bit) to the scalar oracle; returns the oracle's.
+    fn every_path_equals_the_oracle(
+        trees: &[Tree2],
+        reject: &[f32],
+        data: &[f32],
+        base0: usize,
+        n: usize,
+    ) -> (Vec<f32>, Vec<u32>) {
+        let mut want = (vec![0.0f32; n], vec![0u32; n]);
+        score_run_scalar(trees, reject, data, base0, &mut want.0, &mut want.1);
+        let packed = PackedTrees::new(trees.to_vec());
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for isa in Isa::available() {
+            // stale values in the outputs must not matter
+            let mut got = (vec![f32::NAN; n], vec![u32::MAX; n]);
+            score_run(isa, &packed, reject, data, base0, &mut got.0, &mut got.1);
+            let what = format!("{isa}, run {base0}+{n}, {} trees", trees.len());
+            assert_eq!(got.1, want.1, "{what}: counts");
+            assert_eq!(bits(&got.0), bits(&want.0), "{what}: scores");
+        }
+        want
+    }
+
+    /// `n` random trees reading offsets below `max_off`.
+    fn random_trees(rng: &mut impl Rng, n: usize, max_off: u32) -> Vec<Tree2> {
+        (0..n)
+            .map(|_| Tree2 {
+                off: std::array::from_fn(|_| rng.random_range(0..max_off)),
+                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
+                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
+            })
+            .collect()
+    }
+
     #[test]
     fn kernel_paths_equal_the_scalar_oracle() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
@@ -100,29 +135,94 @@ mod tests {
                 }
             })
             .collect();
-        let trees: Vec<Tree2> = (0..300)
-            .map(|_| Tree2 {
-                off: std::array::from_fn(|_| rng.random_range(0..3000)),
-                thr: std::array::from_fn(|_| rng.random_range(-0.5..0.5)),
-                hs: std::array::from_fn(|_| rng.random_range(-0.6..0.5)),
-            })
-            .collect();
+        let trees = random_trees(&mut rng, 300, 3000);
         for reject in [vec![f32::NEG_INFINITY; 300], vec![-1.0; 300], {
             (0..300).map(|k| -3.0 + k as f32 * 0.01).collect()
         }] {
-            for (base0, n) in [(0usize, 37usize), (5, 64), (100, 3), (900, 0), (11, 1000)] {
-                let mut want = (vec![0.0f32; n], vec![0u32; n]);
-                score_run_scalar(&trees, &reject, &data, base0, &mut want.0, &mut want.1);
-                let packed = PackedTrees::new(trees.clone());
-                for isa in Isa::available() {
-                    let mut got = (vec![0.0f32; n], vec![0u32; n]);
-                    score_run(isa, &packed, &reject, &data, base0, &mut got.0, &mut got.1);
-                    assert_eq!(got.1, want.1, "{isa} counts, run {base0}+{n}");
-                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                    assert_eq!(bits(&got.0), bits(&want.0), "{isa} scores, run {base0}+{n}");
+            for t in [300, 17, 3, 0] {
+                for (base0, n) in [(0usize, 37usize), (5, 64), (100, 3), (900, 0), (11, 1000)] {
+                    every_path_equals_the_oracle(&trees[..t], &reject[..t], &data, base0, n);
                 }
             }
         }
+    }
+
+    /// Trees that reject window `i` at tree `d_i = data[base0 + i]` exactly (never if
+    /// `d_i ≥ T`): tree `t` adds `2⁻¹⁰·(t + 1)` while `t < d_i` and `−1000` at `t = d_i`, below
+    /// every rejection threshold `−1`.
+    fn death_trees(t: usize) -> (Vec<Tree2>, Vec<f32>) {
+        let trees = (0..t)
+            .map(|k| {
+                let up = (k + 1) as f32 / 1024.0;
+                Tree2 {
+                    off: [0, 0, 0],
+                    thr: [k as f32 + 0.5, 0.0, 0.0],
+                    hs: [-1000.0, -1000.0, up, up],
+                }
+            })
+            .collect();
+        (trees, vec![-1.0; t])
+    }
+
+    #[test]
+    fn lanes_rejected_at_different_trees() {
+        // the lanes of one group rejected at different trees (the group runs on for the others:
+        // a rejected lane's score and count stay frozen), runs shorter than a group and with a
+        // tail after the last full group
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let t = 150;
+        let (trees, reject) = death_trees(t);
+        let special = [0usize, 1, 7, 8, 9, 15, 16, 17, 63, 64, 127, 149, 150, 400];
+        for n in [1usize, 2, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 33, 100, 465] {
+            let death: Vec<usize> = (0..n)
+                .map(|i| {
+                    if rng.random_bool(0.5) {
+                        special[i % special.len()]
+                    } else {
+                        rng.random_range(0..170)
+                    }
+                })
+                .collect();
+            let base0 = 3;
+            let mut data = vec![0.0f32; base0 + n];
+            for (x, &d) in data[base0..].iter_mut().zip(&death) {
+                *x = d as f32;
+            }
+            let (scores, counts) = every_path_equals_the_oracle(&trees, &reject, &data, base0, n);
+            let up = |k: usize| (0..k).map(|j| (j + 1) as f32 / 1024.0).sum::<f32>();
+            for (i, &d) in death.iter().enumerate() {
+                if d < t {
+                    assert_eq!(counts[i], d as u32 + 1, "window {i} of {n}");
+                    assert_eq!(scores[i], up(d) - 1000.0, "window {i} of {n}");
+                } else {
+                    assert_eq!(counts[i], t as u32, "window {i} of {n}");
+                    assert_eq!(scores[i], up(t), "window {i} of {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_window_rejected_or_none() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        let t = 100;
+        let (trees, reject) = death_trees(t);
+        for n in [1usize, 3, 8, 16, 17, 40] {
+            // all rejected by the first tree, all by one later tree, all within the first 8
+            // trees at different ones, none
+            for death in [0..1, 5..6, 0..8, t..t + 9] {
+                let data: Vec<f32> = (0..n).map(|_| rng.random_range(death.clone()) as f32).collect();
+                let (_, counts) = every_path_equals_the_oracle(&trees, &reject, &data, 0, n);
+                for (&c, &d) in counts.iter().zip(&data) {
+                    assert_eq!(c as usize, (d as usize + 1).min(t), "deaths {death:?}");
+                }
+            }
+        }
+        // random trees and no rejection threshold: every window through every tree
+        let data: Vec<f32> = (0..500).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let trees = random_trees(&mut rng, 70, 200);
+        let (_, counts) = every_path_equals_the_oracle(&trees, &[f32::NEG_INFINITY; 70], &data, 0, 300);
+        assert!(counts.iter().all(|&c| c == 70));
     }
 
     #[test]

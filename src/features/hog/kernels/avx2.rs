@@ -78,7 +78,7 @@ pub(crate) unsafe fn fill_cell_row_portable(
     row: &mut [f32],
     s: &mut FillScratch,
 ) {
-    portable::fill_cell_row(Isa::Avx2, micro, taps, cy, row, s)
+    portable::fill_cell_row::<true>(Isa::Avx2, micro, taps, cy, row, s)
 }
 
 /// The first `dst.len()` (≤ 8·R) lanes of `v` into `dst`.

@@ -246,11 +246,23 @@ pub(crate) fn micro_rows(isa: Isa, p: &Planes, nb: usize, size: usize, my0: usiz
     micro_rows_portable(isa, p, nb, size, my0, chunk)
 }
 
+/// Bound of [`FillKernel::ScalarUnfused`]'s values relative to the oracle's: each value is a chain
+/// of at most 4 + 8 multiply-adds of non-negative terms per micro row of a cell (an x-profile sum,
+/// then a y-profile sum), and each unfused step adds at most one rounding (2⁻²⁴) of a partial sum
+/// not larger than the value; 2⁻¹⁶ leaves room for 256 steps.
+#[cfg(test)]
+pub(crate) const UNFUSED_FILL_REL: f32 = 1.0 / 65536.0;
+
 /// Which build of the approximated levels' cell-row fill (`portable::fill_cell_row`) runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum FillKernel {
-    /// The portable fill, software half floats: the oracle.
+    /// The portable fill, software half floats: the oracle (fused multiply-adds).
     Scalar,
+    /// The portable fill with a multiply, then an add, instead of each fused multiply-add: what
+    /// the scalar path runs on x86-64, whose baseline build has no FMA (there `f32::mul_add` is a
+    /// library call, and the fill was slower than the exact pyramid). Within a relative 2⁻¹⁶ of
+    /// the oracle (`UNFUSED_FILL_REL`; every term is non-negative), not the same bits.
+    ScalarUnfused,
     /// The portable fill compiled for AVX2 + FMA with F16C conversions (more than 16 bins).
     Avx2Portable,
     /// AVX2 + FMA + F16C, one cell at a time in registers ([`avx2`]).
@@ -270,6 +282,7 @@ impl FillKernel {
             Isa::Avx2 | Isa::Avx512 if regs && Isa::Avx2.is_available() => Self::Avx2,
             Isa::Avx2 | Isa::Avx512 if Isa::Avx2.is_available() => Self::Avx2Portable,
             Isa::Neon if regs && Isa::Neon.is_available() => Self::Neon,
+            _ if cfg!(target_arch = "x86_64") => Self::ScalarUnfused,
             _ => Self::Scalar,
         }
     }
@@ -292,7 +305,7 @@ impl FillKernel {
     /// Whether this fill can run here for `nb` bins.
     fn runs(self, nb: usize) -> bool {
         match self {
-            Self::Scalar => true,
+            Self::Scalar | Self::ScalarUnfused => true,
             Self::Avx2Portable => Isa::Avx2.is_available(),
             Self::Avx2 => Isa::Avx2.is_available() && nb <= REGISTER_MAX_BINS,
             Self::Avx512 => Isa::Avx512.is_available() && nb <= REGISTER_MAX_BINS,
@@ -315,7 +328,7 @@ impl FillKernel {
         let fits = taps.fits(micro) && cy < taps.rows.len();
         debug_assert!(fits, "taps of another micro grid");
         if !(fits && self.runs(nb)) {
-            return fill_cell_row(Isa::Scalar, micro, taps, cy, row, s);
+            return fill_cell_row::<true>(Isa::Scalar, micro, taps, cy, row, s);
         }
         match self {
             #[cfg(target_arch = "x86_64")]
@@ -331,7 +344,8 @@ impl FillKernel {
             #[cfg(target_arch = "aarch64")]
             // SAFETY: `runs` checked NEON and ≤ 16 bins; `fits` the taps.
             Self::Neon => unsafe { neon::fill_cell_row(micro, taps, cy, row) },
-            _ => fill_cell_row(Isa::Scalar, micro, taps, cy, row, s),
+            Self::ScalarUnfused => fill_cell_row::<false>(Isa::Scalar, micro, taps, cy, row, s),
+            _ => fill_cell_row::<true>(Isa::Scalar, micro, taps, cy, row, s),
         }
     }
 }

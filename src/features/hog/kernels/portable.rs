@@ -212,12 +212,32 @@ pub(crate) fn micro_margin(
     }
 }
 
+/// `a·b + c`: one fused multiply-add (one rounding, [`f32::mul_add`]) when `FUSED`, else a
+/// multiply, then an add (two roundings). The fill's oracle and every register fill are fused;
+/// the unfused build is what the x86-64 baseline runs, where `mul_add` is a library call
+/// (`FillKernel::ScalarUnfused`).
+#[inline(always)]
+fn madd<const FUSED: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FUSED {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
 /// Horizontal pass of one micro row (`src`) into `h` (`[cell][x-profile][bin]`, every value
 /// written): the row is converted to `f32` once into `v` ([`from_f16_row`]), then every
 /// micro-cell adds its histogram times its four x-profile weights to its cell (fused
 /// multiply-adds).
 #[inline(always)]
-fn hpass(isa: Isa, nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32], v: &mut Vec<f32>) {
+fn hpass<const FUSED: bool>(
+    isa: Isa,
+    nb: usize,
+    xt: &[Option<AxisTap>],
+    src: &[u16],
+    h: &mut [f32],
+    v: &mut Vec<f32>,
+) {
     let hl = PROFILES * nb;
     h.fill(0.0);
     v.resize(src.len(), 0.0);
@@ -228,7 +248,7 @@ fn hpass(isa: Isa, nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32]
         // All four x-profiles (zero weights add +0).
         for (hp, &wx) in hc.chunks_exact_mut(nb).zip(&tx.w) {
             for (d, &s) in hp.iter_mut().zip(mc) {
-                *d = wx.mul_add(s, *d);
+                *d = madd::<FUSED>(wx, s, *d);
             }
         }
     }
@@ -241,7 +261,7 @@ fn hpass(isa: Isa, nb: usize, xt: &[Option<AxisTap>], src: &[u16], h: &mut [f32]
 /// multiply-add per y-profile — and that buffer is finally permuted into the cells' slots. The
 /// portable kernel and the oracle of the register fills in `kernels`.
 #[inline(always)]
-pub(crate) fn fill_cell_row(
+pub(crate) fn fill_cell_row<const FUSED: bool>(
     isa: Isa,
     micro: &MicroGrid,
     taps: &Taps,
@@ -251,15 +271,15 @@ pub(crate) fn fill_cell_row(
 ) {
     // A literal bin count lets the compiler unroll and vectorise the default geometry.
     if micro.nbins == 9 {
-        fill_cell_row_nb(isa, 9, micro, taps, cy, row, s)
+        fill_cell_row_nb::<FUSED>(isa, 9, micro, taps, cy, row, s)
     } else {
-        fill_cell_row_nb(isa, micro.nbins, micro, taps, cy, row, s)
+        fill_cell_row_nb::<FUSED>(isa, micro.nbins, micro, taps, cy, row, s)
     }
 }
 
 /// [`fill_cell_row`] for `nb` = `micro.nbins` bins.
 #[inline(always)]
-fn fill_cell_row_nb(
+fn fill_cell_row_nb<const FUSED: bool>(
     isa: Isa,
     nb: usize,
     micro: &MicroGrid,
@@ -277,7 +297,7 @@ fn fill_cell_row_nb(
     let mut first = true;
     for (my, ty) in taps.yt.iter().enumerate().take(hi).skip(lo) {
         let Some(ty) = ty else { continue };
-        hpass(
+        hpass::<FUSED>(
             isa,
             nb,
             &taps.xt,
@@ -295,7 +315,7 @@ fn fill_cell_row_nb(
                 }
             } else if wy != 0.0 {
                 for (d, &s) in tp.iter_mut().zip(h.iter()) {
-                    *d = wy.mul_add(s, *d);
+                    *d = madd::<FUSED>(wy, s, *d);
                 }
             }
         }
