@@ -11,8 +11,9 @@
 //! (capture sources, iceoryx2 publishing, MCAP recording, the pipeline). The `mosaicd` binary is a
 //! thin CLI over it.
 #![warn(missing_docs)]
+#![warn(unnameable_types)]
 
-pub mod bounded_read;
+pub(crate) mod bounded_read;
 pub mod capture;
 pub mod clock;
 pub mod config;
@@ -31,8 +32,8 @@ pub mod pipeline;
 pub mod pool;
 pub mod progress;
 pub mod publish;
-pub mod quiet_panic;
+pub(crate) mod quiet_panic;
 pub mod raw;
 pub mod record;
-pub mod srgb;
+pub(crate) mod srgb;
 pub mod wire;

@@ -15,7 +15,7 @@
 //! `SourceKind::Live`: the daemon drops the oldest frame under load.
 //!
 //! ```
-//! use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
+//! use mosaicd::capture::{V4l2Options, V4l2Source};
 //! let err = V4l2Source::open("/dev/video-does-not-exist", V4l2Options::default()).unwrap_err();
 //! assert!(err.to_string().contains("/dev/video-does-not-exist"));
 //! ```
@@ -163,7 +163,7 @@ pub struct V4l2Options {
     pub width: Option<u32>,
     /// Requested height (`None`: keep the driver's).
     pub height: Option<u32>,
-    /// Preferred FourCC (e.g. `*b"pRAA"`); falls back to [`negotiate`]'s choice.
+    /// Preferred FourCC (e.g. `*b"pRAA"`); falls back to `negotiate`'s choice.
     pub fourcc: Option<[u8; 4]>,
     /// Requested frame rate.
     pub fps: Option<u32>,
@@ -212,7 +212,7 @@ struct Open {
     neg: Negotiated,
 }
 
-/// A live V4L2 Bayer camera (see the [module overview](self)).
+/// A live V4L2 Bayer camera.
 pub struct V4l2Source {
     path: PathBuf,
     opts: V4l2Options,

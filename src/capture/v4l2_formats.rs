@@ -26,7 +26,7 @@
 //! a value that does not is reported, never silently masked.
 //!
 //! ```
-//! use mosaicd::capture::v4l2_formats::{bayer_format, raw_frame_from_v4l2};
+//! use mosaicd::capture::{bayer_format, raw_frame_from_v4l2};
 //! use mosaicd::raw::Cfa;
 //! let fmt = bayer_format(*b"pRAA").unwrap();
 //! assert_eq!((fmt.cfa, fmt.bit_depth), (Cfa::Rggb, 10));
@@ -152,7 +152,7 @@ pub const SUPPORTED: [[u8; 4]; 24] = [
 pub const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
 
 /// A FourCC written as text (`"pRAA"`): its four bytes, or `None` unless it is exactly four
-/// bytes long. The inverse of [`fourcc_str`] for printable codes.
+/// bytes long. The inverse of `fourcc_str` for printable codes.
 pub fn parse_fourcc(s: &str) -> Option<[u8; 4]> {
     <[u8; 4]>::try_from(s.as_bytes()).ok()
 }
@@ -379,6 +379,7 @@ pub fn unpack_into(
 }
 
 /// Serial reference of [`unpack_into`] (the test oracle for the parallel path).
+#[cfg(test)]
 pub fn unpack_into_serial(
     fmt: &BayerFormat,
     buf: &[u8],

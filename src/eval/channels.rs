@@ -2,8 +2,8 @@
 //! image, of each colour channel, and of the per-pixel colour maximum, over the Kodak images.
 //!
 //! ```no_run
-//! use mosaicd::eval::{channels, common::EvalOptions};
-//! let r = channels::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_channels, EvalOptions};
+//! let r = run_channels(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

@@ -107,7 +107,7 @@ pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
     Ok(rgb.map(|p| p.map(|c| c as f32 / 255.0)))
 }
 
-pub use crate::data::{load_raw_frame, raw_inputs, raw_profile, RawInput, INFINITE_ISP_SCENES, RAW_INPUTS};
+pub use crate::data::{load_raw_frame, raw_inputs, raw_profile, RawInput};
 
 /// Samples an RGB image through a CFA (both greens take G): `raw::sample::mosaic_from_rgb`.
 pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {

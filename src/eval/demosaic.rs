@@ -8,8 +8,8 @@
 //! for demosaicing benchmarks (every method guesses there).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, demosaic};
-//! let r = demosaic::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_demosaic, EvalOptions};
+//! let r = run_demosaic(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

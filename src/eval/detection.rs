@@ -4,7 +4,7 @@
 //! detection`.
 //!
 //! ```
-//! use mosaicd::eval::detection::{parse_box_csv, Shrink};
+//! use mosaicd::eval::{parse_box_csv, Shrink};
 //! use std::path::Path;
 //! let csv = "image,x,y,w,h\na.png,10,20,30,60\na.png,50,20,30,60\n";
 //! let recs = parse_box_csv(csv, Path::new("boxes.csv")).unwrap();

@@ -8,8 +8,8 @@
 //! grey; linear, no gamma on either side).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, gradients};
-//! let r = gradients::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_gradients, EvalOptions};
+//! let r = run_gradients(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

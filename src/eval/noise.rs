@@ -12,8 +12,8 @@
 //!   clean gradient magnitude above [`EDGE_MAGNITUDE`].
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, noise};
-//! let r = noise::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_noise, EvalOptions};
+//! let r = run_noise(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

@@ -13,8 +13,8 @@
 //! counts and deterministic; it ignores allocator overhead.
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, pipeline};
-//! let r = pipeline::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_pipeline, EvalOptions};
+//! let r = run_pipeline(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

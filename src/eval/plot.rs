@@ -6,7 +6,7 @@
 //! values and labelling ticks as powers of ten (non-positive values are dropped on a log axis).
 //!
 //! ```no_run
-//! use mosaicd::eval::plot::{line_plot, LinePlot, Scale, Series};
+//! use mosaicd::eval::{line_plot, LinePlot, Scale, Series};
 //! let det = Series::new("mosaic", vec![(1e-5, 0.3), (1e-4, 0.12), (1e-3, 0.05)]);
 //! let plot = LinePlot {
 //!     title: "DET".into(),

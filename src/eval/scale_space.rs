@@ -11,8 +11,8 @@
 //! Scores: MSSIM, MSE and PSNR between the two mosaics (data range 1).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, scale_space};
-//! let r = scale_space::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_scale_space, EvalOptions};
+//! let r = run_scale_space(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 

@@ -28,7 +28,7 @@
 //! than a pixel, well inside `t`.
 //!
 //! ```
-//! use mosaicd::eval::sift::{Transform, ground_truth};
+//! use mosaicd::eval::{Transform, ground_truth};
 //! let h = ground_truth(Transform::Scale(2.0), 100, 50);
 //! let (x, y) = mosaicd::features::sift::matching::apply(&h, (10.0, 10.0));
 //! assert!((x - 20.5).abs() < 1e-9 && (y - 20.5).abs() < 1e-9);
@@ -279,7 +279,7 @@ pub fn mosaic_transformed(src: &Image<f32>, t: Transform, warp: PlaneWarp) -> Im
 }
 
 /// `round(0.299 R + 0.587 G + 0.114 B)` per pixel (OpenCV `COLOR_RGB2GRAY` weights): the float
-/// form of [`crate::isp::grey`], rounded.
+/// form of [`grey_from_rgb_u8`](crate::isp::grey_from_rgb_u8), rounded.
 pub fn grey_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
     rgb.map(|p| grey_f32(p.map(f32::from)).round())
 }

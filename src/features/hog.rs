@@ -86,7 +86,7 @@
 //! | `types` | [`Exec`], the planes, scratch, cell layout, [`MicroGrid`] and taps the stages and kernels share; half floats in software |
 //! | `spec` | [`HogOptions`], [`MosaicTaps`], [`HogSpec`] (validated geometry and weight profiles) |
 //! | `error` | [`HogError`] |
-//! | [`tone`] | raw → mosaic in a model's tone (re-exported from `crate::raw::tone`, its home) |
+//! | [`MosaicTone`] | raw → mosaic in a model's tone (re-exported from `crate::raw`, its home) |
 
 /// Cell side in pixels (OpenCV `cellSize` default; fixed here).
 pub const CELL_SIZE: usize = 8;
@@ -125,7 +125,7 @@ mod spec;
 mod types;
 
 pub use crate::raw::tone::{
-    self, mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
+    mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
     mosaic_from_raw_with, MosaicTone, ToneTables,
 };
 pub use approx::{

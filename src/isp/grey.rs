@@ -5,7 +5,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::isp::grey::grey_from_rgb_u8;
+//! use mosaicd::isp::grey_from_rgb_u8;
 //! let rgb = Image::from_fn(2, 1, |x, _| if x == 0 { [255u8, 0, 0] } else { [10u8, 10, 10] });
 //! let grey = grey_from_rgb_u8(&rgb.view());
 //! assert_eq!(grey.as_slice(), &[76, 10]); // 0.299 * 255 = 76.2; equal channels stay put
@@ -139,14 +139,14 @@ pub fn grey_from_rgb<P: GreyPixel>(
     Ok(())
 }
 
-/// Allocating wrapper of [`grey_from_rgb`] for 8-bit RGB.
+/// Allocating wrapper of `grey_from_rgb` for 8-bit RGB.
 pub fn grey_from_rgb_u8(src: &ImageView<'_, [u8; 3]>) -> Image<u8> {
     let mut out = Image::new(src.width(), src.height());
     grey_from_rgb(src, &mut out.view_mut()).expect("sizes match by construction");
     out
 }
 
-/// Allocating wrapper of [`grey_from_rgb`] for float RGB.
+/// Allocating wrapper of `grey_from_rgb` for float RGB.
 pub fn grey_from_rgb_f32(src: &ImageView<'_, [f32; 3]>) -> Image<f32> {
     let mut out = Image::new(src.width(), src.height());
     grey_from_rgb(src, &mut out.view_mut()).expect("sizes match by construction");

@@ -55,7 +55,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-/// Re-exported from [`super::quantise`], where it lives.
+/// Re-exported from `isp::quantise`, where it lives.
 pub use super::quantise::linear_from_raw;
 use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
@@ -220,7 +220,7 @@ pub struct NoiseEstimateOptions {
     /// Minimum number of patches for a bin to be used.
     pub min_patches_per_bin: usize,
     /// Patches whose variance exceeds this multiple of their bin's median are dropped as
-    /// structure (default [`EDGE_REJECT_FACTOR`]).
+    /// structure (default `EDGE_REJECT_FACTOR`).
     pub reject_factor: f64,
 }
 

@@ -45,13 +45,13 @@ use rayon::prelude::*;
 use super::noise::{add_noise, NoiseParams};
 use super::profile::CameraProfile;
 use super::quantise::check_bit_depth;
-/// Re-exported from [`super::quantise`], where it lives.
+/// Re-exported from `isp::quantise`, where it lives.
 pub use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
 use crate::image::{Image, ImageView};
 use crate::raw::{Cfa, Colour, Levels, RawFrame};
 /// Re-exported from [`crate::srgb`], where the transfer function lives.
-pub use crate::srgb::{linear_from_srgb, srgb_from_linear};
+pub use crate::srgb::linear_from_srgb;
 
 /// Rows per parallel strip.
 const STRIP_ROWS: usize = 32;
@@ -110,6 +110,7 @@ fn inverse_rows(profile: &CameraProfile) -> Result<[[f32; 3]; 3], IspError> {
 }
 
 /// Linear camera RGB (before white balance) of an sRGB image: steps 1–3, no mosaic.
+#[cfg(test)]
 pub fn camera_rgb_from_srgb(
     rgb: ImageView<'_, [u8; 3]>,
     profile: &CameraProfile,
@@ -191,6 +192,7 @@ mod tests {
     use super::*;
     use crate::isp::noise::NoiseLevel;
     use crate::raw::RawPixels;
+    use crate::srgb::srgb_from_linear;
 
     #[test]
     fn srgb_curve_round_trips_and_matches_known_values() {

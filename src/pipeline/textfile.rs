@@ -25,8 +25,8 @@
 //! [`super::stats::LatencyHistogram`]).
 //!
 //! ```
-//! use mosaicd::pipeline::stats::Stats;
-//! use mosaicd::pipeline::textfile::render;
+//! use mosaicd::pipeline::Stats;
+//! use mosaicd::pipeline::render_textfile as render;
 //! let s = Stats::default();
 //! s.record_latency_ns(2_000_000);
 //! let text = render(&[("front", &s)], "0.1.0", "avx2", 1.7e9);

@@ -9,7 +9,7 @@
 //!
 //! ```
 //! use mosaicd::raw::{Cfa, Levels, RawFrame};
-//! use mosaicd::raw::levels::{f32_from_raw, Compression, Gains, NormaliseOptions};
+//! use mosaicd::raw::{f32_from_raw, Compression, Gains, NormaliseOptions};
 //! let f = RawFrame::from_u16(2, 2, vec![100, 600, 1100, 50], Cfa::Rggb, 12, Levels::uniform(100, 1100)).unwrap();
 //! let spec = NormaliseOptions { gains: Gains::None, compression: Compression::None }.build().unwrap();
 //! let img = f32_from_raw(&f, &spec).unwrap();
@@ -476,7 +476,7 @@ fn prepare(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Resu
 }
 
 /// Normalise `frame` into `dst` (reshaped to the frame's size), in parallel over strips of
-/// [`STRIP_ROWS`] rows on the current rayon pool.
+/// `STRIP_ROWS` rows on the current rayon pool.
 pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Result<(), RawError> {
     let mapper = prepare(frame, spec, dst)?;
     let w = frame.width();
@@ -488,6 +488,7 @@ pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f3
 }
 
 /// [`normalise_into`] on the calling thread only (the reference for the parallel path).
+#[cfg(test)]
 pub fn normalise_into_serial(
     frame: &RawFrame,
     spec: &NormaliseSpec,

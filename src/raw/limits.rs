@@ -20,7 +20,7 @@
 //! commands use the default.
 //!
 //! ```
-//! use mosaicd::raw::limits::{FrameLimits, DEFAULT_MAX_PIXELS};
+//! use mosaicd::raw::{FrameLimits, DEFAULT_MAX_PIXELS};
 //! let l = FrameLimits::new(DEFAULT_MAX_PIXELS).unwrap();
 //! assert!(l.check(8192, 8192).is_ok());
 //! assert!(l.check(16000, 15625).is_err()); // 250 MP
@@ -59,7 +59,7 @@ pub struct FrameTooLarge {
     pub max_side: u64,
 }
 
-/// The frame-size limit (see the [module overview](self)).
+/// The frame-size limit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameLimits {
     max_pixels: u64,
@@ -78,7 +78,7 @@ impl FrameLimits {
         max_pixels: DEFAULT_MAX_PIXELS,
     };
 
-    /// A limit of `max_pixels` (`1..=`[`MAX_MAX_PIXELS`]); `None` outside that range.
+    /// A limit of `max_pixels` (`1..=``MAX_MAX_PIXELS`); `None` outside that range.
     pub fn new(max_pixels: u64) -> Option<Self> {
         (1..=MAX_MAX_PIXELS)
             .contains(&max_pixels)

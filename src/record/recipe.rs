@@ -39,7 +39,7 @@
 //! `seed` (sky gradient, ground, coloured boxes and discs, a bar chart of stripes).
 //!
 //! ```
-//! use mosaicd::record::recipe::{crop_origin, Align};
+//! use mosaicd::record::{crop_origin, Align};
 //! // Halfway along one segment from (0,0) to (9,5), 3 frames: (0,0), (4.5→5, 2.5→3), (9,5).
 //! assert_eq!(crop_origin(&[[0, 0], [9, 5]], 1, 3, Align::Any), (5, 3));
 //! assert_eq!(crop_origin(&[[0, 0], [9, 5]], 1, 3, Align::Even), (4, 2));
@@ -159,7 +159,7 @@ impl Default for RecipeRecorder {
     }
 }
 
-/// A recording recipe (see the [module overview](self)).
+/// A recording recipe.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Recipe {

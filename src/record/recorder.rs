@@ -23,7 +23,7 @@ mod options;
 pub use files::{wall_clock_metadata, WALL_CLOCK_METADATA};
 pub use options::{
     Compression, FlushPolicy, PreviewOptions, RecorderOptions, RecordingSummary, RotatePolicy,
-    DEFAULT_CHUNK_SIZE, DEFAULT_COMPRESSION_LEVEL, DEFAULT_FLUSH_FRAMES,
+    DEFAULT_COMPRESSION_LEVEL, DEFAULT_FLUSH_FRAMES,
 };
 
 /// Write buffer in front of the file (bytes).

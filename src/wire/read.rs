@@ -176,7 +176,7 @@ pub fn check_summary_crc<R: Read + Seek>(r: &mut R) -> mcap::McapResult<()> {
 }
 
 /// Read the summary section through the footer (seeking), validating its CRC
-/// ([`check_summary_crc`]) and limiting record lengths ([`record_length_limit`]); `Ok(None)` when
+/// (`check_summary_crc`) and limiting record lengths (`record_length_limit`); `Ok(None)` when
 /// the file has no summary.
 pub fn read_summary<R: Read + Seek>(r: &mut R) -> mcap::McapResult<Option<mcap::Summary>> {
     use mcap::sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};

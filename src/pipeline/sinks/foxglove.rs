@@ -255,6 +255,7 @@ impl FoxgloveSink {
     }
 
     /// The counters so far.
+    #[cfg(test)]
     pub fn counters(&self) -> LiveCounters {
         self.counters
     }

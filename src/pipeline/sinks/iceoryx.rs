@@ -62,7 +62,7 @@ pub struct IceoryxSink {
 impl IceoryxSink {
     /// A factory for the pipeline. `keypoints`: also publish the keypoints service
     /// (`compute.keypoints`); `descriptors`: and the descriptors service
-    /// (`compute.keypoint_descriptors`). The sink lingers up to [`FINAL_LINGER`] for subscribers.
+    /// (`compute.keypoint_descriptors`). The sink lingers up to `FINAL_LINGER` for subscribers.
     pub fn factory(camera: &str, cfg: &PublishConfig, keypoints: bool, descriptors: bool) -> SinkFactory {
         Self::factory_with_linger(camera, cfg, keypoints, descriptors, FINAL_LINGER)
     }
@@ -143,7 +143,7 @@ impl IceoryxSink {
         })
     }
 
-    /// The same sink with the linger `linger` instead of [`FINAL_LINGER`].
+    /// The same sink with the linger `linger` instead of `FINAL_LINGER`.
     pub fn with_linger(mut self, linger: Duration) -> Self {
         self.linger = linger;
         self

@@ -23,10 +23,7 @@ use crate::pool::BufferPool;
 use crate::raw::{FrameMeta, RawFrame};
 use crate::wire::messages::StatsMsg;
 
-pub use jsonl::{
-    descriptors_json, frame_json, stats_json, stats_record, strip_wall_clock, CollectSink, JsonlSink,
-    WALL_KEY,
-};
+pub use jsonl::{descriptors_json, stats_json, strip_wall_clock, CollectSink, JsonlSink};
 
 /// Events a sink thread receives.
 #[derive(Debug, Clone)]

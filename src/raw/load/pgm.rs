@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::common::{bits_for, format_err, io_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
+use super::common::{bits_for, format_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
 use crate::raw::{FrameLimits, RawError, RawFrame, RawPixels};
 
 /// Room for a PGM's header and comments on top of its samples, bytes.
@@ -136,6 +136,7 @@ pub fn pgm_mosaic_from_bytes(bytes: &[u8], fmt: &MosaicFormat, origin: &Path) ->
 
 /// Write a frame as a binary PGM (`P5`) with maxval `2^bit_depth - 1` (big-endian 16-bit samples
 /// when the bit depth exceeds 8).
+#[cfg(test)]
 pub fn write_pgm(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let maxval = frame.max_value();
     let mut out = format!("P5\n{} {}\n{}\n", frame.width(), frame.height(), maxval).into_bytes();
@@ -146,7 +147,7 @@ pub fn write_pgm(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
             out.push(v as u8);
         }
     }
-    std::fs::write(path, out).map_err(|e| io_err(path, e))
+    std::fs::write(path, out).map_err(|e| super::common::io_err(path, e))
 }
 
 #[cfg(test)]

@@ -52,7 +52,8 @@ pub struct PngMosaicMeta {
 
 impl PngMosaicMeta {
     /// The text stored in the chunk: `cfa=RGGB bit_depth=14 black=600,600,600,600 white=15520`.
-    pub fn to_text(&self) -> String {
+    #[cfg(test)]
+    pub fn to_text(self) -> String {
         let b = self.levels.black;
         format!(
             "cfa={} bit_depth={} black={},{},{},{} white={}",
@@ -89,6 +90,7 @@ impl PngMosaicMeta {
 
 /// Write a frame as a 16-bit grey PNG: values as stored (not scaled), with the pattern, bit depth
 /// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`super::load_input`] reads.
+#[cfg(test)]
 pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let (w, h) = (frame.width(), frame.height());
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
@@ -150,6 +152,7 @@ pub(super) fn png_header_from<R: std::io::BufRead + std::io::Seek>(
 }
 
 /// Read the mosaic description [`write_png16`] stores in a PNG, if any.
+#[cfg(test)]
 pub fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
     Ok(png_header(path)?.1)
 }

@@ -11,7 +11,7 @@ use crate::raw::{Cfa, FrameLimits, RawError};
 /// frame-size limit: the header's width and height are checked against
 /// [`FrameLimits::process`] before any pixel is decoded, and the decoder's own allocations are
 /// capped ([`FrameLimits::image_limits`]). Every image decode in mosaicd goes through here or
-/// through [`decode_image_bytes`].
+/// through `decode_image_bytes`.
 pub fn decode_image(path: &Path) -> Result<image::DynamicImage, RawError> {
     let reader = image::ImageReader::open(path).map_err(|e| io_err(path, e))?;
     decode_within_limits(reader, path)
