@@ -34,5 +34,6 @@ pub mod publish;
 pub mod quiet_panic;
 pub mod raw;
 pub mod record;
+pub mod resize;
 pub mod srgb;
 pub mod wire;
