@@ -35,5 +35,6 @@ pub mod publish;
 pub(crate) mod quiet_panic;
 pub mod raw;
 pub mod record;
+pub mod resize;
 pub(crate) mod srgb;
 pub mod wire;

@@ -142,10 +142,7 @@ fn sift_image(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f32>,
                 .rgb
                 .as_ref()
                 .context("--as grey needs an RGB input (PNG/JPEG/BMP); use --as mosaic for raw data")?;
-            let g = Image::from_fn(rgb.width(), rgb.height(), |x, y| {
-                let [r, g, b] = rgb.get(x, y);
-                (0.299 * r as f32 + 0.587 * g as f32 + 0.114 * b as f32).round() / 255.0
-            });
+            let g = rgb.map(|p| mosaicd::isp::grey_f32(p.map(f32::from)).round() / 255.0);
             (g, Domain::Grey)
         }
     };

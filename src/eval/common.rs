@@ -53,6 +53,9 @@ pub enum EvalError {
     /// A super-pixel operation failed.
     #[error(transparent)]
     SuperPixel(#[from] SuperPixelError),
+    /// A resize failed.
+    #[error(transparent)]
+    Resize(#[from] crate::resize::ResizeError),
     /// A plot could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),

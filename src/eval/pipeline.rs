@@ -19,13 +19,12 @@
 //! ```
 
 use super::common::*;
-use crate::features::superpixel::{
-    blur_mosaic, gaussian_blur, resize_bilinear, resize_mosaic, GaussianKernel,
-};
+use crate::features::superpixel::{blur_mosaic, gaussian_blur, GaussianKernel};
 use crate::image::Image;
 use crate::isp::demosaic::rgb_from_mosaic;
 use crate::isp::DemosaicMethod;
 use crate::raw::Cfa;
+use crate::resize::{resize_bilinear, resize_mosaic};
 use std::time::{Duration, Instant};
 
 /// Super-pixel blur kernel size (plane units) of pipeline 1.
@@ -71,9 +70,10 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     // Peak: input + 4 planes + 4 blurred planes (inside blur_mosaic) + blurred mosaic being written.
     let full = plane_bytes(w, h);
     let blur_peak = full + full + full + full;
-    // Resize: input, blurred mosaic, 4 planes of it, 4 resized planes, resized mosaic.
+    // Resize: input, blurred mosaic, resized mosaic (the resize interpolates the planes in place,
+    // keeping two resampled rows per tile phase per strip of rows).
     let small_b = plane_bytes(nw, nh);
-    let resize_peak = full + full + full + small_b + small_b;
+    let resize_peak = full + full + small_b;
     // Gradient: mosaic, blurred mosaic, resized mosaic, gx, gy, magnitude.
     let grad_peak = full + full + small_b + 3 * small_b;
     Ok(PipelineRun {

@@ -18,13 +18,12 @@
 
 use super::common::*;
 use super::plot::{box_plot, histogram_plot, Distribution};
-use crate::features::superpixel::{
-    blur_mosaic, gaussian_blur, resize_bilinear, resize_mosaic, GaussianKernel,
-};
+use crate::features::superpixel::{blur_mosaic, gaussian_blur, GaussianKernel};
 use crate::image::Image;
 use crate::metrics::psnr::{mse, psnr_from_mse};
 use crate::metrics::ssim::{mssim, SsimOptions};
 use crate::raw::Cfa;
+use crate::resize::{resize_bilinear, resize_mosaic};
 
 /// Super-pixel blur kernel size (plane units).
 pub const SUPERPIXEL_KSIZE: usize = 3;

@@ -29,7 +29,7 @@ pub use demosaic::{
     rgb_from_mosaic, rgb_from_mosaic_bilinear, rgb_from_mosaic_u8, DemosaicMethod, ParseDemosaicMethodError,
 };
 pub use forward::{srgb_from_raw, ForwardIspOptions};
-pub use grey::{grey_from_rgb_f32, grey_from_rgb_u8};
+pub use grey::{grey_f32, grey_from_rgb_f32, grey_from_rgb_u8};
 pub use noise::{
     add_noise, add_noise_to_raw, estimate_noise, linear_from_raw, NoiseEstimate, NoiseEstimateOptions,
     NoiseLevel, NoiseParams,

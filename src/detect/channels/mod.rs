@@ -146,7 +146,7 @@ pub enum ChannelsError {
     },
     /// A resize inside the pyramid failed.
     #[error(transparent)]
-    Resize(#[from] crate::detect::pyramid::PyramidError),
+    Resize(#[from] crate::resize::ResizeError),
 }
 
 /// What the channels are computed from; values in 8-bit units (0..=255).
