@@ -8,7 +8,8 @@
 item (`struct.*.html`, `fn.*.html`, `enum.*`, `trait.*`, `type.*`, `constant.*`, `static.*`,
 `macro.*`, `union.*`, `traitalias.*`) and one `index.html` per public module, in total and per
 top-level module. An item re-exported from a private module gets its page at the re-export; an item
-reachable by two public paths has one page, where it is defined. Pass the `doc/<crate>` directory of
+reachable by two public paths has one page, where it is defined. The redirect pages rustdoc leaves at
+a re-exported item's private path are not counted. Pass the `doc/<crate>` directory of
 the target dir cargo used (`$CARGO_TARGET_DIR/doc/mosaicd`), removed first: rustdoc leaves the pages
 of items that are no longer public in place.
 
@@ -88,6 +89,8 @@ def rustdoc_counts(doc: Path) -> int:
                 per_top[top] = per_top.get(top, 0) + 1
             continue
         m = ITEM_PAGE.match(f.name)
+        if m and f.stat().st_size < 2000 and "Redirecting to" in f.read_text(errors="replace"):
+            continue  # the stub at a private path of an item re-exported elsewhere
         if m:
             kinds[m.group(1)] = kinds.get(m.group(1), 0) + 1
             per_top[top] = per_top.get(top, 0) + 1

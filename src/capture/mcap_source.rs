@@ -73,7 +73,7 @@ use crate::wire::schema::{decode_raw_frame, decode_raw_frame_header, RAW_FRAME_S
 const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;
 /// The longest wait between two consecutive paced frames (wall time, after the speed factor): a
 /// longer step in the recorded timestamps is a jump, logged and counted, not slept through.
-pub const MAX_PACED_GAP_NS: u64 = 10_000_000_000;
+pub(crate) const MAX_PACED_GAP_NS: u64 = 10_000_000_000;
 /// Read buffer in front of the file (bytes).
 const READ_BUFFER: usize = 1 << 20;
 

@@ -34,7 +34,7 @@ use super::{CaptureError, Clock, MonotonicClock, Source, SourceKind};
 use crate::raw::{FrameMeta, Levels, RawFrame};
 
 /// Default number of mmap buffers.
-pub const DEFAULT_BUFFERS: u32 = 4;
+pub(crate) const DEFAULT_BUFFERS: u32 = 4;
 /// How long a dequeue may block before the device is considered gone (ms).
 const DEQUEUE_TIMEOUT_MS: u64 = 2000;
 /// Back-off defaults: first retry after 100 ms, doubling, at most 5 s.
@@ -95,7 +95,7 @@ impl Backoff {
 
 /// Counts frames the driver dropped from gaps in its sequence numbers.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct SequenceTracker {
+pub(crate) struct SequenceTracker {
     last: Option<u32>,
     /// Frames missing between consecutive driver sequence numbers, in total.
     pub drops: u64,
@@ -104,7 +104,7 @@ pub struct SequenceTracker {
 impl SequenceTracker {
     /// Observe a driver sequence number; returns how many frames were skipped before it.
     /// The 32-bit counter may wrap; a sequence that goes backwards (driver restart) is a new start.
-    pub fn observe(&mut self, seq: u32) -> u64 {
+    pub(crate) fn observe(&mut self, seq: u32) -> u64 {
         let gap = match self.last {
             Some(last) => {
                 let d = seq.wrapping_sub(last);
@@ -122,14 +122,17 @@ impl SequenceTracker {
     }
 
     /// Forget the last sequence (after a reopen the driver starts again).
-    pub fn restart(&mut self) {
+    pub(crate) fn restart(&mut self) {
         self.last = None;
     }
 }
 
 /// Choose a Bayer format among the device's FourCCs: `preferred` if offered, else the deepest
 /// bit depth, unpacked before packed (cheaper to read), in the device's order otherwise.
-pub fn negotiate(offered: &[[u8; 4]], preferred: Option<[u8; 4]>) -> Result<BayerFormat, CaptureError> {
+pub(crate) fn negotiate(
+    offered: &[[u8; 4]],
+    preferred: Option<[u8; 4]>,
+) -> Result<BayerFormat, CaptureError> {
     let bayer: Vec<BayerFormat> = offered.iter().filter_map(|f| bayer_format(*f).ok()).collect();
     if let Some(p) = preferred {
         if let Some(f) = bayer.iter().find(|f| f.fourcc == p) {

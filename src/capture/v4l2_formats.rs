@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use crate::raw::{Cfa, FrameLimits, FrameTooLarge, Levels, RawError, RawFrame, RawPixels};
 
 /// Rows per rayon task when unpacking.
-pub const STRIP_ROWS: usize = 64;
+pub(crate) const STRIP_ROWS: usize = 64;
 
 /// How samples are stored in a row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -139,7 +139,7 @@ pub enum V4l2FormatError {
 }
 
 /// Every supported FourCC, in the table's order.
-pub const SUPPORTED: [[u8; 4]; 24] = [
+pub(crate) const SUPPORTED: [[u8; 4]; 24] = [
     *b"BA81", *b"GBRG", *b"GRBG", *b"RGGB", // 8-bit
     *b"BG10", *b"GB10", *b"BA10", *b"RG10", // 10-bit unpacked
     *b"BG12", *b"GB12", *b"BA12", *b"RG12", // 12-bit unpacked
@@ -149,7 +149,7 @@ pub const SUPPORTED: [[u8; 4]; 24] = [
 ];
 
 /// 12-bit packed FourCCs (kept apart so [`SUPPORTED`] stays a readable table).
-pub const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
+pub(crate) const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
 
 /// A FourCC written as text (`"pRAA"`): its four bytes, or `None` unless it is exactly four
 /// bytes long. The inverse of `fourcc_str` for printable codes.
@@ -158,7 +158,7 @@ pub fn parse_fourcc(s: &str) -> Option<[u8; 4]> {
 }
 
 /// FourCC as printable text.
-pub fn fourcc_str(f: [u8; 4]) -> String {
+pub(crate) fn fourcc_str(f: [u8; 4]) -> String {
     f.iter()
         .map(|&b| {
             if b.is_ascii_graphic() || b == b' ' {
@@ -328,7 +328,7 @@ fn unpack_row(fmt: &BayerFormat, src: &[u8], dst: &mut [u16]) -> Option<(usize, 
 
 /// Unpack a driver buffer into `dst` (`width * height` u16 values, row-major, contiguous).
 /// Rows are unpacked in parallel strips of `STRIP_ROWS` on the current rayon pool.
-pub fn unpack_into(
+pub(crate) fn unpack_into(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,
@@ -380,7 +380,7 @@ pub fn unpack_into(
 
 /// Serial reference of [`unpack_into`] (the test oracle for the parallel path).
 #[cfg(test)]
-pub fn unpack_into_serial(
+pub(crate) fn unpack_into_serial(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,

@@ -28,9 +28,9 @@ use crate::resize::{resize_bilinear, resize_mosaic};
 use std::time::{Duration, Instant};
 
 /// Super-pixel blur kernel size (plane units) of pipeline 1.
-pub const SUPERPIXEL_KSIZE: usize = 3;
+pub(crate) const SUPERPIXEL_KSIZE: usize = 3;
 /// Resize factor of both pipelines.
-pub const RESIZE: f64 = 0.5;
+pub(crate) const RESIZE: f64 = 0.5;
 
 /// Bytes of an `f32` plane of `w`x`h`.
 fn plane_bytes(w: usize, h: usize) -> usize {
@@ -39,7 +39,7 @@ fn plane_bytes(w: usize, h: usize) -> usize {
 
 /// Result of one pipeline on one image.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PipelineRun {
+pub(crate) struct PipelineRun {
     /// The gradient magnitude it produced.
     pub magnitude: Image<f32>,
     /// Wall-clock time.
@@ -56,7 +56,7 @@ fn target(w: usize, h: usize) -> (usize, usize) {
 }
 
 /// Pipeline 1 on a mosaic (even size).
-pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
+pub(crate) fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     let (w, h) = mosaic.dimensions();
     let (nw, nh) = target(w, h);
     let k = GaussianKernel::from_ksize(SUPERPIXEL_KSIZE)?;
@@ -84,7 +84,7 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
 }
 
 /// Pipeline 2 on a mosaic (even size) with a demosaicing method.
-pub fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Result<PipelineRun> {
+pub(crate) fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Result<PipelineRun> {
     let (w, h) = mosaic.dimensions();
     let (nw, nh) = target(w, h);
     // Same σ as pipeline 1 in image pixels: 2 × σ(3x3) = 1.6.

@@ -50,7 +50,7 @@ pub const MATCH_THRESHOLD_PX: f64 = 3.0;
 /// Descriptor window radius in units of keypoint `size`: OpenCV's
 /// `SIFT_DESCR_SCL_FCTR · σ · √2 · (SIFT_DESCR_WIDTH + 1) / 2` with `σ = size / 2`, i.e.
 /// `3 · √2 · 5 / 4`.
-pub const DESCRIPTOR_RADIUS_PER_SIZE: f64 = 3.0 * std::f64::consts::SQRT_2 * 5.0 / 4.0;
+pub(crate) const DESCRIPTOR_RADIUS_PER_SIZE: f64 = 3.0 * std::f64::consts::SQRT_2 * 5.0 / 4.0;
 
 /// A transform applied to the test image.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -94,7 +94,7 @@ pub fn default_transforms() -> Vec<Transform> {
 }
 
 /// Output size of `t` applied to a `w` x `h` image.
-pub fn output_size(t: Transform, w: usize, h: usize) -> (usize, usize) {
+pub(crate) fn output_size(t: Transform, w: usize, h: usize) -> (usize, usize) {
     match t {
         Transform::Scale(f) => (
             even((w as f64 * f).round() as usize),
@@ -452,7 +452,7 @@ pub enum EvalSiftError {
 }
 
 /// Evaluate one RGB image under every transform in `transforms`.
-pub fn evaluate_image(
+pub(crate) fn evaluate_image(
     path: &Path,
     transforms: &[Transform],
     grey_spec: &SiftSpec,

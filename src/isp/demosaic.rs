@@ -75,7 +75,7 @@ use crate::image::{Image, ImageView};
 use crate::raw::{Cfa, Colour};
 
 /// Rows per parallel strip.
-pub const DEMOSAIC_STRIP_ROWS: usize = 16;
+pub(crate) const DEMOSAIC_STRIP_ROWS: usize = 16;
 
 /// A demosaicing method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -641,7 +641,7 @@ fn demosaic_impl(
 }
 
 /// Demosaic an `f32` mosaic of pattern `cfa` into `dst` (same size, at least 2x2) with `method`.
-pub fn demosaic_into(
+pub(crate) fn demosaic_into(
     src: ImageView<'_, f32>,
     cfa: Cfa,
     method: DemosaicMethod,
@@ -663,7 +663,10 @@ pub fn rgb_from_mosaic(
 
 /// Nearest-neighbour demosaicing (2x2 tile copy).
 #[cfg(test)]
-pub fn rgb_from_mosaic_nearest(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Image<[f32; 3]>, IspError> {
+pub(crate) fn rgb_from_mosaic_nearest(
+    src: ImageView<'_, f32>,
+    cfa: Cfa,
+) -> Result<Image<[f32; 3]>, IspError> {
     rgb_from_mosaic(src, cfa, DemosaicMethod::Nearest)
 }
 
@@ -674,13 +677,16 @@ pub fn rgb_from_mosaic_bilinear(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Ima
 
 /// Bicubic (Keys a = −0.5) demosaicing.
 #[cfg(test)]
-pub fn rgb_from_mosaic_bicubic(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Image<[f32; 3]>, IspError> {
+pub(crate) fn rgb_from_mosaic_bicubic(
+    src: ImageView<'_, f32>,
+    cfa: Cfa,
+) -> Result<Image<[f32; 3]>, IspError> {
     rgb_from_mosaic(src, cfa, DemosaicMethod::Bicubic)
 }
 
 /// Hamilton–Adams adaptive colour plane interpolation.
 #[cfg(test)]
-pub fn rgb_from_mosaic_hamilton_adams(
+pub(crate) fn rgb_from_mosaic_hamilton_adams(
     src: ImageView<'_, f32>,
     cfa: Cfa,
 ) -> Result<Image<[f32; 3]>, IspError> {
@@ -691,7 +697,7 @@ pub fn rgb_from_mosaic_hamilton_adams(
 /// levels to `y = (v − black) / (white − black)` (no white balance, no colour matrix), then
 /// demosaiced with `method` (unclipped `f32`).
 #[cfg(test)]
-pub fn rgb_from_raw(
+pub(crate) fn rgb_from_raw(
     frame: &crate::raw::RawFrame,
     method: DemosaicMethod,
 ) -> Result<Image<[f32; 3]>, IspError> {
@@ -713,7 +719,7 @@ pub fn rgb_from_mosaic_u8(
 /// Demosaic a 16-bit mosaic; results are rounded and clamped to `0..=max` (e.g. the white level
 /// or `2^bit_depth − 1`).
 #[cfg(test)]
-pub fn rgb_from_mosaic_u16(
+pub(crate) fn rgb_from_mosaic_u16(
     src: ImageView<'_, u16>,
     cfa: Cfa,
     method: DemosaicMethod,

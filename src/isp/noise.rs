@@ -63,11 +63,11 @@ use crate::image::Image;
 use crate::raw::{CfaChannel, RawFrame};
 
 /// Rows per noise strip; strip `i` draws from ChaCha stream `i`.
-pub const NOISE_STRIP_ROWS: usize = 32;
+pub(crate) const NOISE_STRIP_ROWS: usize = 32;
 
 /// Patches whose residual variance exceeds this multiple of their bin's median are treated as
 /// structure (edges, texture) and dropped by the estimator.
-pub const EDGE_REJECT_FACTOR: f64 = 1.5;
+pub(crate) const EDGE_REJECT_FACTOR: f64 = 1.5;
 
 /// `Var(y − mean of 4 independent neighbours) = σ² (1 + 4/16)`.
 const RESIDUAL_VARIANCE_GAIN: f64 = 1.25;

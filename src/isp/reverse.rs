@@ -51,13 +51,13 @@ use super::IspError;
 use crate::image::{Image, ImageView};
 use crate::raw::{Cfa, Colour, Levels, RawFrame};
 /// Re-exported from [`crate::srgb`], where the transfer function lives.
-pub use crate::srgb::linear_from_srgb;
+pub(crate) use crate::srgb::linear_from_srgb;
 
 /// Rows per parallel strip.
 const STRIP_ROWS: usize = 32;
 
 /// Linear value of each sRGB `u8` code.
-pub fn srgb_u8_to_linear_lut() -> [f32; 256] {
+pub(crate) fn srgb_u8_to_linear_lut() -> [f32; 256] {
     let mut lut = [0.0; 256];
     for (i, v) in lut.iter_mut().enumerate() {
         *v = linear_from_srgb(i as f32 / 255.0);
@@ -111,7 +111,7 @@ fn inverse_rows(profile: &CameraProfile) -> Result<[[f32; 3]; 3], IspError> {
 
 /// Linear camera RGB (before white balance) of an sRGB image: steps 1–3, no mosaic.
 #[cfg(test)]
-pub fn camera_rgb_from_srgb(
+pub(crate) fn camera_rgb_from_srgb(
     rgb: ImageView<'_, [u8; 3]>,
     profile: &CameraProfile,
 ) -> Result<Image<[f32; 3]>, IspError> {
@@ -137,7 +137,7 @@ fn colour_index(c: Colour) -> usize {
 }
 
 /// The linear mosaic (steps 1–4) of an sRGB image, before noise and quantisation.
-pub fn linear_mosaic_from_srgb(
+pub(crate) fn linear_mosaic_from_srgb(
     rgb: ImageView<'_, [u8; 3]>,
     profile: &CameraProfile,
     cfa: Cfa,

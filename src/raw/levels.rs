@@ -63,13 +63,13 @@ use super::{Colour, RawError, RawFrame, RawPixels, RawView};
 use crate::image::Image;
 
 /// Rows per parallel work item (a strip of 16 rows of a 4K frame is ~250 KB of f32 output).
-pub const STRIP_ROWS: usize = 16;
+pub(crate) const STRIP_ROWS: usize = 16;
 
 /// Largest accepted gain (fixed-point integer path holds gains below this in Q4.12).
-pub const MAX_GAIN: f32 = 16.0;
+pub(crate) const MAX_GAIN: f32 = 16.0;
 
 /// Fraction bits of the fixed-point gains in [`u16_from_raw`] (Q4.12).
-pub const GAIN_FRAC_BITS: u32 = 12;
+pub(crate) const GAIN_FRAC_BITS: u32 = 12;
 
 /// Where per-colour gains come from.
 ///
@@ -489,7 +489,7 @@ pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f3
 
 /// [`normalise_into`] on the calling thread only (the reference for the parallel path).
 #[cfg(test)]
-pub fn normalise_into_serial(
+pub(crate) fn normalise_into_serial(
     frame: &RawFrame,
     spec: &NormaliseSpec,
     dst: &mut Image<f32>,

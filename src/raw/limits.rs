@@ -31,13 +31,13 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest frame side in pixels.
-pub const MAX_SIDE: usize = 16_384;
+pub(crate) const MAX_SIDE: usize = 16_384;
 /// Default largest frame in pixels (2^26, "64 MP").
 pub const DEFAULT_MAX_PIXELS: u64 = 1 << 26;
 /// Largest value `limits.max_frame_pixels` accepts: a square frame of [`MAX_SIDE`].
-pub const MAX_MAX_PIXELS: u64 = (MAX_SIDE as u64) * (MAX_SIDE as u64);
+pub(crate) const MAX_MAX_PIXELS: u64 = (MAX_SIDE as u64) * (MAX_SIDE as u64);
 /// Bytes one sample takes at most (u16 container).
-pub const MAX_BYTES_PER_SAMPLE: u64 = 2;
+pub(crate) const MAX_BYTES_PER_SAMPLE: u64 = 2;
 
 /// The process's limit in pixels (0 = not set: the default).
 static PROCESS_MAX_PIXELS: AtomicU64 = AtomicU64::new(0);

@@ -36,7 +36,7 @@ fn colour_index(c: Colour) -> usize {
 /// Sample `rgb` through the colour filter array `cfa` into `dst`.
 ///
 /// `dst` is reshaped to the size of `rgb`. Never fails; the `Result` keeps the STYLE form.
-pub fn mosaic_from_rgb_into<T: Copy + Default>(
+pub(crate) fn mosaic_from_rgb_into<T: Copy + Default>(
     rgb: &ImageView<'_, [T; 3]>,
     cfa: Cfa,
     dst: &mut Image<T>,

@@ -378,7 +378,7 @@ pub(crate) struct GradScratch {
 
 impl GradScratch {
     /// Empty every list (capacity kept).
-    pub fn clear(&mut self) {
+    pub(super) fn clear(&mut self) {
         for v in [
             &mut self.dx,
             &mut self.dy,
@@ -392,7 +392,7 @@ impl GradScratch {
     }
 
     /// Fill `mag` and `ori` from `dx` and `dy`.
-    pub fn polar(&mut self, path: Isa) {
+    pub(super) fn polar(&mut self, path: Isa) {
         let n = self.dx.len();
         self.mag.resize(n, 0.0);
         self.ori.resize(n, 0.0);

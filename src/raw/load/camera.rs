@@ -21,11 +21,11 @@ fn cfa_from_rawloader(name: &str, origin: &Path) -> Result<Cfa, RawError> {
 }
 
 /// Room for a camera raw file's metadata and embedded previews on top of its samples, bytes.
-pub const CAMERA_RAW_SLACK_BYTES: u64 = 64 << 20;
+pub(super) const CAMERA_RAW_SLACK_BYTES: u64 = 64 << 20;
 
 /// The largest camera raw file accepted under `limits`: the samples of the largest frame (16 bits
 /// each; compressed files are smaller) plus [`CAMERA_RAW_SLACK_BYTES`].
-pub fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
+pub(super) fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
     limits.max_sample_bytes().saturating_add(CAMERA_RAW_SLACK_BYTES)
 }
 

@@ -66,10 +66,12 @@ mod tiff_walk;
 
 pub use camera::{camera_raw_from_bytes, load_camera_raw};
 pub use common::{Container, Endian, InputOptions, LoadedInput, MosaicFormat};
-pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFormat};
-pub use pgm::{load_pgm_mosaic, pgm_mosaic_from_bytes};
+pub(crate) use headerless::headerless_format;
+pub use headerless::{frame_from_bytes, load_headerless, RawFormat};
+pub(crate) use pgm::{load_pgm_mosaic, pgm_mosaic_from_bytes};
 pub use png::load_png_mosaic;
-pub use rgb::{decode_image, decode_image_bytes, load_rgb8};
+pub use rgb::decode_image;
+pub(crate) use rgb::{decode_image_bytes, load_rgb8};
 pub use tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 
 use common::need_cfa;
@@ -189,7 +191,7 @@ fn load_from(src: Src<'_>, opts: &InputOptions) -> Result<LoadedInput, RawError>
 
 /// A path for error messages when there is no file.
 #[cfg(test)]
-pub fn memory_origin() -> std::path::PathBuf {
+pub(crate) fn memory_origin() -> std::path::PathBuf {
     std::path::PathBuf::from("<memory>")
 }
 
