@@ -11,9 +11,10 @@
 //! (capture sources, iceoryx2 publishing, MCAP recording, the pipeline). The `mosaicd` binary is a
 //! thin CLI over it.
 #![warn(missing_docs)]
-// Each folder is a facade: its files are `pub(crate)` and its `mod.rs` re-exports what other crates
-// use. `unreachable_pub` keeps `pub` for what is reachable from outside the crate (everything else
-// is `pub(crate)`); `unnameable_types` keeps every type in a public signature nameable.
+// Each folder is a facade (detect/ not yet): its files are `pub(crate)` and its `mod.rs` re-exports
+// what other crates use. `unreachable_pub` keeps `pub` for what is reachable from outside the crate
+// (everything else is `pub(crate)`); `unnameable_types` keeps every type in a public signature
+// nameable.
 #![warn(unnameable_types)]
 #![warn(unreachable_pub)]
 
