@@ -11,9 +11,9 @@
 
 use std::time::{Duration, Instant};
 
-use mosaicd::detect::acf::{AcfDetector, AcfModel, AcfOptions};
-use mosaicd::detect::channels::{pyramid, ChannelInput, ChannelSpec, PyramidOptions};
-use mosaicd::detect::input::MosaicPrep;
+use mosaicd::detect::MosaicPrep;
+use mosaicd::detect::{pyramid, ChannelInput, ChannelSpec, PyramidOptions};
+use mosaicd::detect::{AcfDetector, AcfModel, AcfOptions};
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 const RUNS: usize = 12;

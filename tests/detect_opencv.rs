@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use mosaicd::detect::nms::iou;
+use mosaicd::detect::iou;
 use mosaicd::detect::{Detection, Detector, DetectorOptions, Domain, LinearModel};
 use mosaicd::features::hog::HogInput;
 use mosaicd::image::Image;

@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use mosaicd::detect::acf::AcfModel;
-use mosaicd::detect::model::LinearModel;
+use mosaicd::detect::AcfModel;
 use mosaicd::detect::Domain;
+use mosaicd::detect::LinearModel;
 use mosaicd::features::hog::MosaicTone;
 
 #[test]

@@ -8,8 +8,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use mosaicd::detect::model::{Domain, LinearModel};
-use mosaicd::detect::train::split_data;
+use mosaicd::detect::split_data;
+use mosaicd::detect::{Domain, LinearModel};
 
 fn mosaicd(args: &[&str]) -> Output {
     mosaicd::data::require("pedestrian/inria_pos_96x160");
@@ -336,7 +336,7 @@ fn val_fraction_zero_trains_on_every_file_and_still_selects_c() {
     assert!(log.contains("select C: chose C ="), "{log}");
     assert!(log.contains("validation: skipped, nothing is held out"), "{log}");
     let m = LinearModel::load(&out, Domain::Mosaic).unwrap();
-    let split = mosaicd::detect::train::split_data(&mosaicd::data::require_root(), 1, 0.2, 0).unwrap();
+    let split = mosaicd::detect::split_data(&mosaicd::data::require_root(), 1, 0.2, 0).unwrap();
     let every = split.train_pos.len() + split.val_pos.len();
     assert_eq!(m.provenance["train_positives"].as_u64().unwrap() as usize, every);
     assert!(m.provenance.get("validation").is_none());

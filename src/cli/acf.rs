@@ -4,15 +4,13 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use mosaicd::detect::acf::AcfModel;
-use mosaicd::detect::boost::{BoostOptions, TraceOptions, TreeOptions};
-use mosaicd::detect::channels::PyramidOptions;
-use mosaicd::detect::train::acf::{
+use mosaicd::detect::AcfModel;
+use mosaicd::detect::PyramidOptions;
+use mosaicd::detect::{
     calibrate_cascade, evaluate_acf_windows, positive_windows, set_trace, train_acf, AcfTrainOptions,
 };
-use mosaicd::detect::train::{
-    inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
-};
+use mosaicd::detect::{inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline};
+use mosaicd::detect::{BoostOptions, TraceOptions, TreeOptions};
 use mosaicd::raw::Gains;
 
 use super::detect_common::{TrainArgs, TRAIN_NOISE_SALT};
@@ -72,7 +70,7 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
         acc_neg: x.acf_acc_neg,
         max_neg_images: a.max_neg_images,
         measure_lambdas: x.acf_lambdas.is_none(),
-        casc_thr: x.acf_casc_thr.unwrap_or(mosaicd::detect::acf::CASC_THR),
+        casc_thr: x.acf_casc_thr.unwrap_or(mosaicd::detect::CASC_THR),
         trace: parse_trace(x.acf_trace.as_deref())?,
         pyramid: PyramidOptions {
             lambdas: match &x.acf_lambdas {

@@ -10,9 +10,9 @@ use std::process::Command;
 use std::time::Duration;
 
 use anyhow::{bail, Context};
-use mosaicd::detect::acf::AcfOptions;
-use mosaicd::detect::people::{PeopleDetector, PeopleModel, PeopleStats};
+use mosaicd::detect::AcfOptions;
 use mosaicd::detect::{DetectStats, DetectorOptions, Domain, StageProfile};
+use mosaicd::detect::{PeopleDetector, PeopleModel, PeopleStats};
 use mosaicd::eval::time_detector;
 use mosaicd::features::hog::{HogInput, MosaicTone};
 use mosaicd::progress::Progress;

@@ -16,7 +16,7 @@ use mosaicd::capture::{SyntheticSource, SyntheticSpec};
 use mosaicd::clock::ReplayClock;
 use mosaicd::config::PublishConfig;
 use mosaicd::config::{Config, SvmSetting};
-use mosaicd::detect::people::DetectorKind;
+use mosaicd::detect::DetectorKind;
 use mosaicd::detect::ScorePrecision;
 use mosaicd::pipeline::IceoryxSink;
 use mosaicd::pipeline::Stage;

@@ -7,7 +7,7 @@ use super::detect_common::{
     json_report, load_frame, print_boxes, save_preview, text_summary, DetectorArgs, DomainArg,
 };
 use super::input::InputArgs;
-use mosaicd::detect::people::DetectorKind;
+use mosaicd::detect::DetectorKind;
 use mosaicd::detect::Domain;
 
 /// Arguments of `mosaicd detect`.

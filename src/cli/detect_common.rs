@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 
 use super::input::InputArgs;
-use mosaicd::detect::acf::AcfOptions;
-use mosaicd::detect::input::MosaicPrep;
-use mosaicd::detect::people::{PeopleDetector, PeopleInput, PeopleModel, PeopleStats};
+use mosaicd::detect::AcfOptions;
+use mosaicd::detect::MosaicPrep;
 use mosaicd::detect::{DetectorOptions, Domain, NmsMethod, ScorePrecision};
+use mosaicd::detect::{PeopleDetector, PeopleInput, PeopleModel, PeopleStats};
 use mosaicd::eval::draw_boxes;
 use mosaicd::features::hog::{MosaicTaps, MosaicTone};
 use mosaicd::image::Image;

@@ -14,8 +14,8 @@
 
 use std::path::PathBuf;
 
-use mosaicd::detect::train::{split_data, InputPipeline, TrainError};
 use mosaicd::detect::Domain;
+use mosaicd::detect::{split_data, InputPipeline, TrainError};
 use mosaicd::eval::Shrink;
 use mosaicd::eval::{
     ap_protocol, ap_rows, window_protocol, ApImages, ApProtocol, DetEvalSettings, DetRun, WindowProtocol,

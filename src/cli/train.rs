@@ -3,10 +3,10 @@
 
 use std::time::Instant;
 
-use mosaicd::detect::train::{
+use mosaicd::detect::ScorePrecision;
+use mosaicd::detect::{
     evaluate_windows_via, list_negative_dirs, select_c, split_data, train_on, InputPipeline, TrainOptions,
 };
-use mosaicd::detect::ScorePrecision;
 use mosaicd::progress::Progress;
 use mosaicd::raw::Gains;
 
@@ -78,7 +78,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
             // the inner split's fraction differs from the outer one only then; other models'
             // provenance stays as it was
             model.provenance["c_selection"]["inner_val_fraction"] =
-                serde_json::json!(mosaicd::detect::train::inner_val_fraction(o.val_fraction));
+                serde_json::json!(mosaicd::detect::inner_val_fraction(o.val_fraction));
         }
     }
     let cmd: Vec<String> = std::env::args().collect();

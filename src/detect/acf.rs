@@ -49,16 +49,16 @@ use crate::raw::tone::MosaicTone;
 use kernels::{goes_right, score_run, PackedTrees, Tree2};
 
 /// The format name in ACF model files.
-pub const FORMAT: &str = "mosaicd-acf";
+pub(crate) const FORMAT: &str = "mosaicd-acf";
 /// Current format version.
-pub const VERSION: u32 = 1;
+pub(crate) const VERSION: u32 = 1;
 /// Dollár's soft-cascade threshold.
 pub const CASC_THR: f32 = -1.0;
 /// Dollár's cascade calibration (added to every leaf after training).
-pub const CASC_CAL: f32 = 0.005;
+pub(crate) const CASC_CAL: f32 = 0.005;
 /// The score of a window the soft cascade rejects (the lowest finite `f32`): no detection at
 /// any threshold.
-pub const REJECTED: f32 = f32::MIN;
+pub(crate) const REJECTED: f32 = f32::MIN;
 
 /// Errors of the ACF detector.
 #[derive(Debug, Error)]
@@ -85,9 +85,9 @@ pub enum AcfError {
 /// A trained ACF detector.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AcfModel {
-    /// Always [`FORMAT`].
+    /// Always `"mosaicd-acf"`.
     pub format: String,
-    /// Always [`VERSION`].
+    /// Always 1.
     pub version: u32,
     /// The input domain the model was trained on.
     pub domain: Domain,
@@ -103,7 +103,7 @@ pub struct AcfModel {
     pub casc_thr: f32,
     /// Calibration already added to every node value.
     pub casc_cal: f32,
-    /// Calibrated per-tree rejection trace ([`super::boost::calibrate_trace`]): a window is
+    /// Calibrated per-tree rejection trace (`boost::calibrate_trace`): a window is
     /// rejected after tree `k` when its running score is `≤ casc_trace[k]`; when present it
     /// replaces `casc_thr` while scoring. Absent in models written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -213,7 +213,7 @@ impl AcfModel {
 
 /// Whether `path` is an ACF model file (a `.json` whose `format` is [`FORMAT`]); unreadable or
 /// other files are not.
-pub fn is_acf_model_file(path: &Path) -> bool {
+pub(crate) fn is_acf_model_file(path: &Path) -> bool {
     if path.extension().and_then(|e| e.to_str()) != Some("json") {
         return false;
     }
@@ -511,7 +511,7 @@ impl AcfDetector {
     }
 
     /// Scores of every window of one level, row by row (`(bx, by, score)`), and the trees
-    /// evaluated. A window the soft cascade rejects scores [`REJECTED`]: it is no detection at
+    /// evaluated. A window the soft cascade rejects scores `f32::MIN` (`REJECTED`): it is no detection at
     /// any threshold.
     pub fn score_level(&self, ch: &Channels) -> (Vec<(usize, usize, f32)>, u64) {
         let Some(l) = self.score_windows(ch) else {
@@ -602,7 +602,7 @@ impl AcfDetector {
     }
 
     /// Score of a window's feature vector (e.g. a training positive) with the soft cascade:
-    /// [`REJECTED`] when the cascade rejects it (as [`AcfDetector::score_level`]).
+    /// `REJECTED` when the cascade rejects it (as [`AcfDetector::score_level`]).
     pub fn score_features(&self, x: &[f32]) -> f32 {
         let (s, n) = self.model.classifier.score_trace(x, &self.reject);
         if self.survived(s, n as u32) {

@@ -8,7 +8,7 @@
 //! soft-cascade threshold, so most windows of an image are rejected after a few trees.
 //!
 //! ```
-//! use mosaicd::detect::boost::{train_adaboost, BoostOptions, TreeOptions};
+//! use mosaicd::detect::{train_adaboost, BoostOptions, TreeOptions};
 //! // Two features; positives have a large feature 1.
 //! let neg: Vec<Vec<f32>> = (0..50).map(|i| vec![i as f32, (i % 7) as f32]).collect();
 //! let pos: Vec<Vec<f32>> = (0..50).map(|i| vec![i as f32, 10.0 + (i % 5) as f32]).collect();
@@ -338,7 +338,7 @@ impl BoostedTrees {
     }
 }
 
-/// Options of [`calibrate_trace`] (see the module docs for the rule).
+/// Options of `calibrate_trace` (see the module docs for the rule).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TraceOptions {
     /// Floor `κ`: only calibration positives whose final score reaches it are protected (the
@@ -364,7 +364,7 @@ impl Default for TraceOptions {
 
 /// A per-tree rejection trace from the running scores `runs[i][k] = H_{k+1}(x_i)` of calibration
 /// positives (all of the same length, one per tree; see the module docs).
-pub fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, BoostError> {
+pub(crate) fn calibrate_trace(runs: &[Vec<f32>], o: &TraceOptions) -> Result<Vec<f32>, BoostError> {
     let bad = |name, value: String, allowed| Err(BoostError::BadOption { name, value, allowed });
     if !(0.0..1.0).contains(&o.loss) {
         return bad("trace loss", o.loss.to_string(), "in [0, 1)");

@@ -2,8 +2,8 @@
 //! scores for every window (stride 8) read from the grid, then non-maximum suppression.
 //!
 //! ```
-//! use mosaicd::detect::detector::{Detector, DetectorOptions};
-//! use mosaicd::detect::model::{Domain, LinearModel};
+//! use mosaicd::detect::{Detector, DetectorOptions};
+//! use mosaicd::detect::{Domain, LinearModel};
 //! use mosaicd::features::hog::HogInput;
 //! use mosaicd::image::Image;
 //! let mut w = vec![0.0f32; 3781];
@@ -49,7 +49,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::model::{Domain, LinearModel};
+use super::model::LinearModel;
 use super::nms::{greedy_nms, group_rectangles};
 use super::score::{
     window_scores, window_scores_i8, RowScorer, ScorePrecision, ScoreWeights, ScoreWeightsI8, ScorerBuffers,
@@ -687,18 +687,10 @@ impl Detector {
     }
 }
 
-/// The input domain a [`HogInput`] belongs to.
-pub fn domain_of(input: &HogInput) -> Domain {
-    match input {
-        HogInput::Mosaic(_) => Domain::Mosaic,
-        HogInput::Rgb8(_) | HogInput::ColourF32(_) => Domain::Colour,
-        _ => Domain::Grey,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::detect::model::Domain;
     use crate::features::hog::block_grid;
 
     #[test]

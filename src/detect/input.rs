@@ -24,7 +24,7 @@ use crate::raw::tone::{mosaic_from_raw_into, mosaic_from_raw_with, MosaicTone, T
 use crate::raw::{RawError, RawFrame};
 
 /// `model` with the derivative and tone the configuration or command line asks for, where it asks.
-pub fn with_overrides(
+pub(crate) fn with_overrides(
     mut model: LinearModel,
     taps: Option<MosaicTaps>,
     tone: Option<MosaicTone>,
@@ -89,7 +89,7 @@ impl MosaicPrep {
 
 /// The daemon's mosaic input: [`MosaicPrep`] into a reused buffer, with the last tone tables kept.
 #[derive(Debug)]
-pub struct MosaicInput {
+pub(crate) struct MosaicInput {
     prep: MosaicPrep,
     /// The last tone tables, kept while frames' levels and gains stay the same.
     tables: Mutex<Option<Arc<ToneTables>>>,
@@ -97,22 +97,17 @@ pub struct MosaicInput {
 
 impl MosaicInput {
     /// For `prep`, no tables yet.
-    pub fn new(prep: MosaicPrep) -> Self {
+    pub(crate) fn new(prep: MosaicPrep) -> Self {
         Self {
             prep,
             tables: Mutex::new(None),
         }
     }
 
-    /// The tone and gains.
-    pub fn prep(&self) -> MosaicPrep {
-        self.prep
-    }
-
     /// Write `frame`'s mosaic into `dst` (resized to `width · height`), parallel over strips of
     /// `strip_rows` rows. [`MosaicTone::Linear`] reads no gains (so needs none); the other tones
     /// resolve theirs for this frame (an error for [`Gains::FromFile`] on a frame without any).
-    pub fn mosaic_into(
+    pub(crate) fn mosaic_into(
         &self,
         frame: &RawFrame,
         strip_rows: usize,
@@ -130,7 +125,8 @@ impl MosaicInput {
     }
 
     /// The tables kept from the last frame, if any.
-    pub fn kept_tables(&self) -> Option<Arc<ToneTables>> {
+    #[cfg(test)]
+    pub(crate) fn kept_tables(&self) -> Option<Arc<ToneTables>> {
         self.slot().clone()
     }
 

@@ -1,25 +1,48 @@
 //! Pedestrian detection: linear SVM models, multi-scale sliding windows, non-maximum suppression,
 //! training.
+//!
+//! The files are private behind this facade: what other crates use is re-exported here.
 
-pub mod acf;
-pub mod boost;
-pub mod channels;
-pub mod detector;
-pub mod input;
+pub(crate) mod acf;
+pub(crate) mod boost;
+pub(crate) mod channels;
+pub(crate) mod detector;
+pub(crate) mod input;
 mod kernels;
-pub mod model;
-pub mod nms;
-pub mod people;
-pub mod score;
-pub mod shipped;
-pub mod svm;
-pub mod train;
+pub(crate) mod model;
+pub(crate) mod nms;
+pub(crate) mod people;
+pub(crate) mod score;
+pub(crate) mod shipped;
+pub(crate) mod svm;
+pub(crate) mod train;
 
 pub use crate::geometry::Detection;
-pub use detector::{DetectError, DetectStats, Detector, DetectorOptions, NmsMethod, StageProfile};
-pub use model::{Domain, LinearModel};
-pub use score::ScorePrecision;
-pub use shipped::{load_named, NamedModelError, DEFAULT_APPROX_LEVELS, DEFAULT_MODEL};
+pub use acf::{AcfDetector, AcfError, AcfModel, AcfOptions, AcfStats, CASC_THR};
+pub use boost::{train_adaboost, BoostError, BoostOptions, BoostedTrees, TraceOptions, Tree, TreeOptions};
+pub use channels::{
+    channels, pyramid, ChannelInput, ChannelOptions, ChannelPyramid, ChannelSpec, Channels, ChannelsError,
+    Level as ChannelLevel, PyramidOptions, N_CHANNELS,
+};
+pub use detector::{
+    DetectError, DetectStats, Detector, DetectorOptions, DetectorSpec, Level as HogLevel, NmsMethod,
+    StageProfile,
+};
+pub use input::MosaicPrep;
+pub use model::{Domain, LinearModel, ModelError};
+pub use nms::{greedy_nms, iou};
+pub use people::{DetectorKind, PeopleDetector, PeopleError, PeopleInput, PeopleModel, PeopleStats};
+pub use score::{window_scores, window_scores_i8, ScoreError, ScorePrecision, ScoreWeights, ScoreWeightsI8};
+pub use shipped::{load_named, NamedModelError, ShippedModel, DEFAULT_APPROX_LEVELS, DEFAULT_MODEL, SHIPPED};
+pub use svm::{train_linear_svm, SvmOptions};
+pub use train::acf::{
+    calibrate_cascade, evaluate_acf_windows, positive_windows, set_trace, train_acf, AcfTrainOptions,
+};
+pub use train::{
+    evaluate_windows_via, inner_split, inner_val_fraction, list_negative_dirs, photo_prefix, select_c,
+    split_data, train_on, CCandidate, InputPipeline, Split, TrainError, TrainOptions, WindowEval,
+    WindowScores,
+};
 
 /// The name of OpenCV's default people detector in configs and on the command line.
 pub const OPENCV_DEFAULT: &str = "opencv-default";

@@ -23,7 +23,7 @@
 //! (`getDefaultPeopleDetector()`); [`LinearModel::from_opencv_vector`] splits it off.
 //!
 //! ```
-//! use mosaicd::detect::model::{Domain, LinearModel};
+//! use mosaicd::detect::{Domain, LinearModel};
 //! let m = LinearModel::from_opencv_vector(&vec![0.0; 3781], Domain::Grey, "zeros").unwrap();
 //! assert_eq!(m.weights.len(), 3780);
 //! assert!(LinearModel::from_opencv_vector(&[0.0; 10], Domain::Grey, "short").is_err());
@@ -39,14 +39,14 @@ use crate::features::hog::{
 use crate::npy::NpyArray;
 
 /// Format tag written in every model file.
-pub const FORMAT: &str = "mosaicd-hog-svm";
+pub(crate) const FORMAT: &str = "mosaicd-hog-svm";
 /// Current format version.
-pub const VERSION: u32 = 1;
+pub(crate) const VERSION: u32 = 1;
 /// Largest detection window side a model file may declare, pixels (OpenCV's people detector is
 /// 64x128). With at most 255 bins this bounds a model to about 4 million weights.
-pub const MAX_WINDOW_SIDE: usize = 512;
+pub(crate) const MAX_WINDOW_SIDE: usize = 512;
 /// Largest model file [`LinearModel::load`] reads, bytes (checked with `stat` before reading).
-pub const MAX_MODEL_FILE_BYTES: u64 = 128 << 20;
+pub(crate) const MAX_MODEL_FILE_BYTES: u64 = 128 << 20;
 
 /// Errors loading or validating a model.
 #[derive(Debug, thiserror::Error)]
@@ -150,9 +150,9 @@ fn same_site() -> MosaicTaps {
 /// A linear SVM over HOG descriptors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LinearModel {
-    /// Always [`FORMAT`].
+    /// Always `"mosaicd-hog-svm"`.
     pub format: String,
-    /// Always [`VERSION`].
+    /// Always 1.
     pub version: u32,
     /// Window width.
     pub win_width: usize,

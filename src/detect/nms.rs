@@ -1,7 +1,7 @@
 //! Non-maximum suppression: greedy IoU suppression and OpenCV's `groupRectangles`.
 //!
 //! ```
-//! use mosaicd::detect::{nms::greedy_nms, Detection};
+//! use mosaicd::detect::{greedy_nms, Detection};
 //! let d = |x: f32, s: f32| Detection { x, y: 0.0, width: 64.0, height: 128.0, score: s };
 //! let kept = greedy_nms(&[d(0.0, 1.0), d(8.0, 2.0), d(300.0, 0.5)], 0.5);
 //! assert_eq!(kept.len(), 2);
@@ -66,7 +66,7 @@ fn find(p: &mut [usize], mut i: usize) -> usize {
 }
 
 /// OpenCV `groupRectangles` with weights (see module docs). `group_threshold` 0 returns the input.
-pub fn group_rectangles(dets: &[Detection], group_threshold: usize, eps: f32) -> Vec<Detection> {
+pub(crate) fn group_rectangles(dets: &[Detection], group_threshold: usize, eps: f32) -> Vec<Detection> {
     if group_threshold == 0 || dets.is_empty() {
         return dets.to_vec();
     }

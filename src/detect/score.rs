@@ -89,7 +89,7 @@
 //! and the golden detection hashes use the f32 path, which is unchanged.
 //!
 //! ```
-//! use mosaicd::detect::score::{window_scores, ScoreWeights};
+//! use mosaicd::detect::{window_scores, ScoreWeights};
 //! use mosaicd::features::hog::{block_grid_from_input, HogInput, HogOptions, HogSpec, Exec};
 //! use mosaicd::image::Image;
 //! let spec = HogSpec::new(&HogOptions::default()).unwrap();
@@ -103,7 +103,7 @@
 //! let direct: f32 = d.iter().sum::<f32>() * 0.01 - 0.5;
 //! assert!((scores[1 * 3 + 2] - direct).abs() < 1e-4);
 //! // The 8-bit path: the same windows within the error bound.
-//! use mosaicd::detect::score::{window_scores_i8, ScoreWeightsI8};
+//! use mosaicd::detect::{window_scores_i8, ScoreWeightsI8};
 //! let sq = ScoreWeightsI8::new(&sw).unwrap();
 //! let mut q = vec![0.0; 3 * 3];
 //! window_scores_i8(&sq, &grid, Exec::Serial, &mut q);
@@ -125,11 +125,12 @@ mod rows;
 mod strips;
 mod weights;
 
-pub use super::kernels::{quantise_block_value, BLOCK_QUANT_SCALE};
-pub use precision::{ScorePrecision, PRECISION_SETTINGS};
-pub use rows::{RowScorer, ScorerBuffers};
-pub use strips::{window_scores, window_scores_i8, window_scores_i8_with, window_scores_with};
-pub use weights::{ScoreError, ScoreWeights, ScoreWeightsI8, WEIGHT_QUANT_MAX};
+#[cfg(test)]
+use super::kernels::quantise_block_value;
+pub use precision::ScorePrecision;
+pub(crate) use rows::{RowScorer, ScorerBuffers};
+pub use strips::{window_scores, window_scores_i8};
+pub use weights::{ScoreError, ScoreWeights, ScoreWeightsI8};
 
 #[cfg(test)]
 mod tests {

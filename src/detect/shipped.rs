@@ -82,7 +82,7 @@ pub const DEFAULT_MODEL: &str = "mosaic-raw-srgb";
 pub const DEFAULT_APPROX_LEVELS: usize = 14;
 
 /// The built-in model called `name`, if there is one.
-pub fn shipped(name: &str) -> Option<&'static ShippedModel> {
+pub(crate) fn shipped(name: &str) -> Option<&'static ShippedModel> {
     SHIPPED.iter().find(|m| m.name == name)
 }
 
@@ -105,7 +105,7 @@ pub enum NamedModelError {
 }
 
 /// The built-in names, comma-separated, for messages and help.
-pub fn builtin_names() -> String {
+pub(crate) fn builtin_names() -> String {
     SHIPPED.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
 }
 

@@ -3,7 +3,7 @@
 //! ([`SvmOptions::bias_scale`], liblinear's `-B`).
 //!
 //! ```
-//! use mosaicd::detect::svm::{train_linear_svm, SvmOptions};
+//! use mosaicd::detect::{train_linear_svm, SvmOptions};
 //! let x = vec![vec![2.0f32, 0.0], vec![0.0, 2.0], vec![-2.0, 0.0], vec![0.0, -2.0]];
 //! let y = [1i8, 1, -1, -1];
 //! let (w, b) = train_linear_svm(&x, &y, &SvmOptions { c: 10.0, ..Default::default() });
@@ -70,7 +70,7 @@ impl Default for SvmOptions {
 
 /// A trained SVM and how its solve ended.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SvmFit {
+pub(crate) struct SvmFit {
     /// Weights, one per feature.
     pub weights: Vec<f32>,
     /// Bias (`B w_B`).
@@ -86,7 +86,7 @@ pub struct SvmFit {
 }
 
 /// Train; returns (weights, bias). Labels are +1 / −1. Empty input gives zero weights.
-/// [`fit_linear_svm`] also says whether the solve converged.
+/// `fit_linear_svm` also says whether the solve converged.
 pub fn train_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> (Vec<f32>, f32) {
     let f = fit_linear_svm(x, y, o);
     (f.weights, f.bias)
@@ -94,7 +94,7 @@ pub fn train_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> (Vec<f32>, 
 
 /// Train and report how the solve ended (epochs, convergence, the last projected-gradient
 /// spread). The weights and bias are those of [`train_linear_svm`].
-pub fn fit_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> SvmFit {
+pub(crate) fn fit_linear_svm(x: &[Vec<f32>], y: &[i8], o: &SvmOptions) -> SvmFit {
     let n = x.len().min(y.len());
     let d = x.first().map_or(0, |v| v.len());
     let mut w = vec![0.0f64; d];

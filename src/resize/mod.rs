@@ -6,7 +6,7 @@
 //! gamma or 8-bit rounding as the row operation), the ACF channel pyramid's exact levels
 //! ([`resize_bilinear`], [`resize_mosaic`]) and its approximated levels
 //! ([`resize_planes_scaled`]: the ten channel planes, each multiplied by its channel's power-law
-//! factor in the row pass, [`mod@crate::detect::channels::pyramid`]), SIFT's x2 upsampling of
+//! factor in the row pass, `detect::channels::pyramid`), SIFT's x2 upsampling of
 //! the input (`keypoints_double`), the training windows and the paper's experiments in `eval`.
 //!
 //! ```
@@ -465,7 +465,7 @@ fn resize_then_with(
 /// Bilinear resize ([`resize_bilinear`]'s taps and arithmetic) of the planes of `src_w x src_h`
 /// values stored one after another in `src` into the planes of `new_w x new_h` values of `dst`
 /// (as many), every output value of plane `c` multiplied by `factors[c]` (the ACF pyramid's
-/// per-channel power law, [`mod@crate::detect::channels::pyramid`]). The factor is applied to each
+/// per-channel power law, `detect::channels::pyramid`). The factor is applied to each
 /// output row in the vertical pass, a rounding of its own after the interpolation's: the bits of
 /// [`resize_bilinear`] followed by a multiplication (a factor of 1 changes nothing). The planes
 /// share one set of taps and run in parallel, each plane's rows in order.

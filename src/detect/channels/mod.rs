@@ -11,7 +11,7 @@
 //! power-law approximations in between).
 //!
 //! ```
-//! use mosaicd::detect::channels::{channels, ChannelInput, ChannelSpec, N_CHANNELS};
+//! use mosaicd::detect::{channels, ChannelInput, ChannelSpec, N_CHANNELS};
 //! use mosaicd::image::Image;
 //! use mosaicd::raw::Cfa;
 //! // A flat grey mosaic (R = G = B = 128): no gradient, the same colour everywhere.
@@ -81,7 +81,7 @@
 //! Images" (the same-colour central difference).
 
 mod kernels;
-pub mod pyramid;
+pub(crate) mod pyramid;
 #[cfg(test)]
 mod tests;
 
@@ -93,17 +93,19 @@ use crate::kernels::Isa;
 use crate::raw::{Cfa, Colour};
 
 use kernels::{bin_edges, orient_bin};
-pub use kernels::{luv_from_rgb, N_ORIENTS};
-pub use pyramid::{measure_lambdas, pyramid, ChannelPyramid, Level, PyramidOptions};
+#[cfg(test)]
+use kernels::{luv_from_rgb, N_ORIENTS};
+pub(crate) use pyramid::measure_lambdas;
+pub use pyramid::{pyramid, ChannelPyramid, Level, PyramidOptions};
 
 /// Number of channels: L, U, V, magnitude, six orientations.
 pub const N_CHANNELS: usize = 10;
 /// Aggregation block in pixels (Dollár's `shrink`): 2x2 super-pixels on a mosaic.
-pub const SHRINK: usize = 4;
+pub(crate) const SHRINK: usize = 4;
 // the aggregation kernels sum blocks of this side
 const _: () = assert!(kernels::BLOCK == SHRINK);
 /// Index of the magnitude channel; the orientation channels follow it.
-pub const MAG_CHANNEL: usize = 3;
+pub(crate) const MAG_CHANNEL: usize = 3;
 /// Rows per rayon task.
 const ROWS_PER_TASK: usize = 16;
 /// Largest smoothing radius accepted (a larger one is almost certainly a unit error).
@@ -390,7 +392,7 @@ impl Channels {
 /// Taps of Dollár's `convTri` of radius `r`: for an integer `r ≥ 1`, `(r + 1 − |k|)/(r + 1)²`,
 /// `|k| ≤ r`; for `0 < r ≤ 1`, `[1, p, 1]/(p + 2)` with `p = 12/(r(r + 2)) − 2` (equal to the
 /// integer rule at `r = 1`); `[1]` for `r = 0`.
-pub fn triangle_taps(r: f32) -> Vec<f32> {
+pub(crate) fn triangle_taps(r: f32) -> Vec<f32> {
     if r <= 0.0 {
         vec![1.0]
     } else if r <= 1.0 {
@@ -534,7 +536,8 @@ impl Triangle {
 /// apart, borders symmetric within each phase (`step = 2`: within each colour plane). `src` and
 /// `dst` are `w x h`. Rows in parallel; each output row is the vertical pass (a sum of scaled
 /// source rows) followed by the horizontal pass, the same arithmetic for any thread count.
-pub fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize, dst: &mut Vec<f32>) {
+#[cfg(test)]
+pub(crate) fn triangle_filter(src: &[f32], w: usize, h: usize, radius: f32, step: usize, dst: &mut Vec<f32>) {
     triangle_filter_on(crate::kernels::isa(), src, w, h, radius, step, dst);
 }
 
@@ -558,7 +561,7 @@ fn triangle_filter_on(
 }
 
 /// Smooth every channel with the triangle filter of radius `r` (step 1, symmetric borders).
-pub fn smooth_channels(ch: &mut Channels, r: f32) {
+pub(crate) fn smooth_channels(ch: &mut Channels, r: f32) {
     smooth_channels_on(crate::kernels::isa(), ch, r);
 }
 
@@ -726,7 +729,10 @@ fn gradient_row<'r>(
 /// rows (scaled), the gradient of the band's rows and of the normalisation's halo, the
 /// normalisation row by row, the block sums and the colour; every value is the arithmetic of
 /// the module docs in the same order for any band split and thread count.
-pub fn channels_unsmoothed(input: &ChannelInput, spec: &ChannelSpec) -> Result<Channels, ChannelsError> {
+pub(crate) fn channels_unsmoothed(
+    input: &ChannelInput,
+    spec: &ChannelSpec,
+) -> Result<Channels, ChannelsError> {
     channels_unsmoothed_on(crate::kernels::isa(), input, spec)
 }
 

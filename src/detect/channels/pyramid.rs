@@ -305,7 +305,7 @@ pub(super) fn pyramid_on(
 /// channel type the mean of its (unsmoothed) channels is divided by the mean at `s = 1`; the ratios
 /// are averaged over the images where both are positive, and λ is minus the least-squares slope of
 /// `log₂ ratio` against `log₂ s`. Scales whose image falls below one block are skipped.
-pub fn measure_lambdas(
+pub(crate) fn measure_lambdas(
     images: &[ChannelInput],
     spec: &ChannelSpec,
     per_octave: usize,

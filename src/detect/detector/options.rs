@@ -74,7 +74,7 @@ pub struct DetectorOptions {
     pub approx_levels: usize,
     /// Arithmetic of the SVM stage: f32 (OpenCV's scores within ≈1e-6) or the 8-bit integer path
     /// (scores within [`ScoreWeightsI8::error_bound`](crate::detect::score::ScoreWeightsI8::error_bound), see
-    /// [`crate::detect::score`]; where it is faster
+    /// `detect::score`; where it is faster
     /// than f32: [`ScorePrecision::auto_for`]). A precision slower than the other on this CPU is
     /// warned about when the detector is built ([`ScorePrecision::slow_reason`]).
     pub svm: ScorePrecision,

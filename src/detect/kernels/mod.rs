@@ -38,7 +38,7 @@ pub(crate) const TILE_K_AVX512: usize = 21;
 /// Scale of block values on the 8-bit path: `q = round(180·v)`. L2-Hys values lie in [0, 1] with
 /// `‖v‖₂ ≤ 1`, so two values of a block quantise to a sum of at most 255: the bound that keeps
 /// AVX2's saturating `vpmaddubsw` exact (`255·127 ≤ 32 767`; see `detect/kernels/avx2.rs`).
-pub const BLOCK_QUANT_SCALE: f32 = 180.0;
+pub(crate) const BLOCK_QUANT_SCALE: f32 = 180.0;
 /// Adding then subtracting 2^23 rounds a non-negative f32 below 2^23 to an integer, ties to even
 /// (the default rounding mode, as `cvtps2dq`): plain arithmetic that vectorises, where
 /// [`f32::round`] is a libm call on baseline x86-64.
@@ -46,7 +46,7 @@ const ROUND_MAGIC: f32 = 8_388_608.0;
 
 /// One block value on the 8-bit path: `round(180·v)` clamped to `0..=180` (ties to even; NaN → 0).
 #[inline]
-pub fn quantise_block_value(v: f32) -> u8 {
+pub(crate) fn quantise_block_value(v: f32) -> u8 {
     let x = (v * BLOCK_QUANT_SCALE).clamp(0.0, BLOCK_QUANT_SCALE);
     ((x + ROUND_MAGIC) - ROUND_MAGIC) as u8
 }

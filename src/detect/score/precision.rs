@@ -18,9 +18,6 @@ pub enum ScorePrecision {
     I8,
 }
 
-/// The settings `compute.svm` and `--svm` accept: the precisions' names and `auto`.
-pub const PRECISION_SETTINGS: [&str; 3] = ["f32", "i8", "auto"];
-
 /// Whether the start-up warning of [`ScorePrecision::warn_if_slow`] was given.
 static WARNED_SLOW: AtomicBool = AtomicBool::new(false);
 

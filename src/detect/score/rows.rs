@@ -8,7 +8,7 @@ use crate::kernels::Isa;
 /// Window scores of a block grid whose rows arrive one at a time, top to bottom (for example
 /// from [`crate::features::hog::approx_block_rows`], which makes no grid): the same scores, bit
 /// for bit, as [`window_scores`](super::window_scores) / [`window_scores_i8`](super::window_scores_i8) of the whole grid, on one thread.
-pub struct RowScorer<'w> {
+pub(crate) struct RowScorer<'w> {
     kind: RowScorerKind<'w>,
     nby: usize,
     pushed: usize,
@@ -25,19 +25,20 @@ pub(super) enum RowScorerKind<'w> {
 /// that scores many levels and frames keeps them instead of allocating (and zeroing) products
 /// and window sums for each.
 #[derive(Debug, Default)]
-pub struct ScorerBuffers {
+pub(crate) struct ScorerBuffers {
     f32: StreamBuffers<F32Rows<'static>>,
     i8: StreamBuffers<I8Rows<'static>>,
 }
 
 impl<'w> RowScorer<'w> {
-    /// The f32 scores of an `nbx x nby`-block grid on kernel path `isa` ([`window_scores_with`](super::window_scores_with)).
-    pub fn f32(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize) -> Self {
+    /// The f32 scores of an `nbx x nby`-block grid on kernel path `isa` ([`window_scores_with`](super::strips::window_scores_with)).
+    #[cfg(test)]
+    pub(crate) fn f32(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize) -> Self {
         Self::f32_in(w, isa, nbx, nby, ScorerBuffers::default())
     }
 
     /// [`RowScorer::f32`] in the allocations of `b`.
-    pub fn f32_in(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
+    pub(crate) fn f32_in(w: &'w ScoreWeights, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
         let r = F32Rows {
             w,
             kernel: f32_kernel(isa),
@@ -46,13 +47,14 @@ impl<'w> RowScorer<'w> {
     }
 
     /// The 8-bit scores of an `nbx x nby`-block grid on kernel path `isa`
-    /// ([`window_scores_i8_with`](super::window_scores_i8_with)).
-    pub fn i8(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize) -> Self {
+    /// ([`window_scores_i8_with`](super::strips::window_scores_i8_with)).
+    #[cfg(test)]
+    pub(crate) fn i8(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize) -> Self {
         Self::i8_in(w, isa, nbx, nby, ScorerBuffers::default())
     }
 
     /// [`RowScorer::i8`] in the allocations of `b`.
-    pub fn i8_in(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
+    pub(crate) fn i8_in(w: &'w ScoreWeightsI8, isa: Isa, nbx: usize, nby: usize, b: ScorerBuffers) -> Self {
         let kernel = I8Kernel::for_isa(isa).or_scalar();
         Self::with(I8Rows { w, kernel }, nbx, nby, b.i8, RowScorerKind::I8)
     }
@@ -74,7 +76,7 @@ impl<'w> RowScorer<'w> {
     }
 
     /// Its allocations, for the next scorer.
-    pub fn into_buffers(self) -> ScorerBuffers {
+    pub(crate) fn into_buffers(self) -> ScorerBuffers {
         let mut b = ScorerBuffers::default();
         match self.kind {
             RowScorerKind::Empty => {}
@@ -85,7 +87,7 @@ impl<'w> RowScorer<'w> {
     }
 
     /// Windows across and down.
-    pub fn windows(&self) -> (usize, usize) {
+    pub(crate) fn windows(&self) -> (usize, usize) {
         match &self.kind {
             RowScorerKind::Empty => (0, 0),
             RowScorerKind::F32(s) => (s.nwx, s.rows),
@@ -95,7 +97,7 @@ impl<'w> RowScorer<'w> {
 
     /// Add the grid's next block row (`nbx` blocks of the model's block length; panics on a
     /// shorter row or a row past the `nby`-th, like slicing).
-    pub fn push(&mut self, row: &[f32]) {
+    pub(crate) fn push(&mut self, row: &[f32]) {
         assert!(
             self.pushed < self.nby,
             "more than the grid's {} block rows",
@@ -111,7 +113,7 @@ impl<'w> RowScorer<'w> {
 
     /// The scores of every window, row-major ([`RowScorer::windows`]), into `scores` (which must
     /// hold that many values; extra values are untouched). Call after the last row.
-    pub fn finish(&self, scores: &mut [f32]) {
+    pub(crate) fn finish(&self, scores: &mut [f32]) {
         debug_assert_eq!(self.pushed, self.nby, "every block row pushed");
         let (nwx, nwy) = self.windows();
         let scores = &mut scores[..nwx * nwy];

@@ -24,7 +24,13 @@ pub fn window_scores(w: &ScoreWeights, grid: &BlockGrid, exec: Exec, scores: &mu
 
 /// [`window_scores`] on kernel path `isa` (a path this CPU cannot run falls back to the scalar
 /// reference). Every path gives the same bits.
-pub fn window_scores_with(w: &ScoreWeights, grid: &BlockGrid, exec: Exec, isa: Isa, scores: &mut [f32]) {
+pub(crate) fn window_scores_with(
+    w: &ScoreWeights,
+    grid: &BlockGrid,
+    exec: Exec,
+    isa: Isa,
+    scores: &mut [f32],
+) {
     let kernel = f32_kernel(isa);
     scores_by_strips(&F32Rows { w, kernel }, grid, exec, scores)
 }
@@ -37,7 +43,13 @@ pub fn window_scores_i8(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, scores
 
 /// [`window_scores_i8`] on kernel path `isa` (its fastest 8-bit kernel on this CPU; a path this
 /// CPU cannot run falls back to the scalar reference). Every kernel gives the same bits.
-pub fn window_scores_i8_with(w: &ScoreWeightsI8, grid: &BlockGrid, exec: Exec, isa: Isa, scores: &mut [f32]) {
+pub(crate) fn window_scores_i8_with(
+    w: &ScoreWeightsI8,
+    grid: &BlockGrid,
+    exec: Exec,
+    isa: Isa,
+    scores: &mut [f32],
+) {
     scores_i8_kernel(w, grid, exec, I8Kernel::for_isa(isa), scores)
 }
 

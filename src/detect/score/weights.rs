@@ -91,7 +91,7 @@ impl ScoreWeights {
 /// Errors of the scoring setup.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ScoreError {
-    /// A precision setting that is not one of [`PRECISION_SETTINGS`](super::PRECISION_SETTINGS).
+    /// A precision setting that is not `f32`, `i8` or `auto`.
     #[error("unknown SVM precision {0:?}: allowed f32, i8, auto")]
     UnknownPrecision(String),
     /// A descriptor too long for exact i32 window sums on the 8-bit path.
@@ -115,7 +115,7 @@ pub enum ScoreError {
 }
 
 /// Largest quantised weight magnitude: `q = round(w·s)`, `s = 127 / max|w|`.
-pub const WEIGHT_QUANT_MAX: f32 = 127.0;
+pub(crate) const WEIGHT_QUANT_MAX: f32 = 127.0;
 
 /// The model quantised for the 8-bit path ([`ScorePrecision::I8`](super::ScorePrecision::I8)): `wq[g·nkp + k]` packs the i8
 /// weights of values `4g..4g+4` of block position `k` into one dword (little-endian, zero past

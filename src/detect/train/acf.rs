@@ -57,7 +57,7 @@ const NEG_STREAM_SALT: u64 = 0x6163_665f_6e65_6773;
 /// IoU of the suppression among one image's hard negatives.
 const MINING_NMS_IOU: f32 = 0.5;
 /// Fraction of the training files held out by the inner split that calibrates the trace.
-pub const INNER_FRACTION: f64 = 0.2;
+pub(crate) const INNER_FRACTION: f64 = 0.2;
 
 /// ACF training options; defaults are Dollár's INRIA detector (`acfDemoInria`).
 #[derive(Debug, Clone, PartialEq)]
@@ -89,13 +89,13 @@ pub struct AcfTrainOptions {
     pub acc_neg: usize,
     /// Use at most this many training negative images (0 = all).
     pub max_neg_images: usize,
-    /// Measure the pyramid's λ on the training positives ([`measure_lambdas`], as Dollár's
+    /// Measure the pyramid's λ on the training positives (`measure_lambdas`, as Dollár's
     /// `acfTrain` does when none are given) instead of using `pyramid.lambdas`.
     pub measure_lambdas: bool,
     /// Soft-cascade threshold written into the model (Dollár's −1; used when `trace` is `None`).
     pub casc_thr: f32,
     /// Calibrate a per-tree rejection trace ([`calibrate_cascade`]): a model is first trained on
-    /// the inner split of the training files (fraction [`INNER_FRACTION`] held out), its trace
+    /// the inner split of the training files (fraction `INNER_FRACTION` held out), its trace
     /// calibrated on the inner held-out positives, and the trace stored in the model trained on
     /// all training files. Doubles the training time. `None`: the constant `casc_thr` only.
     pub trace: Option<TraceOptions>,
@@ -125,7 +125,7 @@ impl Default for AcfTrainOptions {
 }
 
 /// The channel input of a domain image.
-pub fn channel_input(img: &DomainImage, cfa: Cfa) -> ChannelInput<'_> {
+pub(crate) fn channel_input(img: &DomainImage, cfa: Cfa) -> ChannelInput<'_> {
     match img {
         DomainImage::Colour(c) => ChannelInput::Rgb8(c.view()),
         DomainImage::Grey(g) => ChannelInput::GreyU8(g.view()),
@@ -454,7 +454,7 @@ pub fn train_acf(
     Ok(m)
 }
 
-/// A per-tree rejection trace ([`calibrate_trace`]) from the running scores, under `model`, of
+/// A per-tree rejection trace (`calibrate_trace`) from the running scores, under `model`, of
 /// calibration positives that `model` was not trained on (a model's own training positives run
 /// far higher than new ones: docs/acf.md).
 pub fn calibrate_cascade(
@@ -512,7 +512,7 @@ pub fn positive_windows(
 /// Window-level evaluation of an ACF model on `split`'s held-out files (the HOG detector's
 /// protocol: every held-out positive window, every window of every pyramid level of the held-out
 /// negative images). A window the soft cascade rejects is no detection at any threshold (score
-/// [`crate::detect::acf::REJECTED`]).
+/// `acf::REJECTED`).
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_acf_windows(
     model: &AcfModel,

@@ -91,7 +91,7 @@ pub(super) fn image_seed(seed: u64, index: u64) -> u64 {
 
 /// An image in a model's input domain.
 #[derive(Debug, Clone)]
-pub enum DomainImage {
+pub(crate) enum DomainImage {
     /// RGB.
     Colour(Image<[u8; 3]>),
     /// Grey.
@@ -102,7 +102,7 @@ pub enum DomainImage {
 
 impl DomainImage {
     /// From an RGB image (mosaics are cropped to even size and sampled through `cfa`).
-    pub fn from_rgb(img: &Image<[u8; 3]>, domain: Domain, cfa: Cfa) -> Self {
+    pub(crate) fn from_rgb(img: &Image<[u8; 3]>, domain: Domain, cfa: Cfa) -> Self {
         match domain {
             Domain::Colour => DomainImage::Colour(img.clone()),
             Domain::Grey => DomainImage::Grey(img.map(|p| {
@@ -123,7 +123,7 @@ impl DomainImage {
     }
     /// From an RGB image through `pipeline`; `index` picks the image's noise stream (deterministic);
     /// `prep` makes the mosaic of a reverse-ISP raw frame.
-    pub fn from_rgb_via(
+    pub(crate) fn from_rgb_via(
         img: &Image<[u8; 3]>,
         domain: Domain,
         cfa: Cfa,
@@ -160,7 +160,7 @@ impl DomainImage {
         })
     }
     /// HOG input view.
-    pub fn input(&self) -> HogInput<'_> {
+    pub(crate) fn input(&self) -> HogInput<'_> {
         match self {
             DomainImage::Colour(c) => HogInput::Rgb8(c.view()),
             DomainImage::Grey(g) => HogInput::GreyU8(g.view()),
@@ -168,11 +168,11 @@ impl DomainImage {
         }
     }
     /// (width, height).
-    pub fn dimensions(&self) -> (usize, usize) {
+    pub(crate) fn dimensions(&self) -> (usize, usize) {
         self.input().dimensions()
     }
     /// Resized copy (mosaic: CFA-preserving; sizes rounded to even).
-    pub fn resized(&self, w: usize, h: usize) -> Self {
+    pub(crate) fn resized(&self, w: usize, h: usize) -> Self {
         let mut d = Image::new(0, 0);
         match self {
             DomainImage::Colour(c) => {
@@ -200,7 +200,7 @@ impl DomainImage {
 }
 
 /// A raw scene of the shared data rendered to sRGB by the forward ISP with its sensor's profile.
-pub fn raw_scene_srgb(scene: &RawInput) -> Result<Image<[u8; 3]>, TrainError> {
+pub(crate) fn raw_scene_srgb(scene: &RawInput) -> Result<Image<[u8; 3]>, TrainError> {
     let data_err = |what: String| TrainError::Data {
         path: scene.rel.into(),
         what,
@@ -214,7 +214,7 @@ pub fn raw_scene_srgb(scene: &RawInput) -> Result<Image<[u8; 3]>, TrainError> {
 }
 
 /// Load an RGB image.
-pub fn load_rgb(path: &Path) -> Result<Image<[u8; 3]>, TrainError> {
+pub(crate) fn load_rgb(path: &Path) -> Result<Image<[u8; 3]>, TrainError> {
     crate::image_io::load_rgb8(path).map_err(|e| TrainError::Data {
         path: e.path,
         what: e.source.to_string(),
@@ -222,14 +222,14 @@ pub fn load_rgb(path: &Path) -> Result<Image<[u8; 3]>, TrainError> {
 }
 
 /// Descriptor of the 64x128 window of a 96x160 INRIA crop.
-pub fn positive_descriptor(spec: &HogSpec, img: &DomainImage) -> Result<Vec<f32>, TrainError> {
+pub(crate) fn positive_descriptor(spec: &HogSpec, img: &DomainImage) -> Result<Vec<f32>, TrainError> {
     let mut g = BlockGrid::empty();
     block_grid(spec, &img.input(), Exec::Parallel, &mut g)?;
     Ok(g.window_descriptor(spec, POS_WINDOW_CELL, POS_WINDOW_CELL)?)
 }
 
 /// `n` random windows at random scales of a negative image.
-pub fn random_negatives(
+pub(crate) fn random_negatives(
     spec: &HogSpec,
     img: &DomainImage,
     n: usize,

@@ -3,7 +3,7 @@
 //! false-positives-per-window rate) on a held-out split.
 //!
 //! ```
-//! use mosaicd::detect::train::photo_prefix;
+//! use mosaicd::detect::photo_prefix;
 //! assert_eq!(photo_prefix("crop001001a.png"), "crop001001");
 //! assert_eq!(photo_prefix("person_017b.png"), "person_017");
 //! ```
@@ -44,7 +44,7 @@
 //! 1, liblinear's `-B 1`, which regularises the bias like a weight and cost about 4 points of miss
 //! rate at 1e-4 FPPW (docs/detection.md, "The SVM's bias").
 
-pub mod acf;
+pub(crate) mod acf;
 mod domain;
 mod error;
 mod split;
@@ -59,7 +59,7 @@ use rand::SeedableRng;
 use crate::data::INFINITE_ISP_SCENES;
 use crate::detect::detector::{Detector, DetectorOptions};
 /// Re-exported from [`crate::detect::input`], where it lives.
-pub use crate::detect::input::MosaicPrep;
+pub(crate) use crate::detect::input::MosaicPrep;
 use crate::detect::model::{Domain, LinearModel};
 use crate::detect::score::ScorePrecision;
 use crate::detect::svm::{fit_linear_svm, SvmFit, SvmOptions};
@@ -68,19 +68,17 @@ use crate::image::Image;
 use crate::raw::levels::Gains;
 use crate::raw::Cfa;
 
-pub use domain::{
-    load_rgb, positive_descriptor, random_negatives, raw_scene_srgb, DomainImage, InputPipeline,
-};
+pub use domain::InputPipeline;
+pub(crate) use domain::{load_rgb, positive_descriptor, random_negatives, raw_scene_srgb, DomainImage};
 use domain::{EXTRA_NEG_SEED_OFFSET, MIRROR_SEED_OFFSET, NEG_SEED_OFFSET, RAW_SCENE_SEED_OFFSET};
 pub use error::TrainError;
-pub use split::{
-    fold_count, inner_split, inner_val_fraction, list_negative_dirs, photo_prefix, split_data, Split,
-    KODAK_WITH_PEOPLE,
-};
-pub use windows::{
-    evaluate_windows_via, miss_rate_at_fppw, thin_det_curve, window_bootstrap, WindowBootstrapRow,
-    WindowEval, WindowScores, BOOTSTRAP_MAX_FPPW,
-};
+#[cfg(test)]
+use split::fold_count;
+pub use split::{inner_split, inner_val_fraction, list_negative_dirs, photo_prefix, split_data, Split};
+pub(crate) use windows::window_bootstrap;
+pub use windows::{evaluate_windows_via, WindowEval, WindowScores};
+#[cfg(test)]
+use windows::{miss_rate_at_fppw, thin_det_curve};
 
 /// Hard-negative candidates kept per image and round (highest scores).
 const HARD_PER_IMAGE: usize = 30;

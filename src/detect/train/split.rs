@@ -13,7 +13,7 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
 /// Kodak images that show people (never negatives).
-pub const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
+pub(crate) const KODAK_WITH_PEOPLE: [u32; 6] = [4, 5, 12, 14, 15, 18];
 /// Mixed into the seed of [`inner_split`].
 const INNER_SPLIT_SALT: u64 = 0x696e_6e65_725f_7631;
 
@@ -98,7 +98,7 @@ pub fn split_data(data_root: &Path, seed: u64, val_fraction: f64, fold: usize) -
 /// Number of disjoint folds at held-out fraction `val_fraction`: `⌊1/f⌋` (with a little slack for
 /// `f` like 0.2 that is not exact in binary), 1 at `f = 0` (nothing held out: train on
 /// everything), 0 outside `[0, 1)`.
-pub fn fold_count(val_fraction: f64) -> usize {
+pub(crate) fn fold_count(val_fraction: f64) -> usize {
     if val_fraction == 0.0 {
         1
     } else if val_fraction > 0.0 && val_fraction < 1.0 {

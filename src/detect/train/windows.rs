@@ -36,13 +36,13 @@ pub struct WindowEval {
     /// the first and last points and every point where the miss rate changes by a plot-visible
     /// step are kept.
     pub det: Vec<DetPoint>,
-    /// The scores behind the numbers, kept for [`window_bootstrap`] (not serialized).
+    /// The scores behind the numbers, kept for `window_bootstrap` (not serialized).
     #[serde(skip)]
     pub scores: WindowScores,
 }
 
 /// Per-window scores of one [`evaluate_windows_via`] run, enough to recompute the miss rate at
-/// FPPW up to [`BOOTSTRAP_MAX_FPPW`] on any resample of the held-out photos and negative images.
+/// FPPW up to `BOOTSTRAP_MAX_FPPW` on any resample of the held-out photos and negative images.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct WindowScores {
     /// Score of each held-out positive, in `Split::val_pos` order.
@@ -59,12 +59,12 @@ pub struct WindowScores {
 }
 
 /// Highest FPPW [`window_bootstrap`] can evaluate.
-pub const BOOTSTRAP_MAX_FPPW: f64 = 1e-2;
+pub(crate) const BOOTSTRAP_MAX_FPPW: f64 = 1e-2;
 
 /// Thin a DET curve to at most about `max_points` points: the positive-FPPW range is cut into
 /// `max_points` equal steps in log FPPW and the last point of each step (lowest miss rate there) is
 /// kept, after the last point with FPPW 0.
-pub fn thin_det_curve(curve: &[DetPoint], max_points: usize) -> Vec<DetPoint> {
+pub(crate) fn thin_det_curve(curve: &[DetPoint], max_points: usize) -> Vec<DetPoint> {
     let mut out: Vec<DetPoint> = curve
         .iter()
         .rfind(|p| p.fppw == 0.0)
@@ -91,7 +91,7 @@ pub fn thin_det_curve(curve: &[DetPoint], max_points: usize) -> Vec<DetPoint> {
 
 /// Miss rate at a given FPPW from positive and negative scores: the threshold lets through
 /// `floor(fppw · N)` negatives (ties counted as false positives).
-pub fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64 {
+pub(crate) fn miss_rate_at_fppw(pos: &[f32], neg_sorted_desc: &[f32], fppw: f64) -> f64 {
     if pos.is_empty() {
         return f64::NAN;
     }
@@ -242,7 +242,7 @@ impl WindowScores {
     }
 
     /// Miss rate at `fppw` with photo `p` counted `photo_w[p]` times and negative image `i`
-    /// counted `image_w[i]` times, as [`miss_rate_at_fppw`] computes it on that multiset (with
+    /// counted `image_w[i]` times, as `miss_rate_at_fppw` computes it on that multiset (with
     /// every weight 1, equal to it). An error if the threshold lies below the kept scores.
     pub fn weighted_miss_rate(&self, photo_w: &[u32], image_w: &[u32], fppw: f64) -> Result<f64, TrainError> {
         let windows: u64 = self
@@ -294,7 +294,7 @@ impl WindowScores {
 
 /// One row of [`window_bootstrap`]: 95 % intervals (2.5–97.5 % percentiles of the draws).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct WindowBootstrapRow {
+pub(crate) struct WindowBootstrapRow {
     /// Per FPPW of the call: the interval of the miss rate.
     pub miss_rate: Vec<Interval>,
     /// Per FPPW: the interval of the miss rate minus the reference row's on the same draw.
@@ -309,7 +309,7 @@ pub struct WindowBootstrapRow {
 /// [`miss_rate_at_fppw`] does on the drawn multiset: the threshold is the `(floor(fppw · N) + 1)`-th
 /// highest negative score, `N` the drawn images' window count. The rows must come from the same
 /// split (any models, domains or pipelines); `reference` indexes `rows`.
-pub fn window_bootstrap(
+pub(crate) fn window_bootstrap(
     rows: &[&WindowScores],
     reference: usize,
     fppw: &[f64],

@@ -21,8 +21,10 @@
 
 use crate::kernels::Isa;
 
+#[cfg(test)]
+pub(crate) use scalar::luv_from_rgb;
+pub(crate) use scalar::N_ORIENTS;
 pub(crate) use scalar::{bin_edges, grad_row_scalar, normalise_scalar, orient_bin, Edges, BLOCK};
-pub use scalar::{luv_from_rgb, N_ORIENTS};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;

@@ -3,7 +3,7 @@
 //! the per-ISA files and `channels/mod.rs`, which all use it.
 
 /// Orientation channels (Dollár's `nOrients`).
-pub const N_ORIENTS: usize = 6;
+pub(crate) const N_ORIENTS: usize = 6;
 
 /// `(cos e, sin e)` of the six orientation bin edges 15°, 45°, …, 165° (see
 /// [`orient_bin`]).
@@ -121,7 +121,7 @@ pub(crate) const LUV_Y0: f32 = 0.008_856_452;
 pub(crate) const LUV_A: f32 = 903.296_3;
 
 /// Dollár's LUV of `(r, g, b)` in `[0, 1]`.
-pub fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
+pub(crate) fn luv_from_rgb(r: f32, g: f32, b: f32) -> [f32; 3] {
     let x = LUV_MR[0] * r + LUV_MG[0] * g + LUV_MB[0] * b;
     let y = LUV_MR[1] * r + LUV_MG[1] * g + LUV_MB[1] * b;
     let z = LUV_MR[2] * r + LUV_MG[2] * g + LUV_MB[2] * b;
