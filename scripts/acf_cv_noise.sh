@@ -14,13 +14,16 @@
 # with casc_thr −1e30: every window runs all 2 048 trees), to separate what the cascade rejects
 # from what the trees score. With TRACE=1 (the default) the two mosaic models also get the
 # calibrated rejection trace of the shipped files (an inner-split model each) and are scored with it.
+# With COLOUR_LOW=1 (the default) an ACF colour model trained at low noise (the ISP's colour output
+# of the noisy training frames, `--domain colour --input low`) is trained and scored too.
 # Prints the per-fold miss rates at 1e-2 / 1e-3 / 1e-4 FPPW,
 # their means and the paired differences (mean, 95 % t interval over folds, folds where the first
 # model misses no more). ACF's FPPW is per window of its own scan (stride 4 px), HOG's of its own.
 #
 # Environment: MOSAICD (binary, default target/release/mosaicd), OUT (default out/acf_cv_noise),
-# FOLDS (default "0 1 2 3 4"), THREADS (default 2), TRACE (default 1; 0: no traces), TRACE_MODELS
-# (default "acf_low acf_clean": which mosaic models get a trace), MOSAICD_DATA.
+# FOLDS (default "0 1 2 3 4"), THREADS (default 2), COLOUR_LOW (default 1), TRACE (default 1;
+# 0: no traces), TRACE_MODELS (default "acf_low acf_clean": which mosaic models get a trace),
+# MOSAICD_DATA.
 # Models already in OUT/foldK/ are reused. Time on 2 cores at load 4–11: about 10 min per fold,
 # 1.5 min more per traced model.
 set -euo pipefail
@@ -69,25 +72,32 @@ json.dump(m, open(sys.argv[2], "w"))' "$d/$m.json" "$d/${m}_nc.json"
       --out "$d/eval_nocasc" >"$d/eval_nocasc.log" 2>&1 \
       || { echo "acf_cv_noise: evaluation failed, see $d/eval_nocasc.log" >&2; exit 1; }
   fi
+  if [ "${COLOUR_LOW:-1}" != 0 ]; then
+    # ACF colour trained like ACF low: the ISP's colour output of the noisy training frames
+    train acf_colour_low "${acf[@]}" --domain colour --input low
+    if [ ! -s "$d/eval_colour_low/detection.md" ]; then
+      echo "acf_cv_noise: fold $k: evaluating acf_colour_low ($(date -u +%T))" >&2
+      "$bin" eval detection "$d/acf_colour_low.json=colour" --inputs clean,low,medium,high --seed 1 --fold "$k" \
+        --threads "$threads" --out "$d/eval_colour_low" >"$d/eval_colour_low.log" 2>&1 \
+        || { echo "acf_cv_noise: evaluation failed, see $d/eval_colour_low.log" >&2; exit 1; }
+    fi
+  fi
   [ "${TRACE:-1}" = 0 ] && continue
   # the calibrated rejection trace, as the shipped files get it: a model of the same recipe on the
   # fold's inner split, the trace calibrated on its inner held-out positives (floor −10, loss 0,
   # margin 1), stored in the fold model (trees unchanged)
-  runs=()
   for m in $trace_models; do
     case $m in acf_low) args=("${low[@]}") ;; acf_clean) args=("${clean[@]}") ;; *) echo "acf_cv_noise: TRACE_MODELS: $m?" >&2; exit 2 ;; esac
     train "${m}_inner" "${acf[@]}" "${args[@]}" --acf-inner
     train "${m}_trace" --detector acf --seed 1 --threads "$threads" "${args[@]}" --acf-inner --acf-trace=-10,0,1 \
       --acf-calibrate "$d/${m}_inner.json" --acf-calibrate-into "$d/$m.json"
-    runs+=("$d/${m}_trace.json=mosaic")
+    e=$d/eval_trace_$m
+    [ -s "$e/detection.md" ] && continue
+    echo "acf_cv_noise: fold $k: evaluating $m with its trace ($(date -u +%T))" >&2
+    "$bin" eval detection "$d/${m}_trace.json=mosaic" --inputs clean,low,medium,high --seed 1 --fold "$k" \
+      --threads "$threads" --out "$e" >"$e.log" 2>&1 \
+      || { echo "acf_cv_noise: evaluation failed, see $e.log" >&2; exit 1; }
   done
-  if [ ! -s "$d/eval_trace/detection.md" ]; then
-    echo "acf_cv_noise: fold $k: evaluating with the traces ($(date -u +%T))" >&2
-    "$bin" eval detection "${runs[@]}" \
-      --inputs clean,low,medium,high --seed 1 --fold "$k" --threads "$threads" \
-      --out "$d/eval_trace" >"$d/eval_trace.log" 2>&1 \
-      || { echo "acf_cv_noise: evaluation failed, see $d/eval_trace.log" >&2; exit 1; }
-  fi
 done
 python3 - "$out" $folds <<'PY'
 import os, statistics, sys
@@ -95,10 +105,10 @@ out, folds = sys.argv[1], sys.argv[2:]
 # two-sided 95 % Student t quantiles by degrees of freedom (as scripts/detection_cv.py)
 T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262}
 names = ["acf_low", "acf_clean", "acf_colour", "hog_low", "acf_low_nc", "acf_clean_nc", "acf_colour_nc",
-         "acf_low_trace", "acf_clean_trace"]
+         "acf_colour_low", "acf_low_trace", "acf_clean_trace"]
 rows = {}  # (model, input) -> [(mr 1e-2, 1e-3, 1e-4) per fold]
 for k in folds:
-    for ev in ["eval", "eval_nocasc", "eval_trace"]:
+    for ev in ["eval", "eval_nocasc", "eval_colour_low", "eval_trace_acf_low", "eval_trace_acf_clean"]:
         if not os.path.exists(f"{out}/fold{k}/{ev}/detection.md"):
             continue
         for line in open(f"{out}/fold{k}/{ev}/detection.md"):
@@ -127,7 +137,9 @@ for inp in ["raw-clean", "raw-low", "raw-medium", "raw-high"]:
                  ("acf_colour", "acf_clean"), ("acf_colour", "acf_low"),
                  ("acf_low_nc", "acf_clean_nc"), ("acf_low_nc", "hog_low"), ("acf_clean_nc", "hog_low"),
                  ("acf_colour_nc", "acf_clean_nc"), ("acf_low_trace", "acf_clean_trace"),
-                 ("acf_low_trace", "hog_low"), ("acf_low_trace", "acf_low")]:
+                 ("acf_low_trace", "hog_low"), ("acf_low_trace", "acf_low"),
+                 ("acf_colour_low", "acf_low"), ("acf_colour_low", "hog_low"),
+                 ("acf_clean_trace", "acf_clean"), ("acf_clean_trace", "hog_low")]:
         if any(len(rows.get((n, inp), [])) != len(folds) for n in (a, b)):
             continue
         print(f"  {a} - {b} at 1e-4: {pair(rows[(a, inp)], rows[(b, inp)], 2)}"
