@@ -444,6 +444,30 @@ fn kernel_paths_give_the_same_channels_and_pyramid() {
 }
 
 #[test]
+fn grey_is_colour_with_equal_planes() {
+    // "the same features on colour and grey images": a grey image and the colour image with
+    // r = g = b have the same channels and pyramid bit for bit on every path (the strongest of
+    // three equal gradients is the one gradient; LUV of equal values either way)
+    let s = Scenes::new();
+    let rgb = s.grey.map(|v| [v, v, v]);
+    let opts = small_levels();
+    let bits = |p: &ChannelPyramid| -> Vec<u32> {
+        p.levels
+            .iter()
+            .flat_map(|l| l.channels.as_slice().iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    for spec in &option_sets() {
+        for isa in crate::kernels::Isa::available() {
+            let g = pyramid_on(isa, &ChannelInput::GreyU8(s.grey.view()), spec, &opts).unwrap();
+            let c = pyramid_on(isa, &ChannelInput::Rgb8(rgb.view()), spec, &opts).unwrap();
+            assert_eq!(g.levels.len(), 18);
+            assert!(bits(&g) == bits(&c), "{isa}: {spec:?}");
+        }
+    }
+}
+
+#[test]
 fn stale_pool_buffers_change_no_value() {
     // the channel pass and the smoothing take pooled buffers without zeroing them: every value
     // must be written. Fill the pool with NaN buffers of many sizes and compare with the
