@@ -781,7 +781,7 @@ mod tests {
                 Ok(()) => assert!(ok, "channel {c} accepted"),
                 Err(AcfError::Invalid { what, .. }) => {
                     assert!(!ok, "{what}");
-                    assert!(what.contains(&format!("tree 0 node 0 reads feature")), "{what}");
+                    assert!(what.contains("tree 0 node 0 reads feature"), "{what}");
                     assert!(what.ends_with(&format!("of channel {c}")), "{what}");
                 }
                 Err(e) => panic!("{e}"),
