@@ -261,19 +261,18 @@ mod tests {
         train: TrainArgs,
     }
 
+    /// `mosaicd train --detector acf --domain mosaic --out m.json` followed by `extra`.
+    fn acf(extra: &[&str]) -> Result<Cli, clap::Error> {
+        let base = ["x", "--detector", "acf", "--domain", "mosaic", "--out", "m.json"];
+        Cli::try_parse_from(base.iter().chain(extra))
+    }
+
     #[test]
     fn train_parses_the_acf_options_and_keeps_hog_the_default() {
         let c = Cli::try_parse_from(["x", "--domain", "mosaic", "--out", "m.json"]).unwrap();
         assert_eq!(c.train.detector, DetectorArg::Hog);
         assert_eq!(c.train.acf.acf_stages, vec![32, 128, 512, 2048]);
-        let c = Cli::try_parse_from([
-            "x",
-            "--detector",
-            "acf",
-            "--domain",
-            "mosaic",
-            "--out",
-            "m.json",
+        let c = acf(&[
             "--acf-stages",
             "4,8",
             "--acf-lambdas",
@@ -287,30 +286,8 @@ mod tests {
         assert_eq!(c.train.acf.acf_lambdas, Some(vec![0.0, 0.1, 0.1]));
         assert_eq!(c.train.acf.acf_casc_thr, Some(-8.0));
         assert_eq!(c.train.acf.acf_features, "all");
-        let c = Cli::try_parse_from([
-            "x",
-            "--detector",
-            "acf",
-            "--domain",
-            "mosaic",
-            "--out",
-            "m.json",
-            "--acf-features",
-            "gradient",
-        ])
-        .unwrap();
+        let c = acf(&["--acf-features", "gradient"]).unwrap();
         assert_eq!(c.train.acf.acf_features, "gradient");
-        assert!(Cli::try_parse_from([
-            "x",
-            "--detector",
-            "acf",
-            "--domain",
-            "mosaic",
-            "--out",
-            "m.json",
-            "--acf-features",
-            "luv"
-        ])
-        .is_err());
+        assert!(acf(&["--acf-features", "luv"]).is_err());
     }
 }

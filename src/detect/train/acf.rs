@@ -620,10 +620,10 @@ mod tests {
     use super::*;
     use crate::detect::channels::MAG_CHANNEL;
 
-    #[test]
-    fn training_on_shared_data_is_the_same_for_1_and_2_threads() {
-        // A small run on the shared INRIA crops and negatives (fails with the data directory
-        // named when $MOSAICD_DATA is missing, like every data test).
+    /// Fold 0's first 40 training positives and 4 negative images, for small runs on the shared
+    /// INRIA crops and negatives (fails with the data directory named when $MOSAICD_DATA is
+    /// missing, like every data test).
+    fn small_split() -> Split {
         crate::data::data_path("pedestrian/inria_pos_96x160").unwrap_or_else(|e| panic!("{e}"));
         let mut split = super::super::split_data(
             &crate::data::data_root().unwrap_or_else(|e| panic!("{e}")),
@@ -634,13 +634,41 @@ mod tests {
         .unwrap();
         split.train_pos.truncate(40);
         split.train_neg.truncate(4);
-        let o = AcfTrainOptions {
+        split
+    }
+
+    /// Two stages of 2 and 4 trees on at most 60 negative windows per stage.
+    fn small_options() -> AcfTrainOptions {
+        AcfTrainOptions {
             stages: vec![2, 4],
             n_neg: 60,
             per_neg: 15,
             acc_neg: 100,
             ..AcfTrainOptions::default()
-        };
+        }
+    }
+
+    /// The features of `split`'s training positives for `m`, and how many of them `m` scores
+    /// above its cascade threshold.
+    fn training_positives_above(split: &Split, m: &AcfModel) -> (Vec<Vec<f32>>, usize) {
+        let det = AcfDetector::new(m.clone(), &AcfOptions::default()).unwrap();
+        let xs = positive_windows(
+            &split.train_pos,
+            m,
+            m.domain,
+            Cfa::Rggb,
+            &InputPipeline::Sampled,
+            Gains::FromFile,
+        )
+        .unwrap();
+        let above = xs.iter().filter(|x| det.score_features(x) > m.casc_thr).count();
+        (xs, above)
+    }
+
+    #[test]
+    fn training_on_shared_data_is_the_same_for_1_and_2_threads() {
+        let split = small_split();
+        let o = small_options();
         let run = |t: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(t)
@@ -658,17 +686,7 @@ mod tests {
         assert_eq!(a.provenance["positive_windows"], 40);
         assert!(a.pyramid.lambdas[1] > 0.0, "{:?}", a.pyramid.lambdas);
         // the trained model scores its own training positives above the cascade threshold
-        let det = AcfDetector::new(a.clone(), &AcfOptions::default()).unwrap();
-        let xs = positive_windows(
-            &split.train_pos,
-            &a,
-            a.domain,
-            Cfa::Rggb,
-            &InputPipeline::Sampled,
-            Gains::FromFile,
-        )
-        .unwrap();
-        let above = xs.iter().filter(|x| det.score_features(x) > a.casc_thr).count();
+        let (xs, above) = training_positives_above(&split, &a);
         assert!(above * 2 > xs.len(), "{above} of {}", xs.len());
     }
 
@@ -676,24 +694,12 @@ mod tests {
     fn a_gradient_model_never_reads_a_colour_feature() {
         // the channel ablation: boosting on the gradient channels' features only; the trees'
         // indices point into the whole window, past the colour planes
-        crate::data::data_path("pedestrian/inria_pos_96x160").unwrap_or_else(|e| panic!("{e}"));
-        let mut split = super::super::split_data(
-            &crate::data::data_root().unwrap_or_else(|e| panic!("{e}")),
-            1,
-            0.2,
-            0,
-        )
-        .unwrap();
-        split.train_pos.truncate(40);
-        split.train_neg.truncate(4);
+        let split = small_split();
         let o = AcfTrainOptions {
             stages: vec![2, 8],
-            n_neg: 60,
-            per_neg: 15,
-            acc_neg: 100,
             trace: None,
             features: FeatureSet::Gradient,
-            ..AcfTrainOptions::default()
+            ..small_options()
         };
         let m = train_acf(&split, &o, &mut |_| {}).unwrap();
         assert_eq!(m.features, FeatureSet::Gradient);
@@ -712,18 +718,9 @@ mod tests {
             "{splits:?}"
         );
         // it learned something on the gradients, and the colour features do not change a score
-        let det = AcfDetector::new(m.clone(), &AcfOptions::default()).unwrap();
-        let xs = positive_windows(
-            &split.train_pos,
-            &m,
-            m.domain,
-            Cfa::Rggb,
-            &InputPipeline::Sampled,
-            Gains::FromFile,
-        )
-        .unwrap();
-        let above = xs.iter().filter(|x| det.score_features(x) > m.casc_thr).count();
+        let (xs, above) = training_positives_above(&split, &m);
         assert!(above * 2 > xs.len(), "{above} of {}", xs.len());
+        let det = AcfDetector::new(m.clone(), &AcfOptions::default()).unwrap();
         for x in &xs {
             let mut z = x.clone();
             z[..colour].fill(0.0);
