@@ -13,7 +13,7 @@ use mosaicd::detect::train::acf::{
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
-use mosaicd::raw::levels::Gains;
+use mosaicd::raw::Gains;
 
 use super::detect_common::{TrainArgs, TRAIN_NOISE_SALT};
 
