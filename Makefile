@@ -87,12 +87,13 @@ cross-build: setup
 cross-lint: setup
 	$(CARGO) clippy --target $(AARCH64) --all-targets --quiet -- -D warnings
 
-# Under qemu-user: every kernel-equality test (every test whose name contains `kernel_paths`,
-# NEON against the scalar oracle), the gradient invariants, then `mosaicd detect` on a real frame,
+# Under qemu-user: the library's whole unit-test suite (every kernel-equality test, `kernel_paths_*`:
+# NEON against the scalar oracle; and every other unit test, whose code also runs the NEON path:
+# about 3 minutes under qemu on 2 cores), the gradient invariants, then `mosaicd detect` on a real frame,
 # whose boxes and scores must equal the x86-64 binary's (built the way `cargo test` builds it, so
 # with the same features as the tests: no rebuild after them).
 cross-test: cross-build
-	$(CARGO) test --target $(AARCH64) --lib --quiet kernel_paths
+	$(CARGO) test --target $(AARCH64) --lib --quiet
 	$(CARGO) test --target $(AARCH64) --test gradient_invariants --quiet
 	$(CARGO) test --lib --test gradient_invariants --no-run --quiet
 	bash scripts/cross_detect.sh $(TARGET_DIR)/debug/mosaicd \

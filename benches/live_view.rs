@@ -15,10 +15,10 @@ use foxglove::Encode;
 use mosaicd::features::gradient::synthetic_mosaic;
 use mosaicd::geometry::Detection;
 use mosaicd::image::Image;
-use mosaicd::isp::demosaic::rgb_from_mosaic_u8;
+use mosaicd::isp::rgb_from_mosaic_u8;
 use mosaicd::isp::DemosaicMethod;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
-use mosaicd::record::preview::preview_from_raw;
+use mosaicd::record::preview_from_raw;
 use mosaicd::wire::schema::annotations_from_detections;
 
 /// Seed of the synthetic scene.

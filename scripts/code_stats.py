@@ -2,6 +2,16 @@
 """Size figures of `src/`: `pub` items outside `cli/`, the longest functions, files over 1,000 lines.
 
     python3 scripts/code_stats.py [SRC_DIR] [--top N]
+    rm -rf target/doc/mosaicd && cargo doc --no-deps --lib && python3 scripts/code_stats.py --rustdoc target/doc/mosaicd
+
+`--rustdoc DOC_DIR` counts the library's public API as rustdoc sees it instead: one page per public
+item (`struct.*.html`, `fn.*.html`, `enum.*`, `trait.*`, `type.*`, `constant.*`, `static.*`,
+`macro.*`, `union.*`, `traitalias.*`) and one `index.html` per public module, in total and per
+top-level module. An item re-exported from a private module gets its page at the re-export; an item
+reachable by two public paths has one page, where it is defined. The redirect pages rustdoc leaves at
+a re-exported item's private path are not counted. Pass the `doc/<crate>` directory of
+the target dir cargo used (`$CARGO_TARGET_DIR/doc/mosaicd`), removed first: rustdoc leaves the pages
+of items that are no longer public in place.
 
 `pub` items are lines that start (after indentation) with `pub ` followed by an item keyword (fn,
 struct, enum, trait, type, const, static, mod, use, union) or a field (`pub name:`), outside
@@ -59,11 +69,48 @@ def functions(code: str):
     return out
 
 
+ITEM_PAGE = re.compile(r"^(struct|fn|enum|trait|type|constant|static|macro|union|traitalias)\.[^.]+\.html$")
+
+
+def rustdoc_counts(doc: Path) -> int:
+    """Prints the public items rustdoc documents under `doc` (see the module docs)."""
+    if not (doc / "index.html").is_file():
+        print(f"{doc}: no rustdoc output (run `cargo doc --no-deps --lib` first)", file=sys.stderr)
+        return 2
+    kinds: dict[str, int] = {}
+    per_top: dict[str, int] = {}
+    modules = 0
+    for f in sorted(doc.rglob("*.html")):
+        rel = f.relative_to(doc)
+        top = rel.parts[0] if len(rel.parts) > 1 else "(crate root)"
+        if f.name == "index.html":
+            if len(rel.parts) > 1:
+                modules += 1
+                per_top[top] = per_top.get(top, 0) + 1
+            continue
+        m = ITEM_PAGE.match(f.name)
+        if m and f.stat().st_size < 2000 and "Redirecting to" in f.read_text(errors="replace"):
+            continue  # the stub at a private path of an item re-exported elsewhere
+        if m:
+            kinds[m.group(1)] = kinds.get(m.group(1), 0) + 1
+            per_top[top] = per_top.get(top, 0) + 1
+    items = sum(kinds.values())
+    print(f"public API (rustdoc pages): {items} items and {modules} modules")
+    print("  by kind: " + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items(), key=lambda kv: -kv[1])))
+    print("  by top-level module (items + modules):")
+    for top, n in sorted(per_top.items(), key=lambda kv: (-kv[1], kv[0])):
+        print(f"    {n:5} {top}")
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("src", nargs="?", default=str(Path(__file__).resolve().parent.parent / "src"))
     ap.add_argument("--top", type=int, default=10)
+    ap.add_argument("--rustdoc", metavar="DOC_DIR", help="count the public items in this rustdoc output instead")
     args = ap.parse_args()
+    if args.rustdoc:
+        return rustdoc_counts(Path(args.rustdoc))
     src = Path(args.src)
     pub = {"pub": 0, "pub(crate)": 0, "pub(super)": 0}
     pub_fields = 0

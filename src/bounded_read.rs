@@ -8,7 +8,7 @@ use std::path::Path;
 
 /// Why [`read_at_most`] read nothing.
 #[derive(Debug)]
-pub enum ReadAtMostError {
+pub(crate) enum ReadAtMostError {
     /// Opening, `stat` or reading failed.
     Io(std::io::Error),
     /// The file holds `size` bytes (at least), more than the bound.
@@ -19,7 +19,7 @@ pub enum ReadAtMostError {
 }
 
 /// The bytes of the file at `path` if it holds at most `max` bytes.
-pub fn read_at_most(path: &Path, max: u64) -> Result<Vec<u8>, ReadAtMostError> {
+pub(crate) fn read_at_most(path: &Path, max: u64) -> Result<Vec<u8>, ReadAtMostError> {
     let file = std::fs::File::open(path).map_err(ReadAtMostError::Io)?;
     let size = file.metadata().map_err(ReadAtMostError::Io)?.len();
     if size > max {

@@ -11,8 +11,14 @@
 //! (capture sources, iceoryx2 publishing, MCAP recording, the pipeline). The `mosaicd` binary is a
 //! thin CLI over it.
 #![warn(missing_docs)]
+// Each folder is a facade (detect/ not yet): its files are `pub(crate)` and its `mod.rs` re-exports
+// what other crates use. `unreachable_pub` keeps `pub` for what is reachable from outside the crate
+// (everything else is `pub(crate)`); `unnameable_types` keeps every type in a public signature
+// nameable.
+#![warn(unnameable_types)]
+#![warn(unreachable_pub)]
 
-pub mod bounded_read;
+pub(crate) mod bounded_read;
 pub mod capture;
 pub mod clock;
 pub mod config;
@@ -31,8 +37,9 @@ pub mod pipeline;
 pub mod pool;
 pub mod progress;
 pub mod publish;
-pub mod quiet_panic;
+pub(crate) mod quiet_panic;
 pub mod raw;
 pub mod record;
-pub mod srgb;
+pub mod resize;
+pub(crate) mod srgb;
 pub mod wire;

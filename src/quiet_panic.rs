@@ -13,7 +13,7 @@ static HOOK_SWAP: Mutex<()> = Mutex::new(());
 /// (and a fuzzer's hook aborts). For the duration of the call (serialised by a mutex), the hook
 /// is one that stays silent for panics located in that crate and hands every other panic, from
 /// any thread, to the previous hook; the previous hook is restored afterwards.
-pub fn call_quietly<T>(in_crate: &'static str, f: impl FnOnce() -> T) -> T {
+pub(crate) fn call_quietly<T>(in_crate: &'static str, f: impl FnOnce() -> T) -> T {
     let _serial = HOOK_SWAP.lock().unwrap_or_else(|p| p.into_inner());
     let previous: Arc<dyn Fn(&std::panic::PanicHookInfo<'_>) + Send + Sync> =
         Arc::from(std::panic::take_hook());

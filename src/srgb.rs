@@ -23,7 +23,7 @@ const SRGB_GAMMA: f32 = 2.4;
 
 /// Inverse sRGB transfer function: encoded `c ∈ [0, 1]` → linear.
 #[inline]
-pub fn linear_from_srgb(c: f32) -> f32 {
+pub(crate) fn linear_from_srgb(c: f32) -> f32 {
     if c <= SRGB_ENC_THRESHOLD {
         c / SRGB_SLOPE
     } else {
@@ -33,7 +33,7 @@ pub fn linear_from_srgb(c: f32) -> f32 {
 
 /// sRGB transfer function: linear `v ∈ [0, 1]` → encoded.
 #[inline]
-pub fn srgb_from_linear(v: f32) -> f32 {
+pub(crate) fn srgb_from_linear(v: f32) -> f32 {
     if v <= SRGB_LIN_THRESHOLD {
         v * SRGB_SLOPE
     } else {

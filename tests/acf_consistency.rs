@@ -12,8 +12,8 @@ use std::process::{Command, Output};
 
 mod common;
 use common::frame_results;
-use mosaicd::wire::read::{read_annotations, read_detections, RecordingInfo};
 use mosaicd::wire::schema::annotations_from_detections;
+use mosaicd::wire::{read_annotations, read_detections, RecordingInfo};
 
 const EXE: &str = env!("CARGO_BIN_EXE_mosaicd");
 /// Low enough that the textured frame has boxes (the model's cascade threshold is below it).

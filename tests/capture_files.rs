@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use mosaicd::capture::files::{FileSource, FileSourceOptions};
 use mosaicd::capture::{CaptureError, Clock, FakeClock, Source, SourceKind};
+use mosaicd::capture::{FileSource, FileSourceOptions};
 use mosaicd::raw::Cfa;
 
 fn write_u16le(path: &std::path::Path, v: &[u16]) {
@@ -20,7 +20,7 @@ fn directory_with_sidecars_plays_in_name_order_with_timestamps() {
     write_u16le(&d.join("b.raw"), &[1, 2, 3, 4]);
     write_u16le(&d.join("a.raw"), &[100, 200, 300, 4000]);
     std::fs::write(
-        d.join(mosaicd::capture::files::DIR_SIDECAR),
+        d.join(mosaicd::capture::DIR_SIDECAR),
         "width = 2\nheight = 2\nbit_depth = 12\ncfa = \"GBRG\"\nblack = [10, 11, 12, 13]\nwhite = 4095\n",
     )
     .unwrap();

@@ -1,8 +1,8 @@
 //! V4L2 source errors on this machine (no camera): a missing device and a node that is not a
 //! camera both give clear errors, never a panic.
 
-use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
 use mosaicd::capture::CaptureError;
+use mosaicd::capture::{V4l2Options, V4l2Source};
 
 #[test]
 fn missing_device_is_a_clear_error() {

@@ -12,9 +12,9 @@ use std::process::Command;
 
 use mosaicd::features::sift::Keypoint;
 
-use mosaicd::record::read::{read_json_topic, RecordingInfo};
-use mosaicd::record::schema::{base64_decode, ImageAnnotations, SiftFeaturesMessage, POINTS_POINTS};
 use mosaicd::record::Topics;
+use mosaicd::wire::schema::{base64_decode, ImageAnnotations, SiftFeaturesMessage, POINTS_POINTS};
+use mosaicd::wire::{read_json_topic, RecordingInfo};
 
 mod common;
 

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use mosaicd::record::read::{for_each_message, RecordingInfo};
 use mosaicd::record::Topics;
+use mosaicd::wire::{for_each_message, RecordingInfo};
 
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 const FRAMES: u64 = 12;
@@ -248,9 +248,7 @@ fn sigterm_mid_replay_gives_a_complete_indexed_mcap() {
     assert_eq!(info.count(&Topics::new("loop").annotations), n);
     let mut summary = std::fs::File::open(&out).unwrap();
     assert!(
-        mosaicd::record::read::read_summary(&mut summary)
-            .unwrap()
-            .is_some(),
+        mosaicd::wire::read_summary(&mut summary).unwrap().is_some(),
         "summary written"
     );
 }
@@ -684,7 +682,7 @@ fn metadata_of(path: &Path) -> Vec<(String, std::collections::BTreeMap<String, S
 
 #[test]
 fn a_live_recording_carries_the_wall_clock_and_a_replay_does_not() {
-    use mosaicd::record::recorder::WALL_CLOCK_METADATA;
+    use mosaicd::record::WALL_CLOCK_METADATA;
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("live.toml");
     let path = dir.path().join("live.mcap");

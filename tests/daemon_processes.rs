@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use mosaicd::pipeline::sinks::strip_wall_clock;
+use mosaicd::pipeline::strip_wall_clock;
 
 mod common;
 

@@ -109,7 +109,7 @@ fn assert_finished_mcap(path: &Path) -> u64 {
         path.display(),
         bytes.len()
     );
-    let summary = mosaicd::record::read::read_summary(&mut std::io::Cursor::new(&bytes))
+    let summary = mosaicd::wire::read_summary(&mut std::io::Cursor::new(&bytes))
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .unwrap_or_else(|| panic!("{}: no summary", path.display()));
     summary.stats.map_or(0, |s| s.message_count)

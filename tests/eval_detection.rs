@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use mosaicd::eval::detection::{load_box_csv, load_usc};
+use mosaicd::eval::{load_box_csv, load_usc};
 
 fn data() -> std::path::PathBuf {
     // Fails with a message naming MOSAICD_DATA when the shared data is missing.
@@ -71,7 +71,7 @@ fn usc_xml_and_human_gt_agree_with_the_derived_csv() {
     // Set C comes from human_GT.txt; its BMP is decodable (the `bmp` feature).
     let c = from_gt.iter().find(|g| g.key.ends_with("WALK_107.BMP")).unwrap();
     assert_eq!(c.boxes.len(), 5);
-    let img = mosaicd::eval::detection::load_image_rgb(&c.path).unwrap();
+    let img = mosaicd::eval::load_image_rgb(&c.path).unwrap();
     assert_eq!(img.dimensions(), (300, 225));
 }
 

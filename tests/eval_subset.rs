@@ -2,8 +2,8 @@
 //! (2 Kodak images + 1 raw frame): tables, plots and the markdown report are produced and the
 //! numbers are in their valid ranges. The full runs are documented in docs/REPRODUCTION.md.
 
-use mosaicd::eval::common::{EvalOptions, Report};
-use mosaicd::eval::{channels, gradients, reproduction_doc, scale_space};
+use mosaicd::eval::{reproduction_doc, run_channels, run_gradients, run_scale_space};
+use mosaicd::eval::{EvalOptions, Report};
 
 fn opts(dir: &std::path::Path) -> EvalOptions {
     // Fail loudly (with where to put the data) when the shared data is missing.
@@ -42,7 +42,7 @@ fn cell(r: &Report, table: usize, row: usize, col: usize) -> f64 {
 #[test]
 fn gradients_table3_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = gradients::run(&opts(dir.path())).unwrap();
+    let r = run_gradients(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     // Kodak row: 2 images, MSSIM in (0.9, 1), PSNR > 30 dB, GMSD in (0, 0.1): the paper's claim
     // that mosaic gradients are close to grey gradients, with margins that would catch a wrong
@@ -62,7 +62,7 @@ fn gradients_table3_subset() {
 #[test]
 fn channels_fig9_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = channels::run(&opts(dir.path())).unwrap();
+    let r = run_channels(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     let mean = |row: usize| cell(&r, 0, row, 1);
     // grey, R, G, B, colour-max: green carries half the mosaic, so G is closer than R or B.
@@ -79,7 +79,7 @@ fn channels_fig9_subset() {
 #[test]
 fn scale_space_table5_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = scale_space::run(&opts(dir.path())).unwrap();
+    let r = run_scale_space(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     let mssim: Vec<f64> = (0..r.tables[0].rows.len()).map(|i| cell(&r, 0, i, 1)).collect();
     assert!(mssim.iter().all(|&m| m > 0.5 && m <= 1.0), "{mssim:?}");
@@ -92,7 +92,7 @@ fn scale_space_table5_subset() {
 #[test]
 fn demosaic_table4_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = mosaicd::eval::demosaic::run(&opts(dir.path())).unwrap();
+    let r = mosaicd::eval::run_demosaic(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     // Rows: nearest, bilinear, bicubic, malvar, hamilton-adams. Known ordering on Kodak:
     // Malvar and Hamilton–Adams beat bilinear, which beats nearest (PSNR and MSSIM).
@@ -110,7 +110,7 @@ fn demosaic_table4_subset() {
 #[test]
 fn pipeline_table6_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = mosaicd::eval::pipeline::run(&opts(dir.path())).unwrap();
+    let r = mosaicd::eval::run_pipeline(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     assert_eq!(r.tables[0].rows.len(), 6);
     // Memory is buffer accounting (deterministic): demosaicing to three planes must cost more.
@@ -120,7 +120,7 @@ fn pipeline_table6_subset() {
 #[test]
 fn noise_subset() {
     let dir = tempfile::tempdir().unwrap();
-    let r = mosaicd::eval::noise::run(&opts(dir.path())).unwrap();
+    let r = mosaicd::eval::run_noise(&opts(dir.path())).unwrap();
     check_outputs(&r, dir.path());
     // Degradation grows with the noise level on both paths; orientation agreement falls.
     let g = |row: usize, col: usize| cell(&r, 0, row, col);

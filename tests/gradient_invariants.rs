@@ -10,7 +10,7 @@ use mosaicd::features::gradient::{
     Operator,
 };
 use mosaicd::image::{Image, ImageView};
-use mosaicd::isp::grey::grey_from_rgb_u8;
+use mosaicd::isp::grey_from_rgb_u8;
 use mosaicd::kernels::{self, Isa};
 use mosaicd::raw::{Cfa, Colour, RawView};
 use rand::{Rng, SeedableRng};

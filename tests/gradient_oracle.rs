@@ -16,7 +16,7 @@ use mosaicd::features::gradient::{
     Operator,
 };
 use mosaicd::image::Image;
-use mosaicd::isp::grey::grey_from_rgb_u8;
+use mosaicd::isp::grey_from_rgb_u8;
 use mosaicd::npy::NpyArray;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use mosaicd::capture::{CaptureError, Damage, McapSource, McapSourceOptions, RecordPastEnd, Source};
-use mosaicd::raw::load::{load_input, InputOptions};
+use mosaicd::raw::{load_input, InputOptions};
 use mosaicd::raw::{Cfa, FrameMeta, Levels, RawError, RawFrame};
-use mosaicd::record::schema::{
+use mosaicd::record::{Compression, McapRecorder, RecorderOptions};
+use mosaicd::wire::schema::{
     encode_raw_frame, RAW_FRAME_ENCODING, RAW_FRAME_SCHEMA, RAW_FRAME_SCHEMA_ENCODING,
 };
-use mosaicd::record::{Compression, McapRecorder, RecorderOptions};
 
 const BIN: &str = env!("CARGO_BIN_EXE_mosaicd");
 
@@ -260,7 +260,7 @@ fn a_damaged_summary_is_refused_at_open() {
         }) => {}
         other => panic!("expected BadSummaryCrc at open, got {other:?}"),
     }
-    assert!(mosaicd::record::read::RecordingInfo::read(&path).is_err());
+    assert!(mosaicd::wire::RecordingInfo::read(&path).is_err());
     // The intact file opens and replays.
     std::fs::write(&path, &good).unwrap();
     let mut src = McapSource::open(&path, McapSourceOptions::default()).unwrap();
@@ -315,7 +315,7 @@ fn images_beyond_the_frame_size_limit_are_refused_from_their_header() {
     }
     // The same through the RGB decoder every command uses (a .bmp or .jpg name would too).
     assert!(matches!(
-        mosaicd::raw::load::decode_image(&grey),
+        mosaicd::raw::decode_image(&grey),
         Err(RawError::TooLarge { .. })
     ));
     // A PGM header claiming an overflowing size is refused, not multiplied.
@@ -452,7 +452,7 @@ fn fuzz_seeds(target: &str) -> Vec<PathBuf> {
 /// same error.
 #[test]
 fn fuzz_seeds_load_the_same_from_memory_and_from_their_file() {
-    use mosaicd::raw::load::{camera_raw_from_bytes, load_camera_raw, load_input_bytes};
+    use mosaicd::raw::{camera_raw_from_bytes, load_camera_raw, load_input_bytes};
     let opts = InputOptions {
         cfa: Some(Cfa::Rggb),
         ..InputOptions::default()

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use mosaicd::capture::{CaptureError, McapSource, McapSourceOptions, RecordPastEnd, Source};
-use mosaicd::raw::load::{load_camera_raw, load_headerless, Container, Endian, RawFormat};
+use mosaicd::raw::{load_camera_raw, load_headerless, Container, Endian, RawFormat};
 use mosaicd::raw::{Cfa, Levels, RawError};
 
 /// Peak resident set size so far, KiB.

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use mosaicd::image::Image;
-use mosaicd::isp::demosaic::{rgb_from_mosaic, rgb_from_mosaic_u8, DemosaicMethod};
+use mosaicd::isp::{rgb_from_mosaic, rgb_from_mosaic_u8, DemosaicMethod};
 use mosaicd::npy::NpyArray;
 use mosaicd::raw::Cfa;
 

@@ -2,9 +2,9 @@
 //! known injected noise.
 
 use mosaicd::image::Image;
-use mosaicd::isp::noise::{linear_from_raw, NoiseEstimateOptions};
-use mosaicd::isp::reverse::raw_from_linear_mosaic;
+use mosaicd::isp::raw_from_linear_mosaic;
 use mosaicd::isp::{add_noise, estimate_noise, raw_from_srgb, CameraProfile, NoiseLevel, ReverseIspOptions};
+use mosaicd::isp::{linear_from_raw, NoiseEstimateOptions};
 use mosaicd::raw::{Cfa, Levels};
 
 fn load_rgb(rel: &str) -> Image<[u8; 3]> {

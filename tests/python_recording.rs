@@ -9,8 +9,8 @@ use std::process::Command;
 
 use mosaicd::npy::NpyArray;
 use mosaicd::raw::RawFrame;
-use mosaicd::record::read::for_each_message;
-use mosaicd::record::schema::{decode_raw_frame, RAW_FRAME_ENCODING};
+use mosaicd::wire::for_each_message;
+use mosaicd::wire::schema::{decode_raw_frame, RAW_FRAME_ENCODING};
 
 fn client_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("clients/python")

@@ -3,7 +3,7 @@
 //! (`ActiveArea` → rawloader `crops`) with re-phasing, black/white levels, bit depth from the white
 //! level, and white-balance gains from `AsShotNeutral` normalised to G = 1.
 
-use mosaicd::raw::load::{load_camera_raw, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
+use mosaicd::raw::{load_camera_raw, rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 use mosaicd::raw::{load_input, Cfa, InputOptions, Levels};
 
 /// One IFD entry: tag, TIFF type, count, little-endian value bytes.

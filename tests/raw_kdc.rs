@@ -10,7 +10,7 @@ mod common;
 use common::{oracle, oracle_dir};
 use mosaicd::data::require;
 use mosaicd::raw::kodak_radc::{self, KodakModel, RadcError};
-use mosaicd::raw::load::load_camera_raw;
+use mosaicd::raw::load_camera_raw;
 use mosaicd::raw::{load_input, Cfa, InputOptions, RawError};
 
 const KDC: &str = "raw/rawpy_kodak_dc50/RAW_KODAK_DC50.KDC";

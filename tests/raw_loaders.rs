@@ -2,7 +2,7 @@
 //! A missing file fails with a message saying where to put the data.
 
 use mosaicd::data::require;
-use mosaicd::raw::load::{
+use mosaicd::raw::{
     load_camera_raw, load_headerless, load_png_mosaic, rawloader_ifd_visits, MosaicFormat,
     MAX_TIFF_IFD_VISITS,
 };

@@ -18,9 +18,9 @@
 use mosaicd::data::require;
 use mosaicd::features::gradient::{gradients_from_image, GradientSpec};
 use mosaicd::image::Image;
-use mosaicd::isp::demosaic::rgb_from_mosaic_bilinear;
-use mosaicd::isp::grey::grey_from_rgb_f32;
-use mosaicd::raw::levels::{f32_from_raw, grey_world_gains, Compression, Gains, NormaliseOptions};
+use mosaicd::isp::grey_from_rgb_f32;
+use mosaicd::isp::rgb_from_mosaic_bilinear;
+use mosaicd::raw::{f32_from_raw, grey_world_gains, Compression, Gains, NormaliseOptions};
 use mosaicd::raw::{load_input, Cfa, InputOptions, RawFrame};
 
 /// GMSD stability constant for values in [0, 1] (170 for [0, 255] in Xue et al.).

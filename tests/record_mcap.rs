@@ -9,8 +9,8 @@ use mosaicd::capture::{CaptureError, Clock, FakeClock, McapSource, McapSourceOpt
 use mosaicd::detect::Detection;
 use mosaicd::features::sift::Keypoint;
 use mosaicd::raw::{Cfa, FrameMeta, Levels, RawFrame};
-use mosaicd::record::read::{read_annotations, read_detections, read_stats, RecordingInfo};
 use mosaicd::record::{FlushPolicy, McapRecorder, RecordError, RecorderOptions, RotatePolicy};
+use mosaicd::wire::{read_annotations, read_detections, read_stats, RecordingInfo};
 
 const FRAME_NS: u64 = 33_333_333;
 
@@ -580,7 +580,7 @@ fn foxglove_messages_match_their_schemas() {
     record(&path, 3, opts);
     let mut checked = 0;
     let mut keypoint_points = Vec::new();
-    mosaicd::record::read::for_each_message(&path, |m| {
+    mosaicd::wire::for_each_message(&path, |m| {
         let Some(schema) = &m.channel.schema else {
             return Ok(());
         };
@@ -596,7 +596,7 @@ fn foxglove_messages_match_their_schemas() {
                 (v["width"].as_u64(), v["height"].as_u64(), v["step"].as_u64()),
                 (Some(32), Some(24), Some(32))
             );
-            let data = mosaicd::record::schema::base64_decode(v["data"].as_str().unwrap()).unwrap();
+            let data = mosaicd::wire::schema::base64_decode(v["data"].as_str().unwrap()).unwrap();
             assert_eq!(data.len(), 32 * 24);
         }
         if m.channel.topic == "/camera/keypoints" {
@@ -625,7 +625,7 @@ fn foxglove_messages_match_their_schemas() {
 /// base64 in the file, decode to the bytes written (none on frames written without them).
 #[test]
 fn sift_features_round_trip_with_and_without_descriptors() {
-    use mosaicd::record::schema::{SiftFeaturesMessage, SIFT_FEATURES_SCHEMA};
+    use mosaicd::wire::schema::{SiftFeaturesMessage, SIFT_FEATURES_SCHEMA};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.mcap");
     let opts = RecorderOptions {
@@ -636,7 +636,7 @@ fn sift_features_round_trip_with_and_without_descriptors() {
     let topic = mosaicd::record::Topics::new("camera").sift;
     let info = RecordingInfo::read(&path).unwrap();
     assert_eq!(info.count(&topic), 6);
-    let msgs = mosaicd::record::read::read_json_topic::<SiftFeaturesMessage>(&path, &topic).unwrap();
+    let msgs = mosaicd::wire::read_json_topic::<SiftFeaturesMessage>(&path, &topic).unwrap();
     for (i, m) in msgs.iter().enumerate() {
         let i = i as u64;
         let t = frame(i, 64, 48).meta.timestamp_ns;
@@ -651,7 +651,7 @@ fn sift_features_round_trip_with_and_without_descriptors() {
         assert_eq!(s.decoded_descriptors().unwrap(), want, "frame {i}");
     }
     let mut schemas = 0;
-    mosaicd::record::read::for_each_message(&path, |m| {
+    mosaicd::wire::for_each_message(&path, |m| {
         if m.channel.topic == topic {
             assert_eq!(m.channel.schema.as_ref().unwrap().name, SIFT_FEATURES_SCHEMA);
             schemas += 1;
@@ -891,7 +891,7 @@ fn a_frames_only_recording_declares_no_result_channels() {
 #[test]
 fn the_wall_clock_record_is_written_per_file_only_when_asked() {
     use mosaicd::clock::{WallClock, WallClockSource};
-    use mosaicd::record::recorder::WALL_CLOCK_METADATA;
+    use mosaicd::record::WALL_CLOCK_METADATA;
     let dir = tempfile::tempdir().unwrap();
     let reading = WallClock {
         realtime_ns: 1_795_737_600_123_456_789,

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use mosaicd::capture::{McapSource, McapSourceOptions, Source};
 use mosaicd::raw::Cfa;
-use mosaicd::record::read::RecordingInfo;
-use mosaicd::record::recipe::{build_recording, crop_origin, Recipe};
+use mosaicd::record::{build_recording, crop_origin, Recipe};
+use mosaicd::wire::RecordingInfo;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -1,7 +1,7 @@
 //! Mosaic SIFT on real data: repeatability next to grey SIFT on Kodak, the daemon entry point on
 //! a real raw frame, determinism across thread counts, and 16-bit extremes.
 
-use mosaicd::eval::sift::{
+use mosaicd::eval::{
     grey_from_rgb8, grey_transformed, ground_truth, mosaic_transformed, rggb_mosaic_from_rgb8, score_pair,
     PlaneWarp, Transform, MATCH_THRESHOLD_PX,
 };

@@ -3,8 +3,9 @@
 mod common;
 
 use common::{max_abs_diff, oracle_image};
-use mosaicd::features::superpixel::{gaussian_blur, resize_bilinear, GaussianKernel};
+use mosaicd::features::superpixel::{gaussian_blur, GaussianKernel};
 use mosaicd::image::Image;
+use mosaicd::resize::resize_bilinear;
 
 /// f32 accumulation order and OpenCV's float interpolation weights differ from ours in the last
 /// bits: allow 1e-5 on values in [0, 1) (observed: ≤ 3.1e-6).

@@ -23,7 +23,7 @@
 //! the stream goes on with the next file. `SourceKind::Replay`.
 //!
 //! ```
-//! use mosaicd::capture::files::{FileSource, FileSourceOptions};
+//! use mosaicd::capture::{FileSource, FileSourceOptions};
 //! use mosaicd::capture::Source;
 //! let dir = tempfile::tempdir().unwrap();
 //! std::fs::write(dir.path().join("a.raw"), [10u8, 20, 30, 40]).unwrap();
@@ -107,7 +107,7 @@ impl Sidecar {
     }
 
     /// The headerless format this sidecar describes (the one [`RawFormat`] type of
-    /// [`crate::raw::load`]; defaults as there: container from the bit depth, black 0, white full
+    /// [`load_input`](crate::raw::load_input); defaults as there: container from the bit depth, black 0, white full
     /// scale). `path` names the sidecar in errors.
     pub fn format(&self, path: &Path) -> Result<RawFormat, CaptureError> {
         let bad = |key: &'static str, value: String, why: &'static str| CaptureError::SidecarValue {
@@ -191,7 +191,7 @@ impl Default for FileSourceOptions {
     }
 }
 
-/// Plays files as a stream (see the [module overview](self)).
+/// Plays files as a stream.
 #[derive(Debug)]
 pub struct FileSource {
     files: Vec<PathBuf>,

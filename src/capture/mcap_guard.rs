@@ -140,7 +140,7 @@ enum State {
 /// runs past the end of the file or overruns its uncompressed chunk (see the
 /// [module overview](self)).
 #[derive(Debug)]
-pub struct RecordGuard<R> {
+pub(super) struct RecordGuard<R> {
     inner: R,
     /// The file's length: every top-level record must end within it.
     file_len: u64,
@@ -155,7 +155,7 @@ pub struct RecordGuard<R> {
 
 impl<R: Read> RecordGuard<R> {
     /// Guard `inner`, which is read from the start of a file of `file_len` bytes.
-    pub fn new(inner: R, file_len: u64) -> Self {
+    pub(super) fn new(inner: R, file_len: u64) -> Self {
         Self {
             inner,
             file_len,

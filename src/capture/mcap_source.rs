@@ -18,7 +18,7 @@
 //!
 //! Damage handling: the file is streamed with every CRC checked (chunks before their messages are
 //! used, the data section, the summary: at open) and record lengths limited to
-//! [`crate::record::read::record_length_limit`], which the frame-size limit
+//! [`crate::wire::record_length_limit`], which the frame-size limit
 //! ([`crate::raw::limits`]) sets (the summary's records also to the file size): a chunk claiming
 //! more is refused before it is decompressed, and a frame message larger than the limit
 //! ([`RawError::TooLarge`]) before its pixels are copied. Each record is also bounded by the
@@ -73,7 +73,7 @@ use crate::wire::schema::{decode_raw_frame, decode_raw_frame_header, RAW_FRAME_S
 const SINGLE_FRAME_LOOP_INTERVAL_NS: u64 = 33_333_333;
 /// The longest wait between two consecutive paced frames (wall time, after the speed factor): a
 /// longer step in the recorded timestamps is a jump, logged and counted, not slept through.
-pub const MAX_PACED_GAP_NS: u64 = 10_000_000_000;
+pub(crate) const MAX_PACED_GAP_NS: u64 = 10_000_000_000;
 /// Read buffer in front of the file (bytes).
 const READ_BUFFER: usize = 1 << 20;
 
@@ -125,7 +125,7 @@ enum Recording {
     Memory(Arc<[u8]>),
 }
 
-/// Replays the raw frames of a recording (see the [module overview](self)).
+/// Replays the raw frames of a recording.
 pub struct McapSource {
     path: PathBuf,
     recording: Recording,
@@ -380,7 +380,7 @@ impl McapSource {
     }
 
     /// Timestamp jumps that pacing did not sleep through (steps longer than
-    /// [`MAX_PACED_GAP_NS`] of wall time, or backwards) so far.
+    /// `MAX_PACED_GAP_NS` of wall time, or backwards) so far.
     pub fn pacing_jumps(&self) -> u64 {
         self.pacing_jumps
     }

@@ -9,17 +9,22 @@ use std::path::PathBuf;
 
 use crate::raw::RawFrame;
 
-pub mod files;
+pub(crate) mod files;
 mod mcap_guard;
-pub mod mcap_source;
-pub mod synthetic;
-pub mod v4l2;
-pub mod v4l2_formats;
+pub(crate) mod mcap_source;
+pub(crate) mod synthetic;
+pub(crate) mod v4l2;
+pub(crate) mod v4l2_formats;
 
 pub use crate::clock::{Clock, FakeClock, MonotonicClock, Stop};
-pub use files::{FileSource, FileSourceOptions};
+pub use files::{Black, FileSource, FileSourceOptions, Sidecar, DEFAULT_FPS, DIR_SIDECAR};
 pub use mcap_guard::{ChunkOverrun, RecordPastEnd};
 pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
+pub use synthetic::{SyntheticSource, SyntheticSpec};
+pub use v4l2::{Backoff, Negotiated, V4l2Options, V4l2Source};
+pub use v4l2_formats::{
+    bayer_format, parse_fourcc, raw_frame_from_v4l2, BayerFormat, Packing, V4l2FormatError,
+};
 
 /// How frames from a source may be treated when compute falls behind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -15,7 +15,7 @@
 //!
 //! ```
 //! use mosaicd::capture::Source;
-//! use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
+//! use mosaicd::capture::{SyntheticSource, SyntheticSpec};
 //! let mut s = SyntheticSource::new(SyntheticSpec { width: 32, height: 16, frames: 2, ..Default::default() });
 //! let f = s.next_frame().unwrap().unwrap();
 //! assert_eq!((f.width(), f.height(), f.meta.sequence), (32, 16, 0));

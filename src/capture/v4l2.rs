@@ -15,7 +15,7 @@
 //! `SourceKind::Live`: the daemon drops the oldest frame under load.
 //!
 //! ```
-//! use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
+//! use mosaicd::capture::{V4l2Options, V4l2Source};
 //! let err = V4l2Source::open("/dev/video-does-not-exist", V4l2Options::default()).unwrap_err();
 //! assert!(err.to_string().contains("/dev/video-does-not-exist"));
 //! ```
@@ -34,7 +34,7 @@ use super::{CaptureError, Clock, MonotonicClock, Source, SourceKind};
 use crate::raw::{FrameMeta, Levels, RawFrame};
 
 /// Default number of mmap buffers.
-pub const DEFAULT_BUFFERS: u32 = 4;
+pub(crate) const DEFAULT_BUFFERS: u32 = 4;
 /// How long a dequeue may block before the device is considered gone (ms).
 const DEQUEUE_TIMEOUT_MS: u64 = 2000;
 /// Back-off defaults: first retry after 100 ms, doubling, at most 5 s.
@@ -95,7 +95,7 @@ impl Backoff {
 
 /// Counts frames the driver dropped from gaps in its sequence numbers.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct SequenceTracker {
+pub(crate) struct SequenceTracker {
     last: Option<u32>,
     /// Frames missing between consecutive driver sequence numbers, in total.
     pub drops: u64,
@@ -104,7 +104,7 @@ pub struct SequenceTracker {
 impl SequenceTracker {
     /// Observe a driver sequence number; returns how many frames were skipped before it.
     /// The 32-bit counter may wrap; a sequence that goes backwards (driver restart) is a new start.
-    pub fn observe(&mut self, seq: u32) -> u64 {
+    pub(crate) fn observe(&mut self, seq: u32) -> u64 {
         let gap = match self.last {
             Some(last) => {
                 let d = seq.wrapping_sub(last);
@@ -122,14 +122,17 @@ impl SequenceTracker {
     }
 
     /// Forget the last sequence (after a reopen the driver starts again).
-    pub fn restart(&mut self) {
+    pub(crate) fn restart(&mut self) {
         self.last = None;
     }
 }
 
 /// Choose a Bayer format among the device's FourCCs: `preferred` if offered, else the deepest
 /// bit depth, unpacked before packed (cheaper to read), in the device's order otherwise.
-pub fn negotiate(offered: &[[u8; 4]], preferred: Option<[u8; 4]>) -> Result<BayerFormat, CaptureError> {
+pub(crate) fn negotiate(
+    offered: &[[u8; 4]],
+    preferred: Option<[u8; 4]>,
+) -> Result<BayerFormat, CaptureError> {
     let bayer: Vec<BayerFormat> = offered.iter().filter_map(|f| bayer_format(*f).ok()).collect();
     if let Some(p) = preferred {
         if let Some(f) = bayer.iter().find(|f| f.fourcc == p) {
@@ -163,7 +166,7 @@ pub struct V4l2Options {
     pub width: Option<u32>,
     /// Requested height (`None`: keep the driver's).
     pub height: Option<u32>,
-    /// Preferred FourCC (e.g. `*b"pRAA"`); falls back to [`negotiate`]'s choice.
+    /// Preferred FourCC (e.g. `*b"pRAA"`); falls back to `negotiate`'s choice.
     pub fourcc: Option<[u8; 4]>,
     /// Requested frame rate.
     pub fps: Option<u32>,
@@ -212,7 +215,7 @@ struct Open {
     neg: Negotiated,
 }
 
-/// A live V4L2 Bayer camera (see the [module overview](self)).
+/// A live V4L2 Bayer camera.
 pub struct V4l2Source {
     path: PathBuf,
     opts: V4l2Options,

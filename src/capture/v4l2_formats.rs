@@ -26,7 +26,7 @@
 //! a value that does not is reported, never silently masked.
 //!
 //! ```
-//! use mosaicd::capture::v4l2_formats::{bayer_format, raw_frame_from_v4l2};
+//! use mosaicd::capture::{bayer_format, raw_frame_from_v4l2};
 //! use mosaicd::raw::Cfa;
 //! let fmt = bayer_format(*b"pRAA").unwrap();
 //! assert_eq!((fmt.cfa, fmt.bit_depth), (Cfa::Rggb, 10));
@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use crate::raw::{Cfa, FrameLimits, FrameTooLarge, Levels, RawError, RawFrame, RawPixels};
 
 /// Rows per rayon task when unpacking.
-pub const STRIP_ROWS: usize = 64;
+pub(crate) const STRIP_ROWS: usize = 64;
 
 /// How samples are stored in a row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -139,7 +139,7 @@ pub enum V4l2FormatError {
 }
 
 /// Every supported FourCC, in the table's order.
-pub const SUPPORTED: [[u8; 4]; 24] = [
+pub(crate) const SUPPORTED: [[u8; 4]; 24] = [
     *b"BA81", *b"GBRG", *b"GRBG", *b"RGGB", // 8-bit
     *b"BG10", *b"GB10", *b"BA10", *b"RG10", // 10-bit unpacked
     *b"BG12", *b"GB12", *b"BA12", *b"RG12", // 12-bit unpacked
@@ -149,16 +149,16 @@ pub const SUPPORTED: [[u8; 4]; 24] = [
 ];
 
 /// 12-bit packed FourCCs (kept apart so [`SUPPORTED`] stays a readable table).
-pub const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
+pub(crate) const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
 
 /// A FourCC written as text (`"pRAA"`): its four bytes, or `None` unless it is exactly four
-/// bytes long. The inverse of [`fourcc_str`] for printable codes.
+/// bytes long. The inverse of `fourcc_str` for printable codes.
 pub fn parse_fourcc(s: &str) -> Option<[u8; 4]> {
     <[u8; 4]>::try_from(s.as_bytes()).ok()
 }
 
 /// FourCC as printable text.
-pub fn fourcc_str(f: [u8; 4]) -> String {
+pub(crate) fn fourcc_str(f: [u8; 4]) -> String {
     f.iter()
         .map(|&b| {
             if b.is_ascii_graphic() || b == b' ' {
@@ -328,7 +328,7 @@ fn unpack_row(fmt: &BayerFormat, src: &[u8], dst: &mut [u16]) -> Option<(usize, 
 
 /// Unpack a driver buffer into `dst` (`width * height` u16 values, row-major, contiguous).
 /// Rows are unpacked in parallel strips of `STRIP_ROWS` on the current rayon pool.
-pub fn unpack_into(
+pub(crate) fn unpack_into(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,
@@ -379,7 +379,8 @@ pub fn unpack_into(
 }
 
 /// Serial reference of [`unpack_into`] (the test oracle for the parallel path).
-pub fn unpack_into_serial(
+#[cfg(test)]
+pub(crate) fn unpack_into_serial(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,

@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use mosaicd::detect::acf::AcfModel;
+use mosaicd::detect::acf::{AcfModel, FeatureSet};
 use mosaicd::detect::boost::{BoostOptions, TraceOptions, TreeOptions};
 use mosaicd::detect::channels::PyramidOptions;
 use mosaicd::detect::train::acf::{
@@ -13,7 +13,7 @@ use mosaicd::detect::train::acf::{
 use mosaicd::detect::train::{
     inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline,
 };
-use mosaicd::raw::levels::Gains;
+use mosaicd::raw::Gains;
 
 use super::detect_common::{TrainArgs, TRAIN_NOISE_SALT};
 
@@ -67,6 +67,10 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
             discrete: !x.acf_real,
             ..BoostOptions::default()
         },
+        features: FeatureSet::ALL
+            .into_iter()
+            .find(|f| f.name() == x.acf_features)
+            .context("--acf-features: all or gradient")?,
         n_neg: x.acf_neg,
         per_neg: x.acf_per_neg,
         acc_neg: x.acf_acc_neg,
@@ -257,19 +261,18 @@ mod tests {
         train: TrainArgs,
     }
 
+    /// `mosaicd train --detector acf --domain mosaic --out m.json` followed by `extra`.
+    fn acf(extra: &[&str]) -> Result<Cli, clap::Error> {
+        let base = ["x", "--detector", "acf", "--domain", "mosaic", "--out", "m.json"];
+        Cli::try_parse_from(base.iter().chain(extra))
+    }
+
     #[test]
     fn train_parses_the_acf_options_and_keeps_hog_the_default() {
         let c = Cli::try_parse_from(["x", "--domain", "mosaic", "--out", "m.json"]).unwrap();
         assert_eq!(c.train.detector, DetectorArg::Hog);
         assert_eq!(c.train.acf.acf_stages, vec![32, 128, 512, 2048]);
-        let c = Cli::try_parse_from([
-            "x",
-            "--detector",
-            "acf",
-            "--domain",
-            "mosaic",
-            "--out",
-            "m.json",
+        let c = acf(&[
             "--acf-stages",
             "4,8",
             "--acf-lambdas",
@@ -282,5 +285,9 @@ mod tests {
         assert_eq!(c.train.acf.acf_stages, vec![4, 8]);
         assert_eq!(c.train.acf.acf_lambdas, Some(vec![0.0, 0.1, 0.1]));
         assert_eq!(c.train.acf.acf_casc_thr, Some(-8.0));
+        assert_eq!(c.train.acf.acf_features, "all");
+        let c = acf(&["--acf-features", "gradient"]).unwrap();
+        assert_eq!(c.train.acf.acf_features, "gradient");
+        assert!(acf(&["--acf-features", "luv"]).is_err());
     }
 }

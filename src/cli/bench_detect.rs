@@ -3,7 +3,7 @@
 //! run, same thread count, same smallest person height (both 64x128 windows from the frame's own
 //! scale, down to a window the size of the frame). The output names the kernel path and the CPU's
 //! features ([`mosaicd::kernels::describe`]; `MOSAICD_KERNELS` forces a path), as does the JSON
-//! (`kernels`). The timed loop is [`mosaicd::eval::detect_speed::time_detector`].
+//! (`kernels`). The timed loop is [`mosaicd::eval::time_detector`].
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -13,10 +13,10 @@ use anyhow::{bail, Context};
 use mosaicd::detect::acf::AcfOptions;
 use mosaicd::detect::people::{PeopleDetector, PeopleModel, PeopleStats};
 use mosaicd::detect::{DetectStats, DetectorOptions, Domain, StageProfile};
-use mosaicd::eval::detect_speed::time_detector;
+use mosaicd::eval::time_detector;
 use mosaicd::features::hog::{HogInput, MosaicTone};
 use mosaicd::progress::Progress;
-use mosaicd::raw::levels::Gains;
+use mosaicd::raw::Gains;
 use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 use super::detect_common::SvmArg;
@@ -170,7 +170,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     let det = model.build(&opts, &acf_opts)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
     // the mosaic buffer is reused between frames, as the daemon's pooled buffers are
-    let strip_rows = mosaicd::pipeline::stage::StageSpec::default().strip_rows;
+    let strip_rows = mosaicd::pipeline::StageSpec::default().strip_rows;
     let bar = Progress::new("bench detect", Some(a.frames as u64 + 1));
     let timed = pool.install(|| {
         time_detector(&det, &frame, Gains::Auto, strip_rows, a.frames, &mut |i| {
@@ -179,9 +179,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
     })?;
     bar.finish();
     let f = timed.len().max(1) as f64;
-    let sum = |g: &dyn Fn(&mosaicd::eval::detect_speed::TimedFrame) -> Duration| {
-        timed.iter().map(g).sum::<Duration>()
-    };
+    let sum = |g: &dyn Fn(&mosaicd::eval::TimedFrame) -> Duration| timed.iter().map(g).sum::<Duration>();
     let (norm, total) = (sum(&|t| t.normalise), sum(&|t| t.total));
     let ours_s = total.as_secs_f64() / f;
     let last = timed.last().context("--frames 0: nothing timed")?;
@@ -336,7 +334,7 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
 /// Each stage's clock summed over its sections, per frame. HOG: levels overlap, so this is close
 /// to CPU but not exact; exact levels fuse gradients, cells and blocks (and the group's
 /// micro-cell pooling). ACF: channel pyramid and scoring wall times, and the trees per window.
-fn stage_ms(timed: &[mosaicd::eval::detect_speed::TimedFrame], norm: Duration) -> serde_json::Value {
+fn stage_ms(timed: &[mosaicd::eval::TimedFrame], norm: Duration) -> serde_json::Value {
     let f = timed.len().max(1) as f64;
     let mut hog = DetectStats::default();
     let (mut channels, mut score, mut nms, mut trees, mut windows) =

@@ -12,16 +12,16 @@ use std::sync::Arc;
 
 use serde_json::json;
 
-use mosaicd::capture::synthetic::{SyntheticSource, SyntheticSpec};
+use mosaicd::capture::{SyntheticSource, SyntheticSpec};
 use mosaicd::clock::ReplayClock;
 use mosaicd::config::PublishConfig;
 use mosaicd::config::{Config, SvmSetting};
 use mosaicd::detect::people::DetectorKind;
 use mosaicd::detect::ScorePrecision;
-use mosaicd::pipeline::daemon::{load_detector, stage_spec};
-use mosaicd::pipeline::engine::{Pipeline, PipelineSpec};
-use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
-use mosaicd::pipeline::stage::Stage;
+use mosaicd::pipeline::IceoryxSink;
+use mosaicd::pipeline::Stage;
+use mosaicd::pipeline::{load_detector, stage_spec};
+use mosaicd::pipeline::{Pipeline, PipelineSpec};
 use mosaicd::pool::BufferPool;
 use mosaicd::publish::{create_node, detections_service, subscriber};
 

@@ -47,7 +47,7 @@ pub fn problems(path: &Path, info: &mut Vec<String>) -> Vec<String> {
     if cfg.compute.detect {
         // the key of the configured detector's model
         let (key, model) = cfg.compute.model_key();
-        match mosaicd::pipeline::daemon::load_detector(&cfg) {
+        match mosaicd::pipeline::load_detector(&cfg) {
             Ok(_) => info.push(format!(
                 "{key}: {model} loads ({} detector)",
                 cfg.compute.detector

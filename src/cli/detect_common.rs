@@ -11,11 +11,11 @@ use mosaicd::detect::acf::AcfOptions;
 use mosaicd::detect::input::MosaicPrep;
 use mosaicd::detect::people::{PeopleDetector, PeopleInput, PeopleModel, PeopleStats};
 use mosaicd::detect::{DetectorOptions, Domain, NmsMethod, ScorePrecision};
-use mosaicd::eval::draw::draw_boxes;
+use mosaicd::eval::draw_boxes;
 use mosaicd::features::hog::{MosaicTaps, MosaicTone};
 use mosaicd::image::Image;
-use mosaicd::isp::grey::grey_from_rgb_u8;
-use mosaicd::raw::levels::Gains;
+use mosaicd::isp::grey_from_rgb_u8;
+use mosaicd::raw::Gains;
 use mosaicd::raw::{Cfa, RawFrame};
 
 /// Detector options on the command line.
@@ -183,7 +183,7 @@ impl DetectorArgs {
     }
 
     /// The ACF detector's options (every command alike, and as the daemon's
-    /// `mosaicd::pipeline::daemon::acf_options` for the same settings): `--upsample`,
+    /// `acf_options` in `pipeline/daemon.rs` for the same settings): `--upsample`,
     /// `--max-levels`, `--threshold`, `--nms` (default greedy), `--approx N` as N − 1
     /// approximated levels between exact ones (default the model's).
     pub fn acf_options(&self) -> AcfOptions {
@@ -516,6 +516,10 @@ pub struct AcfTrainArgs {
     /// ACF: Real AdaBoost instead of discrete (Dollár's and our default).
     #[arg(long)]
     pub acf_real: bool,
+    /// ACF: the channels the trees may read, written into the model: `all` (Dollár's) or
+    /// `gradient` (magnitude and orientations, no colour channel: a channel ablation).
+    #[arg(long, default_value = "all", value_parser = ["all", "gradient"])]
+    pub acf_features: String,
     /// ACF: negative windows sampled per stage (nNeg).
     #[arg(long, default_value_t = 5000)]
     pub acf_neg: usize,

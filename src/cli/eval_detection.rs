@@ -16,8 +16,8 @@ use std::path::PathBuf;
 
 use mosaicd::detect::train::{split_data, InputPipeline, TrainError};
 use mosaicd::detect::Domain;
-use mosaicd::eval::detection::Shrink;
-use mosaicd::eval::detection_runs::{
+use mosaicd::eval::Shrink;
+use mosaicd::eval::{
     ap_protocol, ap_rows, window_protocol, ApImages, ApProtocol, DetEvalSettings, DetRun, WindowProtocol,
 };
 use mosaicd::raw::Cfa;

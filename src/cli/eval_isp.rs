@@ -2,7 +2,7 @@
 //! Fig. 9, noise). Each prints a table with the paper's number beside ours, writes PNG plots and a
 //! markdown section into `--out`, and takes `--limit N` to run on the first N images only.
 
-use mosaicd::eval::common::{EvalOptions, Report};
+use mosaicd::eval::{EvalOptions, Report};
 use std::path::PathBuf;
 
 /// Options shared by the experiments.
@@ -72,23 +72,25 @@ fn print_and_write(r: &Report, out: &std::path::Path) -> anyhow::Result<()> {
 
 /// Run one of the experiments.
 pub fn run(cmd: IspEval) -> anyhow::Result<()> {
-    use mosaicd::eval::{channels, demosaic, gradients, noise, pipeline, scale_space};
-    type Runner = fn(&EvalOptions) -> mosaicd::eval::common::Result<Report>;
+    use mosaicd::eval::{
+        run_channels, run_demosaic, run_gradients, run_noise, run_pipeline, run_scale_space,
+    };
+    type Runner = fn(&EvalOptions) -> mosaicd::eval::Result<Report>;
     let all: [Runner; 6] = [
-        gradients::run,
-        demosaic::run,
-        scale_space::run,
-        pipeline::run,
-        channels::run,
-        noise::run,
+        run_gradients,
+        run_demosaic,
+        run_scale_space,
+        run_pipeline,
+        run_channels,
+        run_noise,
     ];
     match cmd {
-        IspEval::Gradients(a) => print_and_write(&gradients::run(&a.options())?, &a.out),
-        IspEval::Channels(a) => print_and_write(&channels::run(&a.options())?, &a.out),
-        IspEval::Demosaic(a) => print_and_write(&demosaic::run(&a.options())?, &a.out),
-        IspEval::ScaleSpace(a) => print_and_write(&scale_space::run(&a.options())?, &a.out),
-        IspEval::Pipeline(a) => print_and_write(&pipeline::run(&a.options())?, &a.out),
-        IspEval::Noise(a) => print_and_write(&noise::run(&a.options())?, &a.out),
+        IspEval::Gradients(a) => print_and_write(&run_gradients(&a.options())?, &a.out),
+        IspEval::Channels(a) => print_and_write(&run_channels(&a.options())?, &a.out),
+        IspEval::Demosaic(a) => print_and_write(&run_demosaic(&a.options())?, &a.out),
+        IspEval::ScaleSpace(a) => print_and_write(&run_scale_space(&a.options())?, &a.out),
+        IspEval::Pipeline(a) => print_and_write(&run_pipeline(&a.options())?, &a.out),
+        IspEval::Noise(a) => print_and_write(&run_noise(&a.options())?, &a.out),
         IspEval::All(a) => {
             let opts = a.common.options();
             let mut reports = Vec::new();

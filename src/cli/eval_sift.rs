@@ -7,11 +7,11 @@ use anyhow::Context;
 use mosaicd::progress::Progress;
 use plotters::prelude::*;
 
-use mosaicd::eval::draw::{draw_keypoints, draw_line, paint_grey};
-use mosaicd::eval::sift::{
+use mosaicd::eval::{
     default_transforms, evaluate, ground_truth, mosaic_transformed, rggb_mosaic_from_rgb8, score_pair,
     summarise, EvalRow, LevelSummary, PlaneWarp, Transform, MATCH_THRESHOLD_PX,
 };
+use mosaicd::eval::{draw_keypoints, draw_line, paint_grey};
 use mosaicd::features::sift::matching::apply;
 use mosaicd::features::sift::{detect_and_compute, SiftSpec};
 

@@ -22,7 +22,7 @@ use super::input::InputArgs;
 
 use mosaicd::features::gradient::{mag_bin, AngleRange, Border, MagBinOptions, MagBinSpec, Operator};
 use mosaicd::image::Image;
-use mosaicd::isp::grey::grey_from_rgb_u8;
+use mosaicd::isp::grey_from_rgb_u8;
 use mosaicd::raw::RawView;
 
 /// Percentile of the magnitude mapped to full scale in the 8-bit PNGs.

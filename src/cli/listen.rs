@@ -88,7 +88,7 @@ fn descriptors_json(m: &DescriptorsMsg) -> serde_json::Value {
         "capture_timestamp_ns": m.capture_timestamp_ns,
         "descriptor_count": m.descriptor_count,
         "overflow": m.overflow,
-        "descriptors": mosaicd::pipeline::sinks::descriptors_json(m.descriptors()),
+        "descriptors": mosaicd::pipeline::descriptors_json(m.descriptors()),
     })
 }
 

@@ -12,14 +12,14 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 
-use mosaicd::capture::files::{FileSource, FileSourceOptions, Sidecar};
-use mosaicd::capture::v4l2::{V4l2Options, V4l2Source};
-use mosaicd::capture::v4l2_formats::parse_fourcc;
+use mosaicd::capture::parse_fourcc;
 use mosaicd::capture::Source;
+use mosaicd::capture::{FileSource, FileSourceOptions, Sidecar};
+use mosaicd::capture::{V4l2Options, V4l2Source};
 use mosaicd::clock::WallClockSource;
 use mosaicd::progress::Progress;
 use mosaicd::raw::Levels;
-use mosaicd::record::recipe::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
+use mosaicd::record::{build_recording, Align, Motion, Recipe, RecipeRecorder, SourceSpec};
 use mosaicd::record::{FlushPolicy, McapRecorder, PreviewOptions, RecorderOptions, RotatePolicy};
 
 /// Arguments of `mosaicd record`.
@@ -102,7 +102,7 @@ pub struct RecordOptions {
     #[arg(long, default_value_t = 2)]
     pub preview_decimation: u32,
     /// zstd compression level (1 fast; 3 smaller for 8-bit data).
-    #[arg(long, default_value_t = mosaicd::record::recorder::DEFAULT_COMPRESSION_LEVEL)]
+    #[arg(long, default_value_t = mosaicd::record::DEFAULT_COMPRESSION_LEVEL)]
     pub compression_level: u32,
     /// Flush every N frames (bounds what a crash loses).
     #[arg(long, default_value_t = 30)]
@@ -337,7 +337,7 @@ pub fn run(a: RecordArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let opts = FileSourceOptions {
-        fps: a.fps.unwrap_or(mosaicd::capture::files::DEFAULT_FPS),
+        fps: a.fps.unwrap_or(mosaicd::capture::DEFAULT_FPS),
         sidecar: a.opts.sidecar.clone(),
         ..Default::default()
     };

@@ -13,10 +13,10 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use mosaicd::config::{CameraConfig, Config, SourceType};
-use mosaicd::pipeline::daemon::{self, DaemonError, RunOptions, RunSummary};
-use mosaicd::pipeline::engine::SinkFactory;
-use mosaicd::pipeline::sinks::foxglove::LiveView;
-use mosaicd::pipeline::sinks::iceoryx::IceoryxSink;
+use mosaicd::pipeline::IceoryxSink;
+use mosaicd::pipeline::LiveView;
+use mosaicd::pipeline::SinkFactory;
+use mosaicd::pipeline::{DaemonError, RunOptions, RunSummary};
 
 /// Default config file.
 const DEFAULT_CONFIG: &str = "config/mosaicd.toml";
@@ -159,7 +159,7 @@ fn sinks_for<'a>(
             ));
         }
         if cfg.record.enabled {
-            v.push(mosaicd::pipeline::sinks::mcap::recorder_sink(cfg, cam)?);
+            v.push(mosaicd::pipeline::recorder_sink(cfg, cam)?);
         }
         if let Some(l) = live {
             v.push(l.sink_factory(&cam.name, cfg.compute.keypoints));
@@ -180,7 +180,7 @@ fn execute(cfg: &Config, o: &Overrides) -> anyhow::Result<()> {
     // the last.
     let live = LiveView::start(&cfg.foxglove)?;
     let builder = sinks_for(cfg, live.as_ref());
-    let summary = daemon::run(cfg, &opts, &builder);
+    let summary = mosaicd::pipeline::run(cfg, &opts, &builder);
     drop(builder);
     if let Some(l) = live {
         l.stop();

@@ -142,10 +142,7 @@ fn sift_image(args: &SiftArgs, input: &InputArgs) -> anyhow::Result<(Image<f32>,
                 .rgb
                 .as_ref()
                 .context("--as grey needs an RGB input (PNG/JPEG/BMP); use --as mosaic for raw data")?;
-            let g = Image::from_fn(rgb.width(), rgb.height(), |x, y| {
-                let [r, g, b] = rgb.get(x, y);
-                (0.299 * r as f32 + 0.587 * g as f32 + 0.114 * b as f32).round() / 255.0
-            });
+            let g = rgb.map(|p| mosaicd::isp::grey_f32(p.map(f32::from)).round() / 255.0);
             (g, Domain::Grey)
         }
     };
@@ -343,15 +340,15 @@ fn match_picture(
     let mut canvas = image::RgbImage::new(w as u32, h as u32);
     paint_sqrt(&mut canvas, ia, 0);
     paint_sqrt(&mut canvas, ib, ia.width());
-    mosaicd::eval::draw::draw_keypoints(&mut canvas, a.1, 0);
-    mosaicd::eval::draw::draw_keypoints(&mut canvas, b.1, ia.width());
+    mosaicd::eval::draw_keypoints(&mut canvas, a.1, 0);
+    mosaicd::eval::draw_keypoints(&mut canvas, b.1, ia.width());
     for m in &r.matches {
         let c = if m.inlier {
             image::Rgb([0, 220, 0])
         } else {
             image::Rgb([255, 0, 0])
         };
-        mosaicd::eval::draw::draw_line(
+        mosaicd::eval::draw_line(
             &mut canvas,
             (m.a_xy[0] as f64, m.a_xy[1] as f64),
             (m.b_xy[0] as f64 + ia.width() as f64, m.b_xy[1] as f64),
@@ -390,7 +387,7 @@ fn picture(img: &Image<f32>, f: &SiftFeatures) -> image::RgbImage {
         for i in 0..n {
             let a0 = i as f64 / n as f64 * std::f64::consts::TAU;
             let a1 = (i + 1) as f64 / n as f64 * std::f64::consts::TAU;
-            mosaicd::eval::draw::draw_line(
+            mosaicd::eval::draw_line(
                 &mut canvas,
                 (x + r * a0.cos(), y + r * a0.sin()),
                 (x + r * a1.cos(), y + r * a1.sin()),
@@ -399,7 +396,7 @@ fn picture(img: &Image<f32>, f: &SiftFeatures) -> image::RgbImage {
         }
         // OpenCV angles are counter-clockwise with y up.
         let a = (k.angle as f64).to_radians();
-        mosaicd::eval::draw::draw_line(
+        mosaicd::eval::draw_line(
             &mut canvas,
             (x, y),
             (x + r * a.cos(), y - r * a.sin()),

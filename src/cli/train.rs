@@ -8,7 +8,7 @@ use mosaicd::detect::train::{
 };
 use mosaicd::detect::ScorePrecision;
 use mosaicd::progress::Progress;
-use mosaicd::raw::levels::Gains;
+use mosaicd::raw::Gains;
 
 use super::detect_common::{DetectorArg, TrainArgs, TRAIN_NOISE_SALT};
 

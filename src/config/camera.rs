@@ -21,7 +21,7 @@ pub enum SourceType {
     Synthetic,
     /// Raw files played as a stream (`path`: a file or a directory of files in name order; camera
     /// raws through rawloader, mosaic PNG/PGM, RGB images sampled to a mosaic, headerless raws
-    /// described by a TOML sidecar, see [`crate::capture::files`]); timestamps at `fps`.
+    /// described by a TOML sidecar, see [`FileSource`](crate::capture::FileSource)); timestamps at `fps`.
     Files,
 }
 

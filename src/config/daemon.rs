@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields, default)]
 pub struct LimitsConfig {
     /// Largest frame in pixels (`4..=268435456`, default 2^26 = 67108864, "64 MP"), from any
-    /// source: recordings, files, cameras ([`crate::raw::limits`]; a side is at most 16384).
+    /// source: recordings, files, cameras ([`FrameLimits`](crate::raw::FrameLimits); a side is at most 16384).
     pub max_frame_pixels: u64,
 }
 
@@ -32,7 +32,7 @@ impl LimitsConfig {
 /// `[metrics]`: fleet metrics without opening a port. With `textfile` set, the daemon writes
 /// its counters in Prometheus's text format to that file every `daemon.stats_interval_ms`
 /// (written to a temporary file beside it, then renamed over it), for node_exporter's textfile
-/// collector ([`crate::pipeline::textfile`]).
+/// collector ([`render_textfile`](crate::pipeline::render_textfile)).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MetricsConfig {

@@ -51,7 +51,6 @@ use rayon::prelude::*;
 
 use super::model::{Domain, LinearModel};
 use super::nms::{greedy_nms, group_rectangles};
-use super::pyramid::resize_then;
 use super::score::{
     window_scores, window_scores_i8, RowScorer, ScorePrecision, ScoreWeights, ScoreWeightsI8, ScorerBuffers,
 };
@@ -63,6 +62,7 @@ use crate::features::hog::{
     MicroGrid, CELL_SIZE, MICRO_CELL,
 };
 use crate::image::Image;
+use crate::resize::resize_then;
 use lanes::{approx_gain, deal_levels};
 use planes::{linear_from_input, round_in_place, Linear, Plane, Planes};
 use scratch::{ApproxScratch, LaneScratch, LevelScratch, Pool, ScratchPool};
@@ -858,7 +858,7 @@ mod tests {
         }
         // Level 0 is the magnified frame; level k is resized from it, not from the input.
         let levels = d.levels(150, 200, false);
-        let resized = |src: &Image<f32>, lv: &Level, op: &crate::detect::pyramid::RowOp| {
+        let resized = |src: &Image<f32>, lv: &Level, op: &crate::resize::RowOp| {
             let mut dst = Image::new(0, 0);
             resize_then(src.view(), lv.width, lv.height, false, &mut dst, op).unwrap();
             dst

@@ -3,7 +3,7 @@
 //! A mosaic model reads the frame in the tone it was trained in (`LinearModel::mosaic_tone`, which
 //! the config's `compute.mosaic_tone` or `--mosaic-tone` may override before the detector is
 //! built), with white-balance gains from the caller ([`Gains`]). [`MosaicPrep`] is that pair,
-//! resolved once ([`MosaicPrep::for_model`]); the mapping itself is [`crate::raw::tone`]:
+//! resolved once ([`MosaicPrep::for_model`]); the mapping itself is [`MosaicTone`]:
 //!
 //! ```text
 //! linear:  out = 255 · (v − black) / (white − black), clamped at 0

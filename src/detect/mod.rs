@@ -10,7 +10,6 @@ mod kernels;
 pub mod model;
 pub mod nms;
 pub mod people;
-pub mod pyramid;
 pub mod score;
 pub mod shipped;
 pub mod svm;

@@ -13,7 +13,7 @@
 //!                                  // or paper (I(x+1) − I(x−1)); absent = same-site
 //!   "mosaic_tone": "srgb",         // how raw values become the mosaic: linear (black-subtracted,
 //!                                  // scaled) or srgb (white balance + sRGB curve per site);
-//!                                  // absent = linear (features::hog::tone)
+//!                                  // absent = linear (raw::MosaicTone)
 //!   "provenance": { ... },         // free-form: command, seed, data, date, metrics
 //!   "bias": -0.5, "weights": [ ... 3780 values in OpenCV descriptor order ... ] }
 //! ```
@@ -178,7 +178,7 @@ pub struct LinearModel {
     #[serde(default = "same_site")]
     pub mosaic_taps: MosaicTaps,
     /// How a raw frame's values become the mosaic this model reads
-    /// ([`crate::features::hog::tone`]; `compute.mosaic_tone` and `--mosaic-tone` may override
+    /// ([`crate::raw::MosaicTone`]; `compute.mosaic_tone` and `--mosaic-tone` may override
     /// it). Files without the field predate it and were made with [`MosaicTone::Linear`];
     /// OpenCV's imported weights get [`MosaicTone::Linear`] too (on clean frames they do better
     /// with `srgb`, under noise worse: docs/detection.md, "The mosaic's tone").

@@ -2,8 +2,8 @@
 //! image, of each colour channel, and of the per-pixel colour maximum, over the Kodak images.
 //!
 //! ```no_run
-//! use mosaicd::eval::{channels, common::EvalOptions};
-//! let r = channels::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_channels, EvalOptions};
+//! let r = run_channels(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
@@ -13,10 +13,10 @@ use crate::metrics::gmsd::{gmsd, PAPER_C};
 use crate::raw::Cfa;
 
 /// The references the mosaic gradient is compared with, in plot order.
-pub const REFERENCES: [&str; 5] = ["grey", "R", "G", "B", "colour-max"];
+pub(crate) const REFERENCES: [&str; 5] = ["grey", "R", "G", "B", "colour-max"];
 
 /// GMSD of the mosaic gradient against each reference of [`REFERENCES`] for one RGB image.
-pub fn channel_gmsd(rgb: &crate::image::Image<[f32; 3]>) -> Result<[f64; 5]> {
+pub(crate) fn channel_gmsd(rgb: &crate::image::Image<[f32; 3]>) -> Result<[f64; 5]> {
     let mosaic = gradient_magnitude(mosaic_from_rgb(rgb.view(), Cfa::Rggb).view())?;
     let refs = [
         gradient_magnitude(grey_from_rgb(rgb.view()).view())?,

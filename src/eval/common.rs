@@ -53,6 +53,9 @@ pub enum EvalError {
     /// A super-pixel operation failed.
     #[error(transparent)]
     SuperPixel(#[from] SuperPixelError),
+    /// A resize failed.
+    #[error(transparent)]
+    Resize(#[from] crate::resize::ResizeError),
     /// A plot could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -81,10 +84,10 @@ pub struct EvalOptions {
 }
 
 /// Number of Kodak images.
-pub const KODAK_COUNT: usize = 24;
+pub(crate) const KODAK_COUNT: usize = 24;
 
 /// `kodim01` … `kodim24`, the first `limit`.
-pub fn kodak_names(limit: Option<usize>) -> Result<Vec<String>> {
+pub(crate) fn kodak_names(limit: Option<usize>) -> Result<Vec<String>> {
     let n = limit.unwrap_or(KODAK_COUNT).min(KODAK_COUNT);
     if n == 0 {
         return Err(EvalError::NoInputs { limit: 0 });
@@ -93,13 +96,13 @@ pub fn kodak_names(limit: Option<usize>) -> Result<Vec<String>> {
 }
 
 /// A Kodak image as RGB on [0, 1].
-pub fn load_kodak(name: &str) -> Result<Image<[f32; 3]>> {
+pub(crate) fn load_kodak(name: &str) -> Result<Image<[f32; 3]>> {
     let path = crate::data::data_path(&format!("kodak/{name}.png"))?;
     load_rgb(&path)
 }
 
 /// Any 8-bit RGB image file as RGB on [0, 1].
-pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
+pub(crate) fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
     let rgb = crate::image_io::load_rgb8(path).map_err(|e| EvalError::Decode {
         path: e.path,
         reason: e.source.to_string(),
@@ -107,40 +110,40 @@ pub fn load_rgb(path: &Path) -> Result<Image<[f32; 3]>> {
     Ok(rgb.map(|p| p.map(|c| c as f32 / 255.0)))
 }
 
-pub use crate::data::{load_raw_frame, raw_inputs, raw_profile, RawInput, INFINITE_ISP_SCENES, RAW_INPUTS};
+pub(crate) use crate::data::{load_raw_frame, raw_inputs, raw_profile, RawInput};
 
 /// Samples an RGB image through a CFA (both greens take G): `raw::sample::mosaic_from_rgb`.
-pub fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {
+pub(crate) fn mosaic_from_rgb(rgb: ImageView<'_, [f32; 3]>, cfa: Cfa) -> Image<f32> {
     crate::raw::sample::mosaic_from_rgb(&rgb, cfa)
 }
 
 /// BT.601 luma `0.299 R + 0.587 G + 0.114 B` (OpenCV's `COLOR_RGB2GRAY`, MATLAB's `rgb2gray`):
 /// `isp::grey::grey_from_rgb_f32`.
-pub fn grey_from_rgb(rgb: ImageView<'_, [f32; 3]>) -> Image<f32> {
+pub(crate) fn grey_from_rgb(rgb: ImageView<'_, [f32; 3]>) -> Image<f32> {
     crate::isp::grey::grey_from_rgb_f32(&rgb)
 }
 
 /// One channel of an RGB image.
-pub fn channel(rgb: ImageView<'_, [f32; 3]>, c: usize) -> Image<f32> {
+pub(crate) fn channel(rgb: ImageView<'_, [f32; 3]>, c: usize) -> Image<f32> {
     Image::from_fn(rgb.width(), rgb.height(), |x, y| rgb.get(x, y)[c])
 }
 
 /// Scale of the gradient magnitude maps the tables compare: `½ √(gx² + gy²)` with the `[-1, 0, 1]`
 /// operator, i.e. the derivative per pixel, so a [0, 1] image gives magnitudes in [0, √2/2] and the
 /// paper's `c = 0.0026` (for magnitudes on [0, 1]) applies.
-pub const MAGNITUDE_SCALE: f32 = 0.5;
+pub(crate) const MAGNITUDE_SCALE: f32 = 0.5;
 
 /// Central-difference gradient magnitude (`[-1, 0, 1]`, reflect-101 borders as OpenCV, from
 /// `features::gradient::gradients_from_image`), times [`MAGNITUDE_SCALE`]. On a mosaic the taps are
 /// two pixels apart and always of one colour.
-pub fn gradient_magnitude(img: ImageView<'_, f32>) -> Result<Image<f32>> {
+pub(crate) fn gradient_magnitude(img: ImageView<'_, f32>) -> Result<Image<f32>> {
     use crate::features::gradient::{gradients_from_image, GradientSpec};
     let g = gradients_from_image(&img, &GradientSpec::default())?;
     Ok(g.magnitude().map(|v| v * MAGNITUDE_SCALE))
 }
 
 /// Per-pixel maximum over the three channels' gradient magnitudes (Dalal & Triggs' colour rule).
-pub fn colour_max_gradient_magnitude(rgb: ImageView<'_, [f32; 3]>) -> Result<Image<f32>> {
+pub(crate) fn colour_max_gradient_magnitude(rgb: ImageView<'_, [f32; 3]>) -> Result<Image<f32>> {
     let m: Vec<Image<f32>> = (0..3)
         .map(|c| gradient_magnitude(channel(rgb, c).view()))
         .collect::<Result<_>>()?;
@@ -150,13 +153,13 @@ pub fn colour_max_gradient_magnitude(rgb: ImageView<'_, [f32; 3]>) -> Result<Ima
 }
 
 /// Crops an image to even width and height (mosaic operations need whole 2x2 tiles).
-pub fn even_crop<P: Copy>(img: &Image<P>) -> Image<P> {
+pub(crate) fn even_crop<P: Copy>(img: &Image<P>) -> Image<P> {
     let (w, h) = (img.width() & !1, img.height() & !1);
     img.view().crop(0, 0, w, h).expect("inside").to_image()
 }
 
 /// Mean of the finite values and how many were not finite (PSNR of identical inputs is +∞).
-pub fn finite_mean(v: &[f64]) -> (f64, usize) {
+pub(crate) fn finite_mean(v: &[f64]) -> (f64, usize) {
     let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     let mean = if f.is_empty() {
         f64::NAN
@@ -297,13 +300,13 @@ impl Report {
 /// Progress over the images of an experiment: a bar on stderr ([`crate::progress::Progress`])
 /// when enabled and stderr is a terminal, nothing otherwise (no `\r` lines in CI logs).
 #[derive(Debug)]
-pub struct Progress {
+pub(crate) struct Progress {
     shown: crate::progress::Progress,
 }
 
 impl Progress {
     /// A counter for `total` steps.
-    pub fn new(label: &str, total: usize, enabled: bool) -> Self {
+    pub(crate) fn new(label: &str, total: usize, enabled: bool) -> Self {
         let shown = if enabled {
             crate::progress::Progress::new(label, Some(total as u64))
         } else {
@@ -312,17 +315,17 @@ impl Progress {
         Self { shown }
     }
     /// Reports step `i` (0-based) on `what`.
-    pub fn step(&self, i: usize, what: &str) {
+    pub(crate) fn step(&self, i: usize, what: &str) {
         self.shown.set(i as u64, what);
     }
     /// Ends the display.
-    pub fn done(&self) {
+    pub(crate) fn done(&self) {
         self.shown.finish();
     }
 }
 
 /// Formats a number with `d` decimals; `inf`/`nan` spelled out.
-pub fn fmt(v: f64, d: usize) -> String {
+pub(crate) fn fmt(v: f64, d: usize) -> String {
     if v.is_finite() {
         format!("{v:.d$}")
     } else {

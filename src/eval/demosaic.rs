@@ -8,8 +8,8 @@
 //! for demosaicing benchmarks (every method guesses there).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, demosaic};
-//! let r = demosaic::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_demosaic, EvalOptions};
+//! let r = run_demosaic(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
@@ -24,11 +24,11 @@ use crate::metrics::ssim::{mssim, SsimOptions};
 use crate::raw::Cfa;
 
 /// Pixels excluded at each border before scoring.
-pub const BORDER: usize = 8;
+pub(crate) const BORDER: usize = 8;
 
 /// MSSIM, PSNR and GMSD of one demosaiced image.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ColourScores {
+pub(crate) struct ColourScores {
     /// Mean of per-channel MSSIM.
     pub mssim: f64,
     /// PSNR over all channels, dB.
@@ -50,7 +50,7 @@ fn inner<P: Copy>(img: &Image<P>) -> Image<P> {
 }
 
 /// Scores a colour image against the truth (both RGB on [0, 1]), borders excluded.
-pub fn score_colour(truth: &Image<[f32; 3]>, test: &Image<[f32; 3]>) -> Result<ColourScores> {
+pub(crate) fn score_colour(truth: &Image<[f32; 3]>, test: &Image<[f32; 3]>) -> Result<ColourScores> {
     let (t, d) = (inner(truth), inner(test));
     let spec = SsimOptions::with_data_range(1.0).build()?;
     let luma = |i: &Image<[f32; 3]>| grey_from_rgb(i.view()).map(|v| v * 255.0);
@@ -62,7 +62,7 @@ pub fn score_colour(truth: &Image<[f32; 3]>, test: &Image<[f32; 3]>) -> Result<C
 }
 
 /// Scores of every method (in [`DemosaicMethod::all`] order) on one RGB image.
-pub fn image_scores(rgb: &Image<[f32; 3]>) -> Result<Vec<ColourScores>> {
+pub(crate) fn image_scores(rgb: &Image<[f32; 3]>) -> Result<Vec<ColourScores>> {
     let cfa = Cfa::Rggb;
     let mosaic = mosaic_from_rgb(rgb.view(), cfa);
     DemosaicMethod::all()

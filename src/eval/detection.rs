@@ -4,7 +4,7 @@
 //! detection`.
 //!
 //! ```
-//! use mosaicd::eval::detection::{parse_box_csv, Shrink};
+//! use mosaicd::eval::{parse_box_csv, Shrink};
 //! use std::path::Path;
 //! let csv = "image,x,y,w,h\na.png,10,20,30,60\na.png,50,20,30,60\n";
 //! let recs = parse_box_csv(csv, Path::new("boxes.csv")).unwrap();
@@ -61,15 +61,15 @@ use crate::metrics::detection::{
     ImageDetections, MatchedDetections, Rect,
 };
 /// Re-exported from [`crate::metrics`], where it lives.
-pub use crate::metrics::interval::Interval;
+pub(crate) use crate::metrics::interval::Interval;
 use crate::raw::levels::Gains;
 use crate::raw::Cfa;
 
 /// USC data directory relative to the data root.
-pub const USC_DIR: &str = "pedestrian/usc";
+pub(crate) const USC_DIR: &str = "pedestrian/usc";
 /// The USC sets read by [`load_usc`], in order, and whether their boxes are in per-image XML files
 /// (`true`) or in `GT/human_GT.txt` (`false`).
-pub const USC_SETS: [(&str, bool); 3] = [
+pub(crate) const USC_SETS: [(&str, bool); 3] = [
     ("USCPedestrianSetA", true),
     ("USCPedestrianSetB", true),
     ("USCPedestrianSetC", false),
@@ -150,7 +150,7 @@ pub enum DetEvalError {
 }
 
 /// Result alias of this module.
-pub type Result<T> = std::result::Result<T, DetEvalError>;
+pub(crate) type Result<T> = std::result::Result<T, DetEvalError>;
 
 /// One ground-truth box as read from a file.
 #[derive(Debug, Clone, PartialEq)]
@@ -332,7 +332,7 @@ fn xml_attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
 }
 
 /// Parse a USC `NAME.gt.xml` (Sets A and B): every `<Rect x= y= width= height=/>` element.
-pub fn parse_usc_xml(text: &str, origin: &Path) -> Result<Vec<Rect>> {
+pub(crate) fn parse_usc_xml(text: &str, origin: &Path) -> Result<Vec<Rect>> {
     let mut out = Vec::new();
     if !text.contains("<ObjectList") {
         return Err(parse_err(
@@ -369,7 +369,7 @@ pub fn parse_usc_xml(text: &str, origin: &Path) -> Result<Vec<Rect>> {
 }
 
 /// Parse USC Set C's `GT/human_GT.txt`: `image x y w h` per line (blank lines skipped).
-pub fn parse_human_gt(text: &str, origin: &Path) -> Result<Vec<BoxRecord>> {
+pub(crate) fn parse_human_gt(text: &str, origin: &Path) -> Result<Vec<BoxRecord>> {
     let mut out = Vec::new();
     for (i, l) in text.lines().enumerate() {
         let n = i + 1;
@@ -421,7 +421,7 @@ fn read_text(path: &Path) -> Result<String> {
 
 /// Group records by image (sorted by key) and resolve each image under `dir` (`dir/set/image`, else
 /// `dir/image`); a missing image file is an error naming it.
-pub fn images_from_records(dir: &Path, records: &[BoxRecord]) -> Result<Vec<GtImage>> {
+pub(crate) fn images_from_records(dir: &Path, records: &[BoxRecord]) -> Result<Vec<GtImage>> {
     let mut by_key: BTreeMap<String, (Option<&str>, &str, Vec<Rect>)> = BTreeMap::new();
     for r in records {
         by_key
@@ -474,7 +474,7 @@ pub fn load_box_csv(csv: &Path, images_dir: Option<&Path>) -> Result<Vec<GtImage
 }
 
 /// The USC root: `$MOSAICD_DATA/pedestrian/usc` (an error says where to put it when missing).
-pub fn usc_root() -> Result<PathBuf> {
+pub(crate) fn usc_root() -> Result<PathBuf> {
     Ok(crate::data::data_path(USC_DIR)?)
 }
 
@@ -529,7 +529,7 @@ pub fn load_usc(root: &Path) -> Result<Vec<GtImage>> {
 }
 
 /// Every `every`-th image (the first, the `every+1`-th, …), then at most `limit` (0 = no limit).
-pub fn subsample(images: Vec<GtImage>, every: usize, limit: usize) -> Result<Vec<GtImage>> {
+pub(crate) fn subsample(images: Vec<GtImage>, every: usize, limit: usize) -> Result<Vec<GtImage>> {
     let every = every.max(1);
     let mut v: Vec<GtImage> = images.into_iter().step_by(every).collect();
     if limit > 0 {
@@ -595,7 +595,7 @@ pub fn load_image_rgb(path: &Path) -> Result<Image<[u8; 3]>> {
 }
 
 /// The detector's view of a domain image (a mosaic sampled or made through `cfa`).
-pub fn people_input(img: &DomainImage, cfa: Cfa) -> PeopleInput<'_> {
+pub(crate) fn people_input(img: &DomainImage, cfa: Cfa) -> PeopleInput<'_> {
     match img {
         DomainImage::Mosaic(m) => PeopleInput::Mosaic { image: m.view(), cfa },
         DomainImage::Grey(g) => PeopleInput::Grey(g.view()),
@@ -607,7 +607,7 @@ pub fn people_input(img: &DomainImage, cfa: Cfa) -> PeopleInput<'_> {
 /// mosaic in the model's tone with gains from `wb`); `progress(i, key)` is called before image `i`.
 /// Returns the detections with each image's ground truth.
 #[allow(clippy::too_many_arguments)]
-pub fn detect_images(
+pub(crate) fn detect_images(
     det: &PeopleDetector,
     images: &[GtImage],
     domain: Domain,
@@ -633,7 +633,7 @@ pub fn detect_images(
 
 /// Parse a detections CSV written by another detector (`image,x,y,w,h,score` with a header; `image`
 /// is the key `set/image`), grouped by key.
-pub fn parse_detections_csv(text: &str, origin: &Path) -> Result<BTreeMap<String, Vec<Detection>>> {
+pub(crate) fn parse_detections_csv(text: &str, origin: &Path) -> Result<BTreeMap<String, Vec<Detection>>> {
     let csv = Csv::parse(text, origin, "image,x,y,w,h,score")?;
     let c = [
         csv.column(&["image"])?,
@@ -668,7 +668,7 @@ pub fn parse_detections_csv(text: &str, origin: &Path) -> Result<BTreeMap<String
 
 /// Pair external detections with the selected images (images without rows have no detections).
 /// Errors when none of the file's keys names a selected image (a mismatched file).
-pub fn external_detections(
+pub(crate) fn external_detections(
     images: &[GtImage],
     dets: &BTreeMap<String, Vec<Detection>>,
     origin: &Path,
@@ -694,7 +694,7 @@ pub fn external_detections(
 
 /// AP, recall and the PR curve of one detector on one image set.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct ApSummary {
+pub(crate) struct ApSummary {
     /// Images.
     pub images: usize,
     /// Ground-truth boxes.
@@ -714,7 +714,7 @@ pub struct ApSummary {
 }
 
 /// Match (IoU ≥ `iou`) and score `images`, with every detection first mapped by `shrink` if given.
-pub fn ap_summary(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) -> Result<ApSummary> {
+pub(crate) fn ap_summary(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) -> Result<ApSummary> {
     let mapped: Vec<ImageDetections>;
     let used = match shrink {
         Some(s) => {
@@ -752,7 +752,7 @@ pub fn ap_summary(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) 
 }
 
 /// Draw precision vs recall curves (one per named summary) to a PNG.
-pub fn pr_plot(title: &str, curves: &[(String, &ApSummary)], path: &Path) -> Result<()> {
+pub(crate) fn pr_plot(title: &str, curves: &[(String, &ApSummary)], path: &Path) -> Result<()> {
     let mut p = LinePlot {
         title: title.into(),
         x_label: "recall".into(),
@@ -769,7 +769,7 @@ pub fn pr_plot(title: &str, curves: &[(String, &ApSummary)], path: &Path) -> Res
 }
 
 /// Draw DET curves (miss rate vs FPPW, log–log) to a PNG.
-pub fn det_plot(title: &str, curves: &[(String, &[DetPoint])], path: &Path) -> Result<()> {
+pub(crate) fn det_plot(title: &str, curves: &[(String, &[DetPoint])], path: &Path) -> Result<()> {
     let mut p = LinePlot {
         title: title.into(),
         x_label: "false positives per window (FPPW)".into(),
@@ -795,7 +795,7 @@ pub fn det_plot(title: &str, curves: &[(String, &[DetPoint])], path: &Path) -> R
 
 /// Write detections as the CSV that [`parse_detections_csv`] (and `--external`) reads:
 /// `image,x,y,w,h,score`, one row per detection, images in the order given.
-pub fn detections_csv(images: &[GtImage], dets: &[ImageDetections]) -> String {
+pub(crate) fn detections_csv(images: &[GtImage], dets: &[ImageDetections]) -> String {
     let mut s = String::from("image,x,y,w,h,score\n");
     for (g, d) in images.iter().zip(dets) {
         for b in &d.detections {
@@ -811,7 +811,7 @@ pub fn detections_csv(images: &[GtImage], dets: &[ImageDetections]) -> String {
 /// One detector's detections at one pyramid phase, matched image by image, ready to be scored on
 /// any resample of the images (matching is per image, only the ranking is global).
 #[derive(Debug, Clone, PartialEq)]
-pub struct PerImageMatches {
+pub(crate) struct PerImageMatches {
     /// `(score, true_positive)` of every detection of each image.
     pub per_image: Vec<Vec<(f32, bool)>>,
     /// Ground-truth boxes of each image.
@@ -820,7 +820,7 @@ pub struct PerImageMatches {
 
 impl PerImageMatches {
     /// Match every image on its own (IoU ≥ `iou`), detections first mapped by `shrink` if given.
-    pub fn new(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) -> Result<Self> {
+    pub(crate) fn new(images: &[ImageDetections], shrink: Option<Shrink>, iou: f64) -> Result<Self> {
         let mut per_image = Vec::with_capacity(images.len());
         let mut ground_truth = Vec::with_capacity(images.len());
         for img in images {
@@ -840,7 +840,7 @@ impl PerImageMatches {
 
     /// The matched detections of the images `idx` (repeats allowed), ranked by score; ties keep
     /// the order of `idx`. Equal to `match_detections` of those images.
-    pub fn resample(&self, idx: &[usize]) -> MatchedDetections {
+    pub(crate) fn resample(&self, idx: &[usize]) -> MatchedDetections {
         let mut ranked: Vec<(f32, bool)> = idx
             .iter()
             .flat_map(|&i| self.per_image[i].iter().copied())
@@ -854,7 +854,7 @@ impl PerImageMatches {
     }
 
     /// All-points AP and log-average miss rate of the images `idx`.
-    pub fn ap_lamr(&self, idx: &[usize]) -> Result<(f64, f64)> {
+    pub(crate) fn ap_lamr(&self, idx: &[usize]) -> Result<(f64, f64)> {
         let m = self.resample(idx);
         let ap = average_precision(&m, ApMethod::AllPoints)?.ap;
         let lamr = log_average_miss_rate(&mr_fppi_curve(&m)?);
@@ -864,7 +864,7 @@ impl PerImageMatches {
 
 /// One detector's paired-bootstrap result (all values are means over the phases).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct BootstrapRow {
+pub(crate) struct BootstrapRow {
     /// 95 % interval of AP.
     pub ap: Interval,
     /// 95 % interval of the log-average miss rate.
@@ -886,7 +886,7 @@ pub struct BootstrapRow {
 /// The interval is the 2.5–97.5 % percentile interval of the draws; it describes the variation
 /// over *images* (the phases are fixed), so it is the uncertainty of "on people like these",
 /// not of the pyramid's phase.
-pub fn paired_bootstrap(
+pub(crate) fn paired_bootstrap(
     rows: &[Vec<PerImageMatches>],
     reference: usize,
     resamples: usize,

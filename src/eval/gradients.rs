@@ -8,8 +8,8 @@
 //! grey; linear, no gamma on either side).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, gradients};
-//! let r = gradients::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_gradients, EvalOptions};
+//! let r = run_gradients(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
@@ -22,13 +22,13 @@ use crate::metrics::ssim::{mssim, SsimOptions};
 use crate::raw::Cfa;
 
 /// The paper's Table III, Kodak row: MSSIM, PSNR (dB), GMSD.
-pub const PAPER_KODAK: [f64; 3] = [0.975, 38.276, 0.069];
+pub(crate) const PAPER_KODAK: [f64; 3] = [0.975, 38.276, 0.069];
 /// Data range of the magnitude maps compared (magnitudes on [0, 1]).
-pub const MAGNITUDE_RANGE: f64 = 1.0;
+pub(crate) const MAGNITUDE_RANGE: f64 = 1.0;
 
 /// MSSIM, PSNR and GMSD of a test gradient map against a reference map.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MapScores {
+pub(crate) struct MapScores {
     /// Mean SSIM (data range 1).
     pub mssim: f64,
     /// PSNR in dB (data range 1).
@@ -38,7 +38,7 @@ pub struct MapScores {
 }
 
 /// Scores `test` against `reference` (two gradient magnitude maps on [0, 1]).
-pub fn score_maps(reference: &Image<f32>, test: &Image<f32>) -> Result<MapScores> {
+pub(crate) fn score_maps(reference: &Image<f32>, test: &Image<f32>) -> Result<MapScores> {
     let spec = SsimOptions::with_data_range(MAGNITUDE_RANGE).build()?;
     Ok(MapScores {
         mssim: mssim(reference.view(), test.view(), &spec)?,
@@ -50,7 +50,7 @@ pub fn score_maps(reference: &Image<f32>, test: &Image<f32>) -> Result<MapScores
 /// Scores of the mosaic gradient against the grey gradient of one RGB image, with the magnitudes
 /// as [`gradient_magnitude`] gives them (`½ √(gx² + gy²)`) and, second, unscaled (`√(gx² + gy²)`,
 /// what `cv2.magnitude` of `[-1, 0, 1]` derivatives gives; the paper does not say which it used).
-pub fn kodak_scores(rgb: &Image<[f32; 3]>) -> Result<(MapScores, MapScores)> {
+pub(crate) fn kodak_scores(rgb: &Image<[f32; 3]>) -> Result<(MapScores, MapScores)> {
     let mosaic = mosaic_from_rgb(rgb.view(), Cfa::Rggb);
     let grey = grey_from_rgb(rgb.view());
     let (g, m) = (
@@ -64,7 +64,7 @@ pub fn kodak_scores(rgb: &Image<[f32; 3]>) -> Result<(MapScores, MapScores)> {
 /// Scores for a real raw frame: the gradient of the black/white-normalised mosaic (clamped to
 /// [0, 1]) vs the grey gradient of the forward ISP's linear colour (white balance, bilinear
 /// demosaic, colour matrix; clamped to [0, 1]; no gamma on either side).
-pub fn raw_scores(input: &RawInput) -> Result<MapScores> {
+pub(crate) fn raw_scores(input: &RawInput) -> Result<MapScores> {
     use crate::isp::{forward::linear_rgb_from_raw, DemosaicMethod, ForwardIspOptions};
     let frame = load_raw_frame(input)?;
     let mosaic = crate::isp::noise::linear_from_raw(&frame).map(|v| v.clamp(0.0, 1.0));

@@ -1,36 +1,58 @@
 //! The paper's experiments as library functions the CLI calls, and the shared plotting helper.
 //!
-//! | module | experiment |
+//! | file | experiment |
 //! |---|---|
-//! | [`gradients`] | Table III: mosaic vs grey gradient maps (Kodak and real raw frames) |
-//! | [`channels`] | Fig. 9: GMSD of the mosaic gradient vs grey / R / G / B / colour-max gradients |
-//! | [`scale_space`] | Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize |
-//! | [`demosaic`] | Table IV: each demosaicing method vs true colour |
-//! | [`detection`] | pedestrian detection: full-image AP on boxed images (USC), DET and PR plots |
-//! | [`detect_speed`] | `bench detect`'s timed loop: a HOG or ACF detector on one raw frame, the daemon's way |
-//! | [`pipeline`] | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first) |
-//! | [`noise`] | gradient and HOG-input degradation under the three noise levels of eq. 24 |
-//! | [`sift`] | Fig. 12 / Fig. 10: SIFT repeatability, grey vs mosaic, under blur, scale and rotation |
-//! | [`plot`] | PNG line, band, histogram and box plots (used by the HOG and SIFT evaluations too) |
+//! | `gradients.rs` | Table III: mosaic vs grey gradient maps (Kodak and real raw frames): [`run_gradients`] |
+//! | `channels.rs` | Fig. 9: GMSD of the mosaic gradient vs grey / R / G / B / colour-max gradients: [`run_channels`] |
+//! | `scale_space.rs` | Table V / Fig. 13: super-pixel blur and resize vs colour blur and resize: [`run_scale_space`] |
+//! | `demosaic.rs` | Table IV: each demosaicing method vs true colour: [`run_demosaic`] |
+//! | `detection.rs`, `detection_runs.rs` | pedestrian detection: full-image AP on boxed images (USC), DET and PR plots ([`ap_protocol`], [`window_protocol`]) |
+//! | `detect_speed.rs` | `bench detect`'s timed loop: a HOG or ACF detector on one raw frame, the daemon's way ([`time_detector`]) |
+//! | `pipeline.rs` | Table VI: time and memory of pipeline 1 (mosaic) vs pipeline 2 (demosaic first): [`run_pipeline`] |
+//! | `noise.rs` | gradient and HOG-input degradation under the three noise levels of eq. 24: [`run_noise`] |
+//! | `sift.rs` | Fig. 12 / Fig. 10: SIFT repeatability, grey vs mosaic, under blur, scale and rotation ([`evaluate`]) |
+//! | `plot.rs` | PNG line, band, histogram and box plots (used by the HOG and SIFT evaluations too): [`line_plot`] |
+//! | `draw.rs` | boxes, keypoints and lines drawn on images ([`draw_boxes`]) |
 //!
-//! Each experiment is `run(&EvalOptions) -> Result<Report>`; a [`common::Report`] prints as text and
+//! The files are private behind this facade: what other crates use is re-exported here.
+//! Each experiment is `run_<name>(&EvalOptions) -> Result<Report>`; a [`Report`] prints as text and
 //! writes markdown (`docs/REPRODUCTION.md` is assembled from them by `mosaicd eval all --write-doc`).
 
-pub mod channels;
-pub mod common;
-pub mod demosaic;
-pub mod detect_speed;
-pub mod detection;
-pub mod detection_runs;
-pub mod draw;
-pub mod gradients;
-pub mod noise;
-pub mod pipeline;
-pub mod plot;
-pub mod scale_space;
-pub mod sift;
+pub(crate) mod channels;
+pub(crate) mod common;
+pub(crate) mod demosaic;
+pub(crate) mod detect_speed;
+pub(crate) mod detection;
+pub(crate) mod detection_runs;
+pub(crate) mod draw;
+pub(crate) mod gradients;
+pub(crate) mod noise;
+pub(crate) mod pipeline;
+pub(crate) mod plot;
+pub(crate) mod scale_space;
+pub(crate) mod sift;
 
-use common::{EvalOptions, Report};
+pub use channels::run as run_channels;
+pub use common::{EvalError, EvalOptions, Report, Result, Table};
+pub use demosaic::run as run_demosaic;
+pub use detect_speed::{time_detector, TimedFrame};
+pub use detection::{
+    load_box_csv, load_image_rgb, load_usc, parse_box_csv, BoxRecord, DetEvalError, GtImage, Shrink,
+};
+pub use detection_runs::{
+    ap_protocol, ap_rows, window_protocol, ApImages, ApProtocol, DetEvalSettings, DetRun, WindowProtocol,
+};
+pub use draw::{draw_boxes, draw_keypoints, draw_line, paint_grey};
+pub use gradients::run as run_gradients;
+pub use noise::run as run_noise;
+pub use pipeline::run as run_pipeline;
+pub use plot::{line_plot, Legend, LinePlot, PlotError, Scale, Series};
+pub use scale_space::run as run_scale_space;
+pub use sift::{
+    default_transforms, evaluate, grey_from_rgb8, grey_transformed, ground_truth, mosaic_transformed,
+    rggb_mosaic_from_rgb8, score_pair, summarise, EvalRow, EvalSiftError, InteriorScore, LevelSummary,
+    PairScore, PlaneWarp, Transform, MATCH_THRESHOLD_PX,
+};
 
 /// Assembles `docs/REPRODUCTION.md` from experiment reports: a header saying how it was made, then
 /// each report's section (tables with the paper's numbers beside ours, plots, notes on where and

@@ -12,8 +12,8 @@
 //!   clean gradient magnitude above [`EDGE_MAGNITUDE`].
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, noise};
-//! let r = noise::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_noise, EvalOptions};
+//! let r = run_noise(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
@@ -28,11 +28,11 @@ use crate::raw::Cfa;
 
 /// Clean-magnitude threshold (on the ½-scaled magnitude of a [0, 1] image) above which a pixel
 /// counts as an edge for the orientation agreement.
-pub const EDGE_MAGNITUDE: f32 = 0.02;
+pub(crate) const EDGE_MAGNITUDE: f32 = 0.02;
 /// HOG's unsigned orientation bins.
-pub const HOG_BINS: usize = 9;
+pub(crate) const HOG_BINS: usize = 9;
 /// Base seed of the noise (image `i` uses `SEED + i`).
-pub const SEED: u64 = 24;
+pub(crate) const SEED: u64 = 24;
 
 /// Unsigned 9-bin orientation of the central-difference gradient at every pixel (reflect-101).
 fn orientation_bins(img: ImageView<'_, f32>) -> Image<u8> {
@@ -86,7 +86,7 @@ fn agreement(clean_mag: &Image<f32>, clean_bins: &Image<u8>, noisy_bins: &Image<
 
 /// Degradation measures of one image at one noise level.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NoiseScores {
+pub(crate) struct NoiseScores {
     /// GMSD, noisy mosaic gradient vs clean mosaic gradient.
     pub mosaic_vs_clean_mosaic: f64,
     /// GMSD, noisy mosaic gradient vs clean grey gradient.
@@ -102,7 +102,7 @@ pub struct NoiseScores {
 }
 
 /// All three levels for one sRGB image (on [0, 1]).
-pub fn image_scores(rgb: &Image<[f32; 3]>, seed: u64) -> Result<Vec<NoiseScores>> {
+pub(crate) fn image_scores(rgb: &Image<[f32; 3]>, seed: u64) -> Result<Vec<NoiseScores>> {
     let cfa = Cfa::Rggb;
     let lin = rgb.map(|p| p.map(linear_from_srgb));
     let mosaic = mosaic_from_rgb(lin.view(), cfa);

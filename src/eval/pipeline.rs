@@ -13,25 +13,24 @@
 //! counts and deterministic; it ignores allocator overhead.
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, pipeline};
-//! let r = pipeline::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_pipeline, EvalOptions};
+//! let r = run_pipeline(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
 use super::common::*;
-use crate::features::superpixel::{
-    blur_mosaic, gaussian_blur, resize_bilinear, resize_mosaic, GaussianKernel,
-};
+use crate::features::superpixel::{blur_mosaic, gaussian_blur, GaussianKernel};
 use crate::image::Image;
 use crate::isp::demosaic::rgb_from_mosaic;
 use crate::isp::DemosaicMethod;
 use crate::raw::Cfa;
+use crate::resize::{resize_bilinear, resize_mosaic};
 use std::time::{Duration, Instant};
 
 /// Super-pixel blur kernel size (plane units) of pipeline 1.
-pub const SUPERPIXEL_KSIZE: usize = 3;
+pub(crate) const SUPERPIXEL_KSIZE: usize = 3;
 /// Resize factor of both pipelines.
-pub const RESIZE: f64 = 0.5;
+pub(crate) const RESIZE: f64 = 0.5;
 
 /// Bytes of an `f32` plane of `w`x`h`.
 fn plane_bytes(w: usize, h: usize) -> usize {
@@ -40,7 +39,7 @@ fn plane_bytes(w: usize, h: usize) -> usize {
 
 /// Result of one pipeline on one image.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PipelineRun {
+pub(crate) struct PipelineRun {
     /// The gradient magnitude it produced.
     pub magnitude: Image<f32>,
     /// Wall-clock time.
@@ -57,7 +56,7 @@ fn target(w: usize, h: usize) -> (usize, usize) {
 }
 
 /// Pipeline 1 on a mosaic (even size).
-pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
+pub(crate) fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     let (w, h) = mosaic.dimensions();
     let (nw, nh) = target(w, h);
     let k = GaussianKernel::from_ksize(SUPERPIXEL_KSIZE)?;
@@ -71,9 +70,10 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
     // Peak: input + 4 planes + 4 blurred planes (inside blur_mosaic) + blurred mosaic being written.
     let full = plane_bytes(w, h);
     let blur_peak = full + full + full + full;
-    // Resize: input, blurred mosaic, 4 planes of it, 4 resized planes, resized mosaic.
+    // Resize: input, blurred mosaic, resized mosaic (the resize interpolates the planes in place,
+    // keeping two resampled rows per tile phase per strip of rows).
     let small_b = plane_bytes(nw, nh);
-    let resize_peak = full + full + full + small_b + small_b;
+    let resize_peak = full + full + small_b;
     // Gradient: mosaic, blurred mosaic, resized mosaic, gx, gy, magnitude.
     let grad_peak = full + full + small_b + 3 * small_b;
     Ok(PipelineRun {
@@ -84,7 +84,7 @@ pub fn pipeline1(mosaic: &Image<f32>) -> Result<PipelineRun> {
 }
 
 /// Pipeline 2 on a mosaic (even size) with a demosaicing method.
-pub fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Result<PipelineRun> {
+pub(crate) fn pipeline2(mosaic: &Image<f32>, cfa: Cfa, method: DemosaicMethod) -> Result<PipelineRun> {
     let (w, h) = mosaic.dimensions();
     let (nw, nh) = target(w, h);
     // Same σ as pipeline 1 in image pixels: 2 × σ(3x3) = 1.6.

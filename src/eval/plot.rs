@@ -6,7 +6,7 @@
 //! values and labelling ticks as powers of ten (non-positive values are dropped on a log axis).
 //!
 //! ```no_run
-//! use mosaicd::eval::plot::{line_plot, LinePlot, Scale, Series};
+//! use mosaicd::eval::{line_plot, LinePlot, Scale, Series};
 //! let det = Series::new("mosaic", vec![(1e-5, 0.3), (1e-4, 0.12), (1e-3, 0.05)]);
 //! let plot = LinePlot {
 //!     title: "DET".into(),
@@ -29,11 +29,11 @@ use std::sync::OnceLock;
 use thiserror::Error;
 
 /// Where the plot font is read from.
-pub const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+pub(crate) const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 /// Font family name the font is registered under.
 const FAMILY: &str = "sans-serif";
 /// Default image size in pixels.
-pub const DEFAULT_SIZE: (u32, u32) = (800, 560);
+pub(crate) const DEFAULT_SIZE: (u32, u32) = (800, 560);
 /// Series colours, in order (colour-blind-safe Okabe–Ito palette).
 const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 114, 178),
@@ -383,7 +383,7 @@ fn padded_opt(r: Option<(f64, f64)>) -> Option<(f64, f64)> {
 
 /// A named sample of values for a distribution or box plot.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Distribution {
+pub(crate) struct Distribution {
     /// Legend / group label.
     pub name: String,
     /// The sample (non-finite values are ignored).
@@ -392,7 +392,7 @@ pub struct Distribution {
 
 impl Distribution {
     /// A named sample.
-    pub fn new(name: impl Into<String>, values: Vec<f64>) -> Self {
+    pub(crate) fn new(name: impl Into<String>, values: Vec<f64>) -> Self {
         Self {
             name: name.into(),
             values,
@@ -403,7 +403,7 @@ impl Distribution {
 /// Overlaid, normalised histograms (fraction of each sample per bin) drawn as step lines on a
 /// common set of `bins` bins spanning all samples. Good for comparing several distributions.
 /// The legend goes top left (distributions of scores near 1 crowd the right).
-pub fn histogram_plot(
+pub(crate) fn histogram_plot(
     title: &str,
     x_label: &str,
     dists: &[Distribution],
@@ -452,7 +452,7 @@ pub fn histogram_plot(
 
 /// Summary statistics of a sample (what a box plot draws).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BoxStats {
+pub(crate) struct BoxStats {
     /// Minimum.
     pub min: f64,
     /// First quartile (linear interpolation, numpy's default).
@@ -468,7 +468,7 @@ pub struct BoxStats {
 }
 
 /// Quartiles, extremes and mean of the finite values; `None` for an empty sample.
-pub fn box_stats(values: &[f64]) -> Option<BoxStats> {
+pub(crate) fn box_stats(values: &[f64]) -> Option<BoxStats> {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return None;
@@ -494,7 +494,7 @@ pub fn box_stats(values: &[f64]) -> Option<BoxStats> {
 }
 
 /// Box plot: one box (quartiles, median line, min–max whiskers, mean dot) per distribution.
-pub fn box_plot(title: &str, y_label: &str, dists: &[Distribution], path: &Path) -> Result<()> {
+pub(crate) fn box_plot(title: &str, y_label: &str, dists: &[Distribution], path: &Path) -> Result<()> {
     prepare(path)?;
     let no_data = || PlotError::NoData {
         title: title.to_string(),

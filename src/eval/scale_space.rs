@@ -11,31 +11,30 @@
 //! Scores: MSSIM, MSE and PSNR between the two mosaics (data range 1).
 //!
 //! ```no_run
-//! use mosaicd::eval::{common::EvalOptions, scale_space};
-//! let r = scale_space::run(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
+//! use mosaicd::eval::{run_scale_space, EvalOptions};
+//! let r = run_scale_space(&EvalOptions { limit: Some(2), raw_limit: Some(1), out: "out/eval".into(), progress: false }).unwrap();
 //! println!("{}", r.to_text());
 //! ```
 
 use super::common::*;
 use super::plot::{box_plot, histogram_plot, Distribution};
-use crate::features::superpixel::{
-    blur_mosaic, gaussian_blur, resize_bilinear, resize_mosaic, GaussianKernel,
-};
+use crate::features::superpixel::{blur_mosaic, gaussian_blur, GaussianKernel};
 use crate::image::Image;
 use crate::metrics::psnr::{mse, psnr_from_mse};
 use crate::metrics::ssim::{mssim, SsimOptions};
 use crate::raw::Cfa;
+use crate::resize::{resize_bilinear, resize_mosaic};
 
 /// Super-pixel blur kernel size (plane units).
-pub const SUPERPIXEL_KSIZE: usize = 3;
+pub(crate) const SUPERPIXEL_KSIZE: usize = 3;
 /// Colour blur kernel sizes compared with it.
-pub const COLOUR_KSIZES: [usize; 4] = [3, 5, 7, 9];
+pub(crate) const COLOUR_KSIZES: [usize; 4] = [3, 5, 7, 9];
 /// Resize factors.
-pub const RESIZE_FACTORS: [f64; 2] = [0.5, 2.0];
+pub(crate) const RESIZE_FACTORS: [f64; 2] = [0.5, 2.0];
 
 /// One comparison's scores.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scores {
+pub(crate) struct Scores {
     /// Mean SSIM.
     pub mssim: f64,
     /// Mean squared error.
@@ -67,7 +66,7 @@ fn per_channel(
 }
 
 /// Labels of the comparisons, in the order [`image_scores`] returns them.
-pub fn labels() -> Vec<String> {
+pub(crate) fn labels() -> Vec<String> {
     let mut v: Vec<String> = COLOUR_KSIZES
         .iter()
         .map(|a| format!("SP blur {SUPERPIXEL_KSIZE}x{SUPERPIXEL_KSIZE} vs colour blur {a}x{a}"))
@@ -81,7 +80,7 @@ pub fn labels() -> Vec<String> {
 }
 
 /// All comparisons for one RGB image (cropped to even size).
-pub fn image_scores(rgb: &Image<[f32; 3]>) -> Result<Vec<Scores>> {
+pub(crate) fn image_scores(rgb: &Image<[f32; 3]>) -> Result<Vec<Scores>> {
     let rgb = even_crop(rgb);
     let cfa = Cfa::Rggb;
     let mosaic = mosaic_from_rgb(rgb.view(), cfa);

@@ -28,7 +28,7 @@
 //! than a pixel, well inside `t`.
 //!
 //! ```
-//! use mosaicd::eval::sift::{Transform, ground_truth};
+//! use mosaicd::eval::{Transform, ground_truth};
 //! let h = ground_truth(Transform::Scale(2.0), 100, 50);
 //! let (x, y) = mosaicd::features::sift::matching::apply(&h, (10.0, 10.0));
 //! assert!((x - 20.5).abs() < 1e-9 && (y - 20.5).abs() < 1e-9);
@@ -50,7 +50,7 @@ pub const MATCH_THRESHOLD_PX: f64 = 3.0;
 /// Descriptor window radius in units of keypoint `size`: OpenCV's
 /// `SIFT_DESCR_SCL_FCTR · σ · √2 · (SIFT_DESCR_WIDTH + 1) / 2` with `σ = size / 2`, i.e.
 /// `3 · √2 · 5 / 4`.
-pub const DESCRIPTOR_RADIUS_PER_SIZE: f64 = 3.0 * std::f64::consts::SQRT_2 * 5.0 / 4.0;
+pub(crate) const DESCRIPTOR_RADIUS_PER_SIZE: f64 = 3.0 * std::f64::consts::SQRT_2 * 5.0 / 4.0;
 
 /// A transform applied to the test image.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -94,7 +94,7 @@ pub fn default_transforms() -> Vec<Transform> {
 }
 
 /// Output size of `t` applied to a `w` x `h` image.
-pub fn output_size(t: Transform, w: usize, h: usize) -> (usize, usize) {
+pub(crate) fn output_size(t: Transform, w: usize, h: usize) -> (usize, usize) {
     match t {
         Transform::Scale(f) => (
             even((w as f64 * f).round() as usize),
@@ -279,7 +279,7 @@ pub fn mosaic_transformed(src: &Image<f32>, t: Transform, warp: PlaneWarp) -> Im
 }
 
 /// `round(0.299 R + 0.587 G + 0.114 B)` per pixel (OpenCV `COLOR_RGB2GRAY` weights): the float
-/// form of [`crate::isp::grey`], rounded.
+/// form of [`grey_from_rgb_u8`](crate::isp::grey_from_rgb_u8), rounded.
 pub fn grey_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
     rgb.map(|p| grey_f32(p.map(f32::from)).round())
 }
@@ -452,7 +452,7 @@ pub enum EvalSiftError {
 }
 
 /// Evaluate one RGB image under every transform in `transforms`.
-pub fn evaluate_image(
+pub(crate) fn evaluate_image(
     path: &Path,
     transforms: &[Transform],
     grey_spec: &SiftSpec,

@@ -23,7 +23,8 @@
 //!
 //! Levels of an approximate feature pyramid come from another level's orientation votes pooled
 //! into micro-cells ([`micro_grid_from_gamma_planes`], [`blocks_from_micro_grid`]; the math and
-//! how it differs from Dollár et al. and from our previous cell resampling: [`approx`]).
+//! how it differs from Dollár et al. and from our previous cell resampling are in `approx.rs`'s
+//! module docs; [`ApproxLevel`]).
 //!
 //! # The math (as OpenCV `hog.cpp` computes it)
 //!
@@ -77,7 +78,7 @@
 //! | module | holds |
 //! |---|---|
 //! | `grid` | the entry points from an input ([`block_grid`], [`block_grid_from_input`], …) and stage timing |
-//! | [`approx`] | micro-cells and approximated pyramid levels (the method, the taps, the sweep) |
+//! | `approx` | micro-cells and approximated pyramid levels ([`ApproxLevel`], [`approx_block_rows`]) (the method, the taps, the sweep) |
 //! | `blocks` | [`BlockGrid`], the bands of cell rows → block rows |
 //! | `cells` | [`CellGrid`], the parallel strips of cell rows |
 //! | `input` | [`HogInput`], [`GammaPlanes`], gamma correction of whole planes |
@@ -86,7 +87,7 @@
 //! | `types` | [`Exec`], the planes, scratch, cell layout, [`MicroGrid`] and taps the stages and kernels share; half floats in software |
 //! | `spec` | [`HogOptions`], [`MosaicTaps`], [`HogSpec`] (validated geometry and weight profiles) |
 //! | `error` | [`HogError`] |
-//! | [`tone`] | raw → mosaic in a model's tone (re-exported from `crate::raw::tone`, its home) |
+//! | [`MosaicTone`] | raw → mosaic in a model's tone (re-exported from `crate::raw`, its home) |
 
 /// Cell side in pixels (OpenCV `cellSize` default; fixed here).
 pub const CELL_SIZE: usize = 8;
@@ -113,7 +114,7 @@ const PROFILES: usize = BLOCK_CELLS * BLOCK_CELLS;
 /// Cell rows per parallel strip.
 const STRIP_CELL_ROWS: usize = 2;
 
-pub mod approx;
+mod approx;
 mod blocks;
 mod cells;
 mod error;
@@ -125,7 +126,7 @@ mod spec;
 mod types;
 
 pub use crate::raw::tone::{
-    self, mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
+    mosaic_from_raw, mosaic_from_raw_into, mosaic_from_raw_toned, mosaic_from_raw_toned_into,
     mosaic_from_raw_with, MosaicTone, ToneTables,
 };
 pub use approx::{

@@ -1,4 +1,5 @@
-//! Super-pixel scale space: Gaussian blur and resize that keep a Bayer mosaic intact.
+//! Super-pixel scale space: Gaussian blur, octave steps and plane splitting that keep a Bayer
+//! mosaic intact (the resize is the crate's one, [`crate::resize`]).
 //!
 //! # Overview
 //!
@@ -9,7 +10,8 @@
 //! the same pattern, so mosaic gradients, HOG and SIFT can run on every level of the pyramid.
 //!
 //! ```
-//! use mosaicd::features::superpixel::{blur_mosaic, resize_mosaic, GaussianKernel};
+//! use mosaicd::features::superpixel::{blur_mosaic, GaussianKernel};
+//! use mosaicd::resize::resize_mosaic;
 //! use mosaicd::image::Image;
 //! // A flat RGGB mosaic: R = 0.8, G = 0.5, B = 0.2.
 //! let m = Image::from_fn(16, 12, |x, y| match (x & 1, y & 1) {
@@ -36,8 +38,9 @@
 //!   `getGaussianKernel` rule); given σ, `a = round(8σ + 1) | 1` (OpenCV's rule for float images).
 //!   **σ is in plane (super-pixel) units**: one plane pixel spans two mosaic pixels, so a blur of
 //!   σ_m mosaic pixels is a plane blur of σ_m / 2.
-//! * **Resize** is bilinear with half-pixel centres, `x_src = (x_dst + ½)·(W_src / W_dst) − ½`,
-//!   clamped at the borders — exactly `cv2.resize(..., INTER_LINEAR)` on float data.
+//! * **Resize** ([`crate::resize::resize_mosaic`]) is bilinear with half-pixel centres,
+//!   `x_src = (x_dst + ½)·(W_src / W_dst) − ½`, clamped at the borders: `cv2.resize(...,
+//!   INTER_LINEAR)` on float data, to a few ulps.
 //! * **Borders** use reflect-101 (`dcb|abcd|cba`), OpenCV's default, applied per plane: the mirror
 //!   never crosses colours.
 //!
@@ -57,14 +60,13 @@
 //! # References
 //!
 //! W. Zhou, L. Zhang, S. Gao, X. Lou, "Gradient-based Feature Extraction From Raw Bayer Pattern
-//! Images", §III-B. OpenCV `imgproc/src/smooth.dispatch.cpp` (`getGaussianKernel`) and
-//! `imgproc/src/resize.cpp` (`INTER_LINEAR`).
+//! Images", §III-B. OpenCV `imgproc/src/smooth.dispatch.cpp` (`getGaussianKernel`).
 
 use rayon::prelude::*;
 
 use crate::image::{Image, ImageView};
 
-/// Rows per rayon task in the separable filters and resizes.
+/// Rows per rayon task in the separable filters.
 const ROWS_PER_TASK: usize = 16;
 
 /// Largest kernel size we accept (σ ≈ 50 plane pixels); larger is almost certainly a unit error.
@@ -112,16 +114,6 @@ pub enum SuperPixelError {
         ksize: usize,
         /// Sigma.
         sigma: f64,
-    },
-    /// Pyramid parameters out of range.
-    #[error("invalid pyramid spec: {name} = {value} ({why})")]
-    Pyramid {
-        /// Field.
-        name: &'static str,
-        /// Value.
-        value: f64,
-        /// Allowed range.
-        why: &'static str,
     },
     /// The four planes do not have the same size.
     #[error("planes differ in size: {sizes:?}")]
@@ -325,83 +317,6 @@ fn gaussian_blur_impl(
     Ok(())
 }
 
-/// Source index and weight of the second tap for bilinear resizing along one axis
-/// (OpenCV `INTER_LINEAR`: half-pixel centres, clamped at the borders).
-fn linear_taps(src_n: usize, dst_n: usize) -> Vec<(usize, usize, f32)> {
-    let scale = src_n as f64 / dst_n as f64;
-    (0..dst_n)
-        .map(|d| {
-            let f = ((d as f64 + 0.5) * scale - 0.5) as f32;
-            let mut s = f.floor() as isize;
-            let mut a = f - s as f32;
-            if s < 0 {
-                s = 0;
-                a = 0.0;
-            }
-            if s as usize >= src_n - 1 {
-                s = src_n as isize - 1;
-                a = 0.0;
-            }
-            let s = s as usize;
-            (s, (s + 1).min(src_n - 1), a)
-        })
-        .collect()
-}
-
-/// Bilinear resize of one plane — `cv2.resize(..., interpolation=INTER_LINEAR)` on float data.
-pub fn resize_bilinear(
-    src: ImageView<f32>,
-    new_w: usize,
-    new_h: usize,
-    dst: &mut Image<f32>,
-) -> Result<(), SuperPixelError> {
-    resize_bilinear_impl(src, new_w, new_h, dst, true)
-}
-
-fn resize_bilinear_impl(
-    src: ImageView<f32>,
-    new_w: usize,
-    new_h: usize,
-    dst: &mut Image<f32>,
-    parallel: bool,
-) -> Result<(), SuperPixelError> {
-    check_nonempty("resize input", src.width(), src.height())?;
-    check_nonempty("resize output", new_w, new_h)?;
-    let xt = linear_taps(src.width(), new_w);
-    let yt = linear_taps(src.height(), new_h);
-    dst.reshape(new_w, new_h);
-    let row_fn = |y: usize, out: &mut [f32], h0: &mut Vec<f32>, h1: &mut Vec<f32>| {
-        let (s0, s1, b) = yt[y];
-        let (r0, r1) = (src.row(s0), src.row(s1));
-        h0.clear();
-        h1.clear();
-        for &(x0, x1, a) in &xt {
-            h0.push(r0[x0] * (1.0 - a) + r0[x1] * a);
-            h1.push(r1[x0] * (1.0 - a) + r1[x1] * a);
-        }
-        for ((o, v0), v1) in out.iter_mut().zip(h0.iter()).zip(h1.iter()) {
-            *o = v0 * (1.0 - b) + v1 * b;
-        }
-    };
-    if parallel {
-        dst.as_mut_slice()
-            .par_chunks_mut(new_w * ROWS_PER_TASK)
-            .enumerate()
-            .for_each(|(ci, chunk)| {
-                let (mut h0, mut h1) = (Vec::with_capacity(new_w), Vec::with_capacity(new_w));
-                for (ri, out) in chunk.chunks_mut(new_w).enumerate() {
-                    row_fn(ci * ROWS_PER_TASK + ri, out, &mut h0, &mut h1);
-                }
-            });
-    } else {
-        let (mut h0, mut h1) = (Vec::new(), Vec::new());
-        for (y, out) in dst.as_mut_slice().chunks_mut(new_w).enumerate() {
-            row_fn(y, out, &mut h0, &mut h1);
-        }
-    }
-    Ok(())
-}
-
 /// Keep every other pixel of every other row (SIFT's octave step, OpenCV `INTER_NEAREST` to half
 /// size). Output is `floor(w/2) x floor(h/2)`.
 pub fn downsample2(src: ImageView<f32>, dst: &mut Image<f32>) -> Result<(), SuperPixelError> {
@@ -518,34 +433,6 @@ pub fn blur_mosaic(
     mosaic_from_planes_into(&out, dst)
 }
 
-/// Resize a mosaic to `new_w` x `new_h` (both even) on the super-pixel grid: each plane is resized
-/// bilinearly to half that size, then re-interleaved. The pattern is kept.
-pub fn resize_mosaic(
-    src: ImageView<f32>,
-    new_w: usize,
-    new_h: usize,
-    dst: &mut Image<f32>,
-) -> Result<(), SuperPixelError> {
-    check_mosaic(new_w, new_h)?;
-    let planes = planes_from_mosaic(src)?;
-    resize_planes_into(&planes, new_w, new_h, dst)
-}
-
-/// Resize already-split planes into a mosaic of `new_w` x `new_h` (pyramids split once).
-fn resize_planes_into(
-    planes: &[Image<f32>; 4],
-    new_w: usize,
-    new_h: usize,
-    dst: &mut Image<f32>,
-) -> Result<(), SuperPixelError> {
-    check_mosaic(new_w, new_h)?;
-    let mut out: [Image<f32>; 4] = std::array::from_fn(|_| Image::new(0, 0));
-    out.par_iter_mut()
-        .zip(planes.par_iter())
-        .try_for_each(|(o, p)| resize_bilinear(p.view(), new_w / 2, new_h / 2, o))?;
-    mosaic_from_planes_into(&out, dst)
-}
-
 /// Keep every other super-pixel (the SIFT octave step on a mosaic). Output is
 /// `2·floor(w/4) x 2·floor(h/4)`, a mosaic of the same pattern.
 pub fn downsample2_mosaic(src: ImageView<f32>, dst: &mut Image<f32>) -> Result<(), SuperPixelError> {
@@ -573,182 +460,6 @@ pub fn downsample2_mosaic(src: ImageView<f32>, dst: &mut Image<f32>) -> Result<(
         }
     }
     Ok(())
-}
-
-/// Parameters of a scale pyramid. Defaults are OpenCV `detectMultiScale`'s: scale step 1.05, at
-/// most 64 levels, stop when a level is smaller than the 64x128 detection window.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PyramidSpec {
-    /// Ratio between consecutive levels (> 1).
-    pub scale_step: f64,
-    /// Most levels, including the original.
-    pub max_levels: usize,
-    /// Stop before a level narrower than this.
-    pub min_width: usize,
-    /// Stop before a level lower than this.
-    pub min_height: usize,
-}
-
-impl Default for PyramidSpec {
-    fn default() -> Self {
-        Self {
-            scale_step: 1.05,
-            max_levels: 64,
-            min_width: 64,
-            min_height: 128,
-        }
-    }
-}
-
-impl PyramidSpec {
-    fn validate(&self) -> Result<(), SuperPixelError> {
-        if !(self.scale_step.is_finite() && self.scale_step > 1.0 && self.scale_step <= 4.0) {
-            return Err(SuperPixelError::Pyramid {
-                name: "scale_step",
-                value: self.scale_step,
-                why: "must be in (1, 4]",
-            });
-        }
-        if self.max_levels == 0 || self.max_levels > 1024 {
-            return Err(SuperPixelError::Pyramid {
-                name: "max_levels",
-                value: self.max_levels as f64,
-                why: "must be in 1..=1024",
-            });
-        }
-        if self.min_width == 0 || self.min_height == 0 {
-            return Err(SuperPixelError::Pyramid {
-                name: "min_width/min_height",
-                value: 0.0,
-                why: "must be at least 1",
-            });
-        }
-        Ok(())
-    }
-
-    /// Level sizes `(scale, w, h)` for an input of `w` x `h`, rounding with `round` (OpenCV's
-    /// `cvRound(w / scale)`), optionally down to even.
-    fn sizes(&self, w: usize, h: usize, even: bool) -> Vec<(f64, usize, usize)> {
-        let mut out = Vec::new();
-        let mut scale = 1.0f64;
-        for _ in 0..self.max_levels {
-            let mut lw = (w as f64 / scale).round() as usize;
-            let mut lh = (h as f64 / scale).round() as usize;
-            if even {
-                lw &= !1;
-                lh &= !1;
-            }
-            if lw < self.min_width || lh < self.min_height || lw == 0 || lh == 0 {
-                break;
-            }
-            out.push((scale, lw, lh));
-            scale *= self.scale_step;
-        }
-        out
-    }
-}
-
-/// One level of a pyramid.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PyramidLevel {
-    /// The image at this level.
-    pub image: Image<f32>,
-    /// Nominal scale: original size / level size (`scale_step^k`, ≥ 1).
-    pub scale: f64,
-    /// Actual horizontal factor: original width / level width (after rounding).
-    pub scale_x: f64,
-    /// Actual vertical factor: original height / level height.
-    pub scale_y: f64,
-}
-
-/// A pyramid of mosaics built with [`resize_mosaic`] from the original at every level (as OpenCV
-/// resizes from the original), so each level is a valid mosaic of the original's pattern.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MosaicPyramid {
-    /// Levels, largest first; level 0 is the input.
-    pub levels: Vec<PyramidLevel>,
-}
-
-impl MosaicPyramid {
-    /// Build the pyramid. The input must have even width and height.
-    pub fn build(src: ImageView<f32>, spec: &PyramidSpec) -> Result<Self, SuperPixelError> {
-        spec.validate()?;
-        let (w, h) = (src.width(), src.height());
-        check_mosaic(w, h)?;
-        let sizes = spec.sizes(w, h, true);
-        if sizes.is_empty() {
-            return Err(SuperPixelError::TooSmall {
-                what: "pyramid input",
-                width: w,
-                height: h,
-                min_width: spec.min_width,
-                min_height: spec.min_height,
-            });
-        }
-        let planes = planes_from_mosaic(src)?;
-        let levels = sizes
-            .into_par_iter()
-            .map(|(scale, lw, lh)| {
-                let mut image = Image::new(0, 0);
-                if lw == w && lh == h {
-                    image = src.to_image();
-                } else {
-                    resize_planes_into(&planes, lw, lh, &mut image)?;
-                }
-                Ok(PyramidLevel {
-                    image,
-                    scale,
-                    scale_x: w as f64 / lw as f64,
-                    scale_y: h as f64 / lh as f64,
-                })
-            })
-            .collect::<Result<Vec<_>, SuperPixelError>>()?;
-        Ok(Self { levels })
-    }
-}
-
-/// A pyramid of grey images built with [`resize_bilinear`] from the original at every level —
-/// what OpenCV's `HOGDescriptor::detectMultiScale` does (without its even rounding).
-#[derive(Debug, Clone, PartialEq)]
-pub struct GreyPyramid {
-    /// Levels, largest first; level 0 is the input.
-    pub levels: Vec<PyramidLevel>,
-}
-
-impl GreyPyramid {
-    /// Build the pyramid.
-    pub fn build(src: ImageView<f32>, spec: &PyramidSpec) -> Result<Self, SuperPixelError> {
-        spec.validate()?;
-        let (w, h) = (src.width(), src.height());
-        let sizes = spec.sizes(w, h, false);
-        if sizes.is_empty() {
-            return Err(SuperPixelError::TooSmall {
-                what: "pyramid input",
-                width: w,
-                height: h,
-                min_width: spec.min_width,
-                min_height: spec.min_height,
-            });
-        }
-        let levels = sizes
-            .into_par_iter()
-            .map(|(scale, lw, lh)| {
-                let mut image = Image::new(0, 0);
-                if lw == w && lh == h {
-                    image = src.to_image();
-                } else {
-                    resize_bilinear(src, lw, lh, &mut image)?;
-                }
-                Ok(PyramidLevel {
-                    image,
-                    scale,
-                    scale_x: w as f64 / lw as f64,
-                    scale_y: h as f64 / lh as f64,
-                })
-            })
-            .collect::<Result<Vec<_>, SuperPixelError>>()?;
-        Ok(Self { levels })
-    }
 }
 
 #[cfg(test)]
@@ -816,19 +527,6 @@ mod tests {
     }
 
     #[test]
-    fn resize_hand_computed() {
-        // 4 -> 2 halves average pairs (OpenCV maps this to INTER_AREA, same values).
-        let img = Image::from_vec(4, 1, vec![0.0, 2.0, 4.0, 6.0]).unwrap();
-        let mut out = Image::new(0, 0);
-        resize_bilinear(img.view(), 2, 1, &mut out).unwrap();
-        assert_eq!(out.as_slice(), &[1.0, 5.0]);
-        // 2 -> 4: x_src = (d + .5)/2 - .5 = -0.25, 0.25, 0.75, 1.25 -> clamp/interp
-        let img = Image::from_vec(2, 1, vec![0.0, 4.0]).unwrap();
-        resize_bilinear(img.view(), 4, 1, &mut out).unwrap();
-        assert_eq!(out.as_slice(), &[0.0, 1.0, 3.0, 4.0]);
-    }
-
-    #[test]
     fn flat_mosaic_stays_flat_per_colour() {
         let m = Image::from_fn(20, 14, |x, y| [0.9f32, 0.5, 0.4, 0.1][(y & 1) * 2 + (x & 1)]);
         let mut out = Image::new(0, 0);
@@ -838,7 +536,7 @@ mod tests {
                 assert!((out.get(x, y) - m.get(x, y)).abs() < 1e-6);
             }
         }
-        resize_mosaic(m.view(), 30, 10, &mut out).unwrap();
+        crate::resize::resize_mosaic(m.view(), 30, 10, &mut out).unwrap();
         assert_eq!(out.dimensions(), (30, 10));
         for y in 0..10 {
             for x in 0..30 {
@@ -883,15 +581,6 @@ mod tests {
             blur_mosaic(m.view(), &GaussianKernel::from_ksize(3).unwrap(), &mut out),
             Err(SuperPixelError::OddSize { .. })
         ));
-        let m = random(8, 8, 3);
-        assert!(matches!(
-            resize_mosaic(m.view(), 5, 4, &mut out),
-            Err(SuperPixelError::OddSize { .. })
-        ));
-        assert!(matches!(
-            resize_mosaic(m.view(), 0, 4, &mut out),
-            Err(SuperPixelError::TooSmall { .. })
-        ));
         let m = random(2, 2, 3);
         assert!(matches!(
             downsample2_mosaic(m.view(), &mut out),
@@ -899,7 +588,6 @@ mod tests {
         ));
         let empty = Image::<f32>::new(0, 0);
         assert!(gaussian_blur(empty.view(), &GaussianKernel::from_ksize(3).unwrap(), &mut out).is_err());
-        assert!(MosaicPyramid::build(random(32, 32, 1).view(), &PyramidSpec::default()).is_err());
     }
 
     #[test]
@@ -910,30 +598,5 @@ mod tests {
         gaussian_blur_impl(m.view(), &k, &mut a, true).unwrap();
         gaussian_blur_impl(m.view(), &k, &mut b, false).unwrap();
         assert_eq!(a, b);
-        resize_bilinear_impl(m.view(), 77, 45, &mut a, true).unwrap();
-        resize_bilinear_impl(m.view(), 77, 45, &mut b, false).unwrap();
-        assert_eq!(a, b);
-    }
-
-    #[test]
-    fn pyramid_levels_follow_opencv_rule() {
-        let m = random(200, 300, 5);
-        let spec = PyramidSpec::default();
-        let p = MosaicPyramid::build(m.view(), &spec).unwrap();
-        assert_eq!(p.levels[0].image, m);
-        for (k, l) in p.levels.iter().enumerate() {
-            let (w, h) = l.image.dimensions();
-            assert!(w % 2 == 0 && h % 2 == 0 && w >= 64 && h >= 128);
-            assert!((l.scale - 1.05f64.powi(k as i32)).abs() < 1e-9);
-            assert!((w as f64 - (200.0 / l.scale).round()).abs() <= 1.0);
-        }
-        // 300/1.05^k >= 128  ->  k <= 17
-        assert_eq!(p.levels.len(), 18);
-        let g = GreyPyramid::build(m.view(), &spec).unwrap();
-        assert_eq!(g.levels.len(), 18);
-        assert_eq!(
-            g.levels[5].image.width(),
-            (200.0 / 1.05f64.powi(5)).round() as usize
-        );
     }
 }

@@ -6,7 +6,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::isp::demosaic::{rgb_from_mosaic, DemosaicMethod};
+//! use mosaicd::isp::{rgb_from_mosaic, DemosaicMethod};
 //! use mosaicd::raw::Cfa;
 //! // a flat grey mosaic demosaics to a flat grey image with every method
 //! let mosaic = Image::<f32>::filled(8, 8, 0.25);
@@ -34,7 +34,7 @@
 //!   G lives on a quincunx lattice, a square lattice rotated by 45°; the same cubic applied along
 //!   the two diagonal axes gives the kernel `81/256` at the 4 direct neighbours, `−9/256` at the 8
 //!   knight-move positions `(±1, ±2), (±2, ±1)` and `1/256` at `(±3, 0), (0, ±3)`.
-//! - **Malvar–He–Cutler** ([`rgb_from_mosaic_malvar`]): bilinear plus a Laplacian correction from
+//! - **Malvar–He–Cutler** ([`DemosaicMethod::Malvar`]): bilinear plus a Laplacian correction from
 //!   the pixel's own channel, as four 5x5 kernels (gains α = 1/2, β = 5/8, γ = 3/4), identical to
 //!   `colour_demosaicing.demosaicing_CFA_Bayer_Malvar2004`.
 //! - **Hamilton–Adams** adaptive colour plane interpolation ([`rgb_from_mosaic_hamilton_adams`]),
@@ -70,13 +70,12 @@ use std::str::FromStr;
 
 use rayon::prelude::*;
 
-use super::noise::linear_from_raw;
 use super::{mirror, IspError};
 use crate::image::{Image, ImageView};
-use crate::raw::{Cfa, Colour, RawFrame};
+use crate::raw::{Cfa, Colour};
 
 /// Rows per parallel strip.
-pub const DEMOSAIC_STRIP_ROWS: usize = 16;
+pub(crate) const DEMOSAIC_STRIP_ROWS: usize = 16;
 
 /// A demosaicing method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -642,7 +641,7 @@ fn demosaic_impl(
 }
 
 /// Demosaic an `f32` mosaic of pattern `cfa` into `dst` (same size, at least 2x2) with `method`.
-pub fn demosaic_into(
+pub(crate) fn demosaic_into(
     src: ImageView<'_, f32>,
     cfa: Cfa,
     method: DemosaicMethod,
@@ -663,7 +662,11 @@ pub fn rgb_from_mosaic(
 }
 
 /// Nearest-neighbour demosaicing (2x2 tile copy).
-pub fn rgb_from_mosaic_nearest(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Image<[f32; 3]>, IspError> {
+#[cfg(test)]
+pub(crate) fn rgb_from_mosaic_nearest(
+    src: ImageView<'_, f32>,
+    cfa: Cfa,
+) -> Result<Image<[f32; 3]>, IspError> {
     rgb_from_mosaic(src, cfa, DemosaicMethod::Nearest)
 }
 
@@ -673,17 +676,17 @@ pub fn rgb_from_mosaic_bilinear(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Ima
 }
 
 /// Bicubic (Keys a = −0.5) demosaicing.
-pub fn rgb_from_mosaic_bicubic(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Image<[f32; 3]>, IspError> {
+#[cfg(test)]
+pub(crate) fn rgb_from_mosaic_bicubic(
+    src: ImageView<'_, f32>,
+    cfa: Cfa,
+) -> Result<Image<[f32; 3]>, IspError> {
     rgb_from_mosaic(src, cfa, DemosaicMethod::Bicubic)
 }
 
-/// Malvar–He–Cutler (2004) demosaicing.
-pub fn rgb_from_mosaic_malvar(src: ImageView<'_, f32>, cfa: Cfa) -> Result<Image<[f32; 3]>, IspError> {
-    rgb_from_mosaic(src, cfa, DemosaicMethod::Malvar)
-}
-
 /// Hamilton–Adams adaptive colour plane interpolation.
-pub fn rgb_from_mosaic_hamilton_adams(
+#[cfg(test)]
+pub(crate) fn rgb_from_mosaic_hamilton_adams(
     src: ImageView<'_, f32>,
     cfa: Cfa,
 ) -> Result<Image<[f32; 3]>, IspError> {
@@ -693,8 +696,12 @@ pub fn rgb_from_mosaic_hamilton_adams(
 /// Demosaic a raw frame into linear camera RGB: each value is first normalised with the frame's
 /// levels to `y = (v − black) / (white − black)` (no white balance, no colour matrix), then
 /// demosaiced with `method` (unclipped `f32`).
-pub fn rgb_from_raw(frame: &RawFrame, method: DemosaicMethod) -> Result<Image<[f32; 3]>, IspError> {
-    let lin = linear_from_raw(frame);
+#[cfg(test)]
+pub(crate) fn rgb_from_raw(
+    frame: &crate::raw::RawFrame,
+    method: DemosaicMethod,
+) -> Result<Image<[f32; 3]>, IspError> {
+    let lin = super::noise::linear_from_raw(frame);
     rgb_from_mosaic(lin.view(), frame.cfa(), method)
 }
 
@@ -711,7 +718,8 @@ pub fn rgb_from_mosaic_u8(
 
 /// Demosaic a 16-bit mosaic; results are rounded and clamped to `0..=max` (e.g. the white level
 /// or `2^bit_depth − 1`).
-pub fn rgb_from_mosaic_u16(
+#[cfg(test)]
+pub(crate) fn rgb_from_mosaic_u16(
     src: ImageView<'_, u16>,
     cfa: Cfa,
     method: DemosaicMethod,
@@ -725,6 +733,7 @@ pub fn rgb_from_mosaic_u16(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raw::RawFrame;
 
     /// Mosaic a full-colour image (test helper).
     fn mosaic_of(rgb: &Image<[f32; 3]>, cfa: Cfa) -> Image<f32> {

@@ -63,7 +63,7 @@ impl Default for ForwardIspOptions {
 }
 
 /// Linear sRGB (steps 1–4, unclipped) of a raw frame.
-pub fn linear_rgb_from_raw(
+pub(crate) fn linear_rgb_from_raw(
     frame: &RawFrame,
     profile: &CameraProfile,
     opts: &ForwardIspOptions,
@@ -114,7 +114,7 @@ pub fn linear_rgb_from_raw(
 }
 
 /// Encode linear sRGB as `u8`: clip to `[0, 1]`, sRGB transfer function, round.
-pub fn srgb_u8_from_linear(rgb: &Image<[f32; 3]>) -> Image<[u8; 3]> {
+pub(crate) fn srgb_u8_from_linear(rgb: &Image<[f32; 3]>) -> Image<[u8; 3]> {
     rgb.map(|p| p.map(|c| (srgb_from_linear(c.clamp(0.0, 1.0)) * 255.0).round() as u8))
 }
 

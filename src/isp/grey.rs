@@ -5,7 +5,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::isp::grey::grey_from_rgb_u8;
+//! use mosaicd::isp::grey_from_rgb_u8;
 //! let rgb = Image::from_fn(2, 1, |x, _| if x == 0 { [255u8, 0, 0] } else { [10u8, 10, 10] });
 //! let grey = grey_from_rgb_u8(&rgb.view());
 //! assert_eq!(grey.as_slice(), &[76, 10]); // 0.299 * 255 = 76.2; equal channels stay put
@@ -36,26 +36,26 @@ use thiserror::Error;
 use crate::image::{Image, ImageView, ImageViewMut};
 
 /// Fixed-point shift of OpenCV's 8-bit RGB→grey (`gray_shift`).
-pub const GREY_SHIFT: u32 = 15;
+pub(crate) const GREY_SHIFT: u32 = 15;
 /// Red weight 0.299 in Q15 (OpenCV's `RY15`).
-pub const R_Q15: u32 = 9798;
+pub(crate) const R_Q15: u32 = 9798;
 /// Green weight 0.587 in Q15 (OpenCV's `GY15`).
-pub const G_Q15: u32 = 19235;
+pub(crate) const G_Q15: u32 = 19235;
 /// Blue weight 0.114 in Q15 (OpenCV's `BY15`). The three sum to exactly `1 << 15`.
-pub const B_Q15: u32 = 3735;
+pub(crate) const B_Q15: u32 = 3735;
 /// BT.601 red weight.
-pub const R_WEIGHT: f32 = 0.299;
+pub(crate) const R_WEIGHT: f32 = 0.299;
 /// BT.601 green weight.
-pub const G_WEIGHT: f32 = 0.587;
+pub(crate) const G_WEIGHT: f32 = 0.587;
 /// BT.601 blue weight.
-pub const B_WEIGHT: f32 = 0.114;
+pub(crate) const B_WEIGHT: f32 = 0.114;
 
 /// Rows per rayon task.
 const STRIP_ROWS: usize = 32;
 
 /// Errors from grey conversion.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-pub enum GreyError {
+pub(crate) enum GreyError {
     /// Source and destination sizes differ.
     #[error("grey conversion: source is {src_w}x{src_h} but destination is {dst_w}x{dst_h}")]
     SizeMismatch {
@@ -72,7 +72,7 @@ pub enum GreyError {
 
 /// One pixel, 8-bit, exactly as OpenCV.
 #[inline]
-pub fn grey_u8(p: [u8; 3]) -> u8 {
+pub(crate) fn grey_u8(p: [u8; 3]) -> u8 {
     let [r, g, b] = p;
     ((r as u32 * R_Q15 + g as u32 * G_Q15 + b as u32 * B_Q15 + (1 << (GREY_SHIFT - 1))) >> GREY_SHIFT) as u8
 }
@@ -84,7 +84,7 @@ pub fn grey_f32(p: [f32; 3]) -> f32 {
 }
 
 /// Pixel types [`grey_from_rgb`] accepts: `[u8; 3]` → `u8` and `[f32; 3]` → `f32`.
-pub trait GreyPixel: Copy + Send + Sync {
+pub(crate) trait GreyPixel: Copy + Send + Sync {
     /// The grey pixel type.
     type Grey: Copy + Default + Send + Sync;
     /// Convert one pixel.
@@ -108,7 +108,7 @@ impl GreyPixel for [f32; 3] {
 }
 
 /// Convert `src` (R, G, B order) to grey into `dst`, in parallel over row strips.
-pub fn grey_from_rgb<P: GreyPixel>(
+pub(crate) fn grey_from_rgb<P: GreyPixel>(
     src: &ImageView<'_, P>,
     dst: &mut ImageViewMut<'_, P::Grey>,
 ) -> Result<(), GreyError> {
@@ -139,14 +139,14 @@ pub fn grey_from_rgb<P: GreyPixel>(
     Ok(())
 }
 
-/// Allocating wrapper of [`grey_from_rgb`] for 8-bit RGB.
+/// Allocating wrapper of `grey_from_rgb` for 8-bit RGB.
 pub fn grey_from_rgb_u8(src: &ImageView<'_, [u8; 3]>) -> Image<u8> {
     let mut out = Image::new(src.width(), src.height());
     grey_from_rgb(src, &mut out.view_mut()).expect("sizes match by construction");
     out
 }
 
-/// Allocating wrapper of [`grey_from_rgb`] for float RGB.
+/// Allocating wrapper of `grey_from_rgb` for float RGB.
 pub fn grey_from_rgb_f32(src: &ImageView<'_, [f32; 3]>) -> Image<f32> {
     let mut out = Image::new(src.width(), src.height());
     grey_from_rgb(src, &mut out.view_mut()).expect("sizes match by construction");

@@ -1,35 +1,41 @@
 //! The conventional ISP path we compare against: demosaicing, grey conversion, reverse ISP, noise.
 //!
-//! - [`profile`]: [`CameraProfile`] (black/white level, bit depth, white-balance gains, colour
+//! The files are private behind this facade; what other crates use is re-exported here.
+//!
+//! - `profile.rs`: [`CameraProfile`] (black/white level, bit depth, white-balance gains, colour
 //!   matrix, pattern) loaded from `config/cameras/*.toml`.
-//! - [`reverse`]: sRGB → raw Bayer frame (Buckler et al. 2017 style), used to make raw versions of
-//!   RGB data sets (INRIA crops, Kodak) and recordings from RGB images.
-//! - [`noise`]: the paper's heteroscedastic noise (eq. 24) with its three presets, and an
+//! - `reverse.rs`: sRGB → raw Bayer frame ([`raw_from_srgb`], Buckler et al. 2017 style), used to
+//!   make raw versions of RGB data sets (INRIA crops, Kodak) and recordings from RGB images.
+//! - `noise.rs`: the paper's heteroscedastic noise (eq. 24) with its three presets, and an
 //!   estimator of the noise parameters from a raw frame.
-//! - [`demosaic`]: nearest, bilinear, bicubic, Malvar–He–Cutler and Hamilton–Adams demosaicing.
-//! - [`forward`]: a minimal forward ISP (black level, white balance, demosaic, colour matrix,
-//!   sRGB gamma) so that a reverse → forward round trip can be measured.
+//! - `demosaic.rs` ([`rgb_from_mosaic`]): nearest, bilinear, bicubic, Malvar–He–Cutler and
+//!   Hamilton–Adams demosaicing; `grey.rs`: RGB → grey.
+//! - `forward.rs` ([`srgb_from_raw`]): a minimal forward ISP (black level, white balance, demosaic,
+//!   colour matrix, sRGB gamma) so that a reverse → forward round trip can be measured.
 //!
 //! All of them report errors through [`IspError`].
 
-pub mod demosaic;
-pub mod forward;
-pub mod grey;
-pub mod noise;
-pub mod profile;
-pub mod quantise;
-pub mod reverse;
+pub(crate) mod demosaic;
+pub(crate) mod forward;
+pub(crate) mod grey;
+pub(crate) mod noise;
+pub(crate) mod profile;
+pub(crate) mod quantise;
+pub(crate) mod reverse;
 
 use std::path::PathBuf;
 
-pub use demosaic::DemosaicMethod;
+pub use demosaic::{
+    rgb_from_mosaic, rgb_from_mosaic_bilinear, rgb_from_mosaic_u8, DemosaicMethod, ParseDemosaicMethodError,
+};
 pub use forward::{srgb_from_raw, ForwardIspOptions};
+pub use grey::{grey_f32, grey_from_rgb_f32, grey_from_rgb_u8};
 pub use noise::{
     add_noise, add_noise_to_raw, estimate_noise, linear_from_raw, NoiseEstimate, NoiseEstimateOptions,
     NoiseLevel, NoiseParams,
 };
 pub use profile::CameraProfile;
-pub use reverse::{raw_from_srgb, ReverseIspOptions};
+pub use reverse::{raw_from_linear_mosaic, raw_from_srgb, ReverseIspOptions};
 
 /// Errors of the ISP area (profiles, reverse/forward ISP, noise, demosaicing).
 #[derive(Debug, thiserror::Error)]

@@ -55,7 +55,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-/// Re-exported from [`super::quantise`], where it lives.
+/// Re-exported from `isp::quantise`, where it lives.
 pub use super::quantise::linear_from_raw;
 use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
@@ -63,11 +63,11 @@ use crate::image::Image;
 use crate::raw::{CfaChannel, RawFrame};
 
 /// Rows per noise strip; strip `i` draws from ChaCha stream `i`.
-pub const NOISE_STRIP_ROWS: usize = 32;
+pub(crate) const NOISE_STRIP_ROWS: usize = 32;
 
 /// Patches whose residual variance exceeds this multiple of their bin's median are treated as
 /// structure (edges, texture) and dropped by the estimator.
-pub const EDGE_REJECT_FACTOR: f64 = 1.5;
+pub(crate) const EDGE_REJECT_FACTOR: f64 = 1.5;
 
 /// `Var(y − mean of 4 independent neighbours) = σ² (1 + 4/16)`.
 const RESIDUAL_VARIANCE_GAIN: f64 = 1.25;
@@ -220,7 +220,7 @@ pub struct NoiseEstimateOptions {
     /// Minimum number of patches for a bin to be used.
     pub min_patches_per_bin: usize,
     /// Patches whose variance exceeds this multiple of their bin's median are dropped as
-    /// structure (default [`EDGE_REJECT_FACTOR`]).
+    /// structure (default `EDGE_REJECT_FACTOR`).
     pub reject_factor: f64,
 }
 

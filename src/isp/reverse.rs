@@ -45,19 +45,19 @@ use rayon::prelude::*;
 use super::noise::{add_noise, NoiseParams};
 use super::profile::CameraProfile;
 use super::quantise::check_bit_depth;
-/// Re-exported from [`super::quantise`], where it lives.
+/// Re-exported from `isp::quantise`, where it lives.
 pub use super::quantise::raw_from_linear_mosaic;
 use super::IspError;
 use crate::image::{Image, ImageView};
 use crate::raw::{Cfa, Colour, Levels, RawFrame};
 /// Re-exported from [`crate::srgb`], where the transfer function lives.
-pub use crate::srgb::{linear_from_srgb, srgb_from_linear};
+pub(crate) use crate::srgb::linear_from_srgb;
 
 /// Rows per parallel strip.
 const STRIP_ROWS: usize = 32;
 
 /// Linear value of each sRGB `u8` code.
-pub fn srgb_u8_to_linear_lut() -> [f32; 256] {
+pub(crate) fn srgb_u8_to_linear_lut() -> [f32; 256] {
     let mut lut = [0.0; 256];
     for (i, v) in lut.iter_mut().enumerate() {
         *v = linear_from_srgb(i as f32 / 255.0);
@@ -110,7 +110,8 @@ fn inverse_rows(profile: &CameraProfile) -> Result<[[f32; 3]; 3], IspError> {
 }
 
 /// Linear camera RGB (before white balance) of an sRGB image: steps 1–3, no mosaic.
-pub fn camera_rgb_from_srgb(
+#[cfg(test)]
+pub(crate) fn camera_rgb_from_srgb(
     rgb: ImageView<'_, [u8; 3]>,
     profile: &CameraProfile,
 ) -> Result<Image<[f32; 3]>, IspError> {
@@ -136,7 +137,7 @@ fn colour_index(c: Colour) -> usize {
 }
 
 /// The linear mosaic (steps 1–4) of an sRGB image, before noise and quantisation.
-pub fn linear_mosaic_from_srgb(
+pub(crate) fn linear_mosaic_from_srgb(
     rgb: ImageView<'_, [u8; 3]>,
     profile: &CameraProfile,
     cfa: Cfa,
@@ -191,6 +192,7 @@ mod tests {
     use super::*;
     use crate::isp::noise::NoiseLevel;
     use crate::raw::RawPixels;
+    use crate::srgb::srgb_from_linear;
 
     #[test]
     fn srgb_curve_round_trips_and_matches_known_values() {

@@ -167,7 +167,7 @@ pub struct ImageDetections {
 
 /// A matched, score-sorted list of all detections of a data set.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MatchedDetections {
+pub(crate) struct MatchedDetections {
     /// `(score, true_positive)` for every detection, highest score first.
     pub ranked: Vec<(f32, bool)>,
     /// Number of ground-truth boxes.

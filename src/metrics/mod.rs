@@ -33,7 +33,9 @@ pub(crate) mod interval;
 pub(crate) mod psnr;
 pub(crate) mod ssim;
 
-pub use detection::{det_curve, miss_rate_at_fppw, pascal_ap, DetPoint, DALAL_FPPW};
+pub use detection::{
+    det_curve, miss_rate_at_fppw, pascal_ap, ApResult, DetPoint, ImageDetections, DALAL_FPPW,
+};
 pub use gmsd::{gms_map, gms_map_into, gms_stats, gmsd, gmsd_xue2014, GmsStats, PAPER_C};
 pub use interval::Interval;
 pub use psnr::{mse, psnr, psnr_from_mse};

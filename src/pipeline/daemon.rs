@@ -47,7 +47,7 @@ const ABORT_GRACE_MAX: Duration = Duration::from_secs(1);
 
 /// How long before the shutdown timeout a drain still running is cut short: a quarter of the
 /// timeout, at most 1 s (the sinks' time to finish their files).
-pub fn abort_grace(timeout: Duration) -> Duration {
+pub(crate) fn abort_grace(timeout: Duration) -> Duration {
     (timeout / 4).min(ABORT_GRACE_MAX)
 }
 
@@ -237,7 +237,7 @@ pub fn load_detector(cfg: &Config) -> Result<Option<Arc<PeopleDetector>>, Daemon
 /// The ACF detector's options of a config: `compute.upsample`, `compute.max_levels` and
 /// `compute.hit_threshold`; the model's own pyramid approximation; greedy suppression at IoU 0.5
 /// (the ACF detector's default, as in `mosaicd detect` and `eval detection`).
-pub fn acf_options(cfg: &Config) -> AcfOptions {
+pub(crate) fn acf_options(cfg: &Config) -> AcfOptions {
     let c = &cfg.compute;
     AcfOptions {
         upsample: c.upsample,

@@ -38,7 +38,7 @@ use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
 use super::pool::BufferPool;
 use super::queue::{FrameQueue, Push};
 /// Re-exported from [`super::sinks`], where they live.
-pub use super::sinks::{FrameResult, PooledMaps, Sink, SinkError, SinkEvent, SinkFactory};
+pub(crate) use super::sinks::{FrameResult, PooledMaps, SinkError, SinkEvent, SinkFactory};
 use super::stage::{GradientMaps, Stage, StageError, StageOutput};
 use super::stats::{RecorderState, Stats, StatsSnapshot};
 use crate::capture::{Source, SourceKind};

@@ -5,7 +5,7 @@
 //! is dropped, so replay output is deterministic.
 //!
 //! ```
-//! use mosaicd::pipeline::queue::{FrameQueue, Push};
+//! use mosaicd::pipeline::{FrameQueue, Push};
 //! use mosaicd::capture::SourceKind;
 //! let q = FrameQueue::new(2, SourceKind::Live);
 //! assert!(matches!(q.push(1), Push::Queued));

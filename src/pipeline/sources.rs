@@ -57,7 +57,7 @@ pub enum SourceOpenError {
 }
 
 /// Open the source a camera config describes. `replay_overrides` (realtime, loop) already applied.
-pub fn open_source(
+pub(crate) fn open_source(
     cam: &CameraConfig,
     frame_pool: &BufferPool<RawPixels>,
 ) -> Result<Box<dyn Source>, SourceOpenError> {
@@ -134,7 +134,7 @@ pub fn open_source(
 }
 
 /// The V4L2 request of a `[[camera]]`: size, rate, preferred FourCC and sensor levels.
-pub fn v4l2_options(cam: &CameraConfig) -> V4l2Options {
+pub(crate) fn v4l2_options(cam: &CameraConfig) -> V4l2Options {
     V4l2Options {
         width: Some(cam.width as u32),
         height: Some(cam.height as u32),

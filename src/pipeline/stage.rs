@@ -12,7 +12,7 @@
 //!   equal to it). sRGB: each
 //!   site white balanced with [`StageSpec::wb_gains`] (for [`Gains::Auto`] the frame's own gains,
 //!   else a grey-world estimate of this frame), clipped and sRGB-encoded
-//!   ([`crate::features::hog::tone`]), through lookup tables the stage keeps while frames' levels
+//!   ([`crate::raw::MosaicTone`]), through lookup tables the stage keeps while frames' levels
 //!   and gains stay the same. A frame smaller than the detection window gives no detections (not
 //!   an error).
 //! * **Keypoints** (optional, `compute.keypoints`): the paper's mosaic SIFT
@@ -30,7 +30,7 @@
 //!   normalised units. The sum is an exact integer, so it is identical for any thread count.
 //!
 //! ```
-//! use mosaicd::pipeline::stage::{GradientMaps, Stage, StageSpec};
+//! use mosaicd::pipeline::{GradientMaps, Stage, StageSpec};
 //! use mosaicd::raw::{Cfa, Levels, RawFrame};
 //! let f = RawFrame::from_u16(8, 8, vec![100; 64], Cfa::Rggb, 12, Levels::uniform(0, 4095)).unwrap();
 //! let stage = Stage::new(StageSpec { detect: false, ..StageSpec::default() }, None).unwrap();

@@ -9,7 +9,7 @@
 //! long-running daemon.
 //!
 //! ```
-//! use mosaicd::pipeline::stats::LatencyHistogram;
+//! use mosaicd::pipeline::LatencyHistogram;
 //! let mut h = LatencyHistogram::default();
 //! for us in 1..=100u64 { h.record_ns(us * 1000); }
 //! let p50 = h.percentile_us(0.5);

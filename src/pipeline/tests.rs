@@ -250,13 +250,13 @@ impl FailAt {
                 counts_failing,
                 seen: s,
                 not_written: 0,
-            }) as Box<dyn super::engine::Sink>)
+            }) as Box<dyn super::sinks::Sink>)
         });
         (f, seen)
     }
 }
 
-impl super::engine::Sink for FailAt {
+impl super::sinks::Sink for FailAt {
     fn name(&self) -> String {
         "fail-at".into()
     }
@@ -351,7 +351,7 @@ fn an_interrupted_sink_is_counted_and_keeps_receiving_frames() {
 /// A sink named `name` whose `frame` is `f` (stats and finish do nothing).
 struct FnSink<F>(&'static str, F);
 
-impl<F> super::engine::Sink for FnSink<F>
+impl<F> super::sinks::Sink for FnSink<F>
 where
     F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError>,
 {
@@ -374,7 +374,7 @@ fn fn_sink<F>(name: &'static str, f: F) -> super::engine::SinkFactory
 where
     F: FnMut(&super::engine::FrameResult) -> Result<(), super::engine::SinkError> + Send + 'static,
 {
-    Box::new(move || Ok(Box::new(FnSink(name, f)) as Box<dyn super::engine::Sink>))
+    Box::new(move || Ok(Box::new(FnSink(name, f)) as Box<dyn super::sinks::Sink>))
 }
 
 #[test]
@@ -550,7 +550,7 @@ struct Recorder {
     last: u64,
 }
 
-impl super::engine::Sink for Recorder {
+impl super::sinks::Sink for Recorder {
     fn name(&self) -> String {
         "recorder".into()
     }
@@ -596,7 +596,7 @@ fn the_recorder_state_follows_the_recorder_sink_to_the_end_of_the_run() {
                 pause_at,
                 fail_at,
                 last: 0,
-            }) as Box<dyn super::engine::Sink>)
+            }) as Box<dyn super::sinks::Sink>)
         })
     };
     // No recorder: off, whatever the other sinks do.

@@ -25,8 +25,8 @@
 //! [`super::stats::LatencyHistogram`]).
 //!
 //! ```
-//! use mosaicd::pipeline::stats::Stats;
-//! use mosaicd::pipeline::textfile::render;
+//! use mosaicd::pipeline::Stats;
+//! use mosaicd::pipeline::render_textfile as render;
 //! let s = Stats::default();
 //! s.record_latency_ns(2_000_000);
 //! let text = render(&[("front", &s)], "0.1.0", "avx2", 1.7e9);
@@ -43,7 +43,7 @@ use std::sync::Arc;
 use super::stats::{RecorderState, Stats, StatsSnapshot};
 
 /// The latency quantiles written.
-pub const QUANTILES: [f64; 4] = [0.5, 0.9, 0.99, 1.0];
+pub(crate) const QUANTILES: [f64; 4] = [0.5, 0.9, 0.99, 1.0];
 
 /// Mode of the written file: readable by node_exporter's user.
 const FILE_MODE: u32 = 0o644;
@@ -184,7 +184,7 @@ pub fn render(cams: &[(&str, &Stats)], version: &str, kernels: &str, start_time_
 
 /// Writes `text` to `path` atomically: a temporary file beside it (`.<name>.tmp`, which
 /// node_exporter ignores), mode 0644, renamed over `path`.
-pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
+pub(crate) fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
     let name = path.file_name().ok_or_else(|| {
         std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
@@ -206,7 +206,7 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
 }
 
 /// The daemon's metrics file: the cameras' shared counters and where to write them.
-pub struct Textfile {
+pub(crate) struct Textfile {
     path: PathBuf,
     cameras: Vec<(String, Arc<Stats>)>,
     start_time_s: f64,
@@ -216,7 +216,7 @@ pub struct Textfile {
 
 impl Textfile {
     /// A writer for `path` over the cameras' counters.
-    pub fn new(path: PathBuf, cameras: Vec<(String, Arc<Stats>)>) -> Self {
+    pub(crate) fn new(path: PathBuf, cameras: Vec<(String, Arc<Stats>)>) -> Self {
         let start_time_s = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_secs_f64())
@@ -231,7 +231,7 @@ impl Textfile {
 
     /// Renders and writes the file. A failure is logged (once until it works again) and never
     /// stops the daemon.
-    pub fn write(&mut self) {
+    pub(crate) fn write(&mut self) {
         let cams: Vec<(&str, &Stats)> = self.cameras.iter().map(|(c, s)| (c.as_str(), &**s)).collect();
         let text = render(
             &cams,

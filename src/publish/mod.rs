@@ -14,11 +14,9 @@
 //! which [`create_node`] also triggers explicitly and logs).
 //!
 //! iceoryx2 ports are not `Send`, so each camera's publishers live in their own sink thread
-//! ([`publisher::IceoryxSink`]). `mosaicd listen` (the subscriber helpers: [`subscriber`], [`root_dir`], …) is a subscriber in another
+//! ([`crate::pipeline::IceoryxSink`]). `mosaicd listen` (the subscriber helpers: [`subscriber`], [`root_dir`], …) is a subscriber in another
 //! process that only needs [`messages`].
 
-/// The iceoryx2 sink moved to [`crate::pipeline::sinks::iceoryx`]; this path stays for callers.
-pub use crate::pipeline::sinks::iceoryx as publisher;
 /// Re-exported from [`crate::wire`], where the message types live.
 pub use crate::wire::messages;
 pub(crate) mod service;

@@ -9,7 +9,7 @@
 //!
 //! ```
 //! use mosaicd::raw::{Cfa, Levels, RawFrame};
-//! use mosaicd::raw::levels::{f32_from_raw, Compression, Gains, NormaliseOptions};
+//! use mosaicd::raw::{f32_from_raw, Compression, Gains, NormaliseOptions};
 //! let f = RawFrame::from_u16(2, 2, vec![100, 600, 1100, 50], Cfa::Rggb, 12, Levels::uniform(100, 1100)).unwrap();
 //! let spec = NormaliseOptions { gains: Gains::None, compression: Compression::None }.build().unwrap();
 //! let img = f32_from_raw(&f, &spec).unwrap();
@@ -63,13 +63,13 @@ use super::{Colour, RawError, RawFrame, RawPixels, RawView};
 use crate::image::Image;
 
 /// Rows per parallel work item (a strip of 16 rows of a 4K frame is ~250 KB of f32 output).
-pub const STRIP_ROWS: usize = 16;
+pub(crate) const STRIP_ROWS: usize = 16;
 
 /// Largest accepted gain (fixed-point integer path holds gains below this in Q4.12).
-pub const MAX_GAIN: f32 = 16.0;
+pub(crate) const MAX_GAIN: f32 = 16.0;
 
 /// Fraction bits of the fixed-point gains in [`u16_from_raw`] (Q4.12).
-pub const GAIN_FRAC_BITS: u32 = 12;
+pub(crate) const GAIN_FRAC_BITS: u32 = 12;
 
 /// Where per-colour gains come from.
 ///
@@ -476,7 +476,7 @@ fn prepare(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Resu
 }
 
 /// Normalise `frame` into `dst` (reshaped to the frame's size), in parallel over strips of
-/// [`STRIP_ROWS`] rows on the current rayon pool.
+/// `STRIP_ROWS` rows on the current rayon pool.
 pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f32>) -> Result<(), RawError> {
     let mapper = prepare(frame, spec, dst)?;
     let w = frame.width();
@@ -488,7 +488,8 @@ pub fn normalise_into(frame: &RawFrame, spec: &NormaliseSpec, dst: &mut Image<f3
 }
 
 /// [`normalise_into`] on the calling thread only (the reference for the parallel path).
-pub fn normalise_into_serial(
+#[cfg(test)]
+pub(crate) fn normalise_into_serial(
     frame: &RawFrame,
     spec: &NormaliseSpec,
     dst: &mut Image<f32>,

@@ -20,7 +20,7 @@
 //! commands use the default.
 //!
 //! ```
-//! use mosaicd::raw::limits::{FrameLimits, DEFAULT_MAX_PIXELS};
+//! use mosaicd::raw::{FrameLimits, DEFAULT_MAX_PIXELS};
 //! let l = FrameLimits::new(DEFAULT_MAX_PIXELS).unwrap();
 //! assert!(l.check(8192, 8192).is_ok());
 //! assert!(l.check(16000, 15625).is_err()); // 250 MP
@@ -31,13 +31,13 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest frame side in pixels.
-pub const MAX_SIDE: usize = 16_384;
+pub(crate) const MAX_SIDE: usize = 16_384;
 /// Default largest frame in pixels (2^26, "64 MP").
 pub const DEFAULT_MAX_PIXELS: u64 = 1 << 26;
 /// Largest value `limits.max_frame_pixels` accepts: a square frame of [`MAX_SIDE`].
-pub const MAX_MAX_PIXELS: u64 = (MAX_SIDE as u64) * (MAX_SIDE as u64);
+pub(crate) const MAX_MAX_PIXELS: u64 = (MAX_SIDE as u64) * (MAX_SIDE as u64);
 /// Bytes one sample takes at most (u16 container).
-pub const MAX_BYTES_PER_SAMPLE: u64 = 2;
+pub(crate) const MAX_BYTES_PER_SAMPLE: u64 = 2;
 
 /// The process's limit in pixels (0 = not set: the default).
 static PROCESS_MAX_PIXELS: AtomicU64 = AtomicU64::new(0);
@@ -59,7 +59,7 @@ pub struct FrameTooLarge {
     pub max_side: u64,
 }
 
-/// The frame-size limit (see the [module overview](self)).
+/// The frame-size limit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameLimits {
     max_pixels: u64,
@@ -78,7 +78,7 @@ impl FrameLimits {
         max_pixels: DEFAULT_MAX_PIXELS,
     };
 
-    /// A limit of `max_pixels` (`1..=`[`MAX_MAX_PIXELS`]); `None` outside that range.
+    /// A limit of `max_pixels` (`1..=``MAX_MAX_PIXELS`); `None` outside that range.
     pub fn new(max_pixels: u64) -> Option<Self> {
         (1..=MAX_MAX_PIXELS)
             .contains(&max_pixels)

@@ -4,26 +4,36 @@
 //! white balance, no colour matrix applied), stored LSB-aligned in a `u8` or `u16` container with a
 //! known bit depth, a black level per 2x2 tile position and a white (saturation) level, and a 2x2
 //! pattern phase given physically (RGGB = red at (0, 0)).
+//!
+//! The files are private behind this facade (what other crates use is re-exported here), except
+//! [`kodak_radc`], a self-contained decoder whose names (`identify`, `decode`, `WHITE`, …) only read
+//! well in its own namespace.
 
-pub mod cfa;
-pub mod frame;
+pub(crate) mod cfa;
+pub(crate) mod frame;
 pub mod kodak_radc;
-pub mod levels;
-pub mod limits;
-pub mod load;
-pub mod sample;
-pub mod tone;
+pub(crate) mod levels;
+pub(crate) mod limits;
+pub(crate) mod load;
+pub(crate) mod sample;
+pub(crate) mod tone;
 
 use std::path::PathBuf;
 
 pub use cfa::{Cfa, CfaChannel, Colour, ParseCfaError};
 pub use frame::{FrameMeta, Levels, RawFrame, RawPixels, RawView};
 pub use levels::{
-    f32_from_raw, normalise_into, u16_from_raw, Compression, Gains, NormaliseOptions, NormaliseSpec,
+    f32_from_raw, grey_world_gains, normalise_into, u16_from_raw, Compression, Gains, NormaliseOptions,
+    NormaliseSpec, ParseOptionError,
 };
-pub use limits::{FrameLimits, FrameTooLarge};
-pub use load::{load_input, Container, Endian, InputOptions, LoadedInput, RawFormat};
+pub use limits::{FrameLimits, FrameTooLarge, DEFAULT_MAX_PIXELS};
+pub use load::{
+    camera_raw_from_bytes, decode_image, frame_from_bytes, load_camera_raw, load_headerless, load_input,
+    load_input_bytes, load_png_mosaic, rawloader_ifd_visits, Container, Endian, InputOptions, LoadedInput,
+    MosaicFormat, RawFormat, MAX_TIFF_IFD_VISITS,
+};
 pub use sample::{frame_from_rgb8, mosaic_from_rgb};
+pub use tone::{MosaicTone, ToneTables};
 
 /// Errors from building, cropping, normalising and loading raw frames.
 #[derive(Debug, thiserror::Error)]
@@ -119,7 +129,7 @@ pub enum RawError {
         /// Row stride in bytes.
         stride_bytes: usize,
     },
-    /// A frame larger than the frame-size limit ([`limits`]), refused before its pixels are read.
+    /// A frame larger than the frame-size limit ([`FrameLimits`]), refused before its pixels are read.
     #[error("{path}: {limit}")]
     TooLarge {
         /// File.
@@ -153,7 +163,7 @@ pub enum RawError {
     },
     /// A Minolta MRW whose header or block length wraps the raw decoder's 32-bit offset
     /// arithmetic (in release builds rawloader would loop forever on it), refused before
-    /// rawloader reads it ([`load::mrw_length_wrap`]).
+    /// rawloader reads it (`mrw_length_wrap`).
     #[error("{path}: Minolta MRW length {len:#010x} at byte {offset} wraps the raw decoder's 32-bit offsets (a corrupt or hostile file)")]
     MrwLength {
         /// File.
@@ -165,7 +175,7 @@ pub enum RawError {
     },
     /// A Sony SRF whose declared image exceeds the frame-size limit or does not fit in the file
     /// (rawloader would reserve its bytes before reading any: a failed reservation aborts the
-    /// process), refused before rawloader reads it ([`load::sony_srf_size`]).
+    /// process), refused before rawloader reads it (`sony_srf_size`).
     #[error("{path}: Sony SRF declares a {width}x{height} image, whose 16-bit samples from byte {data_offset} need the file to hold {needed} bytes: it holds {file_len}, and the frame-size limit is {max_pixels} pixels and {max_side} a side (a corrupt or hostile file)")]
     SrfSize {
         /// File.
@@ -174,7 +184,7 @@ pub enum RawError {
         width: u64,
         /// Declared height.
         height: u64,
-        /// Where the samples start, [`load::SRF_DATA_OFFSET`].
+        /// Where the samples start, `SRF_DATA_OFFSET`.
         data_offset: u64,
         /// `data_offset + width * height * 2` (saturating).
         needed: u64,

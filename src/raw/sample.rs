@@ -7,7 +7,7 @@
 //!
 //! ```
 //! use mosaicd::image::Image;
-//! use mosaicd::raw::{sample::mosaic_from_rgb, Cfa};
+//! use mosaicd::raw::{mosaic_from_rgb, Cfa};
 //! let rgb = Image::from_fn(2, 2, |x, y| [10 + x as u8, 20 + y as u8, 30u8]);
 //! let m = mosaic_from_rgb(&rgb.view(), Cfa::Rggb);
 //! // R at (0,0), G at (1,0) and (0,1), B at (1,1)
@@ -36,7 +36,7 @@ fn colour_index(c: Colour) -> usize {
 /// Sample `rgb` through the colour filter array `cfa` into `dst`.
 ///
 /// `dst` is reshaped to the size of `rgb`. Never fails; the `Result` keeps the STYLE form.
-pub fn mosaic_from_rgb_into<T: Copy + Default>(
+pub(crate) fn mosaic_from_rgb_into<T: Copy + Default>(
     rgb: &ImageView<'_, [T; 3]>,
     cfa: Cfa,
     dst: &mut Image<T>,
@@ -56,7 +56,7 @@ pub fn mosaic_from_rgb_into<T: Copy + Default>(
     Ok(())
 }
 
-/// Allocating form of [`mosaic_from_rgb_into`].
+/// Allocating form of `mosaic_from_rgb_into`.
 pub fn mosaic_from_rgb<T: Copy + Default>(rgb: &ImageView<'_, [T; 3]>, cfa: Cfa) -> Image<T> {
     let mut dst = Image::new(rgb.width(), rgb.height());
     // Infallible by construction.

@@ -3,8 +3,9 @@
 //! [`McapRecorder`] writes raw frames losslessly at full bit depth (`mosaicd.RawFrame`), an 8-bit
 //! `foxglove.RawImage` preview (`bayer_*8`, optionally decimated) so Foxglove Studio shows the
 //! stream, detections as `foxglove.ImageAnnotations` (boxes as LINE_LOOP, scores as text) plus our
-//! own `mosaicd.Detections` JSON, and stats. The schemas are documented in [`schema`]; reading a
-//! recording back is in [`read`] (and frames are replayed by [`crate::capture::mcap_source`]).
+//! own `mosaicd.Detections` JSON, and stats. The schemas are documented in [`crate::wire::schema`]; reading a
+//! recording back is in [`crate::wire`] ([`RecordingInfo`](crate::wire::RecordingInfo)), and frames are
+//! replayed by [`crate::capture::McapSource`].
 //!
 //! Chunks are zstd-compressed (`chunk_size` bounds their uncompressed size); a flush cadence
 //! ([`FlushPolicy`], in frames and/or recorded nanoseconds) closes the open chunk so that a crash
@@ -27,18 +28,22 @@
 //! rec.write_detections(0, 0, 4, 2, &[]).unwrap();
 //! let summary = rec.finish().unwrap();
 //! assert_eq!(summary.frames, 1);
-//! let info = mosaicd::record::read::RecordingInfo::read(&path).unwrap();
+//! let info = mosaicd::wire::RecordingInfo::read(&path).unwrap();
 //! assert_eq!(info.count("/camera/raw"), 1);
 //! ```
 
-pub mod preview;
-pub mod recipe;
-pub mod recorder;
+pub(crate) mod preview;
+pub(crate) mod recipe;
+pub(crate) mod recorder;
 
 /// Re-exported from [`crate::wire`], where they live (what other processes read).
-pub use crate::wire::{read, schema, RecordError, Topics};
+pub use crate::wire::{RecordError, Topics};
 
+pub use preview::{preview_from_raw, Preview};
+pub use recipe::{
+    build_recording, crop_origin, Align, Motion, Recipe, RecipeError, RecipeRecorder, SourceSpec,
+};
 pub use recorder::{
     Compression, FlushPolicy, McapRecorder, PreviewOptions, RecordSink, RecorderOptions, RecordingSummary,
-    RotatePolicy,
+    RotatePolicy, DEFAULT_COMPRESSION_LEVEL, WALL_CLOCK_METADATA,
 };

@@ -9,7 +9,7 @@
 //!
 //! ```
 //! use mosaicd::raw::{Cfa, Levels, RawFrame};
-//! use mosaicd::record::preview::preview_from_raw;
+//! use mosaicd::record::preview_from_raw;
 //! let f = RawFrame::from_u16(4, 4, vec![4095; 16], Cfa::Rggb, 12, Levels::uniform(0, 4095)).unwrap();
 //! let p = preview_from_raw(&f, 2).unwrap();
 //! assert_eq!((p.width, p.height, p.data.as_slice()), (2, 2, &[255u8; 4][..]));

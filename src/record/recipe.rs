@@ -39,7 +39,7 @@
 //! `seed` (sky gradient, ground, coloured boxes and discs, a bar chart of stripes).
 //!
 //! ```
-//! use mosaicd::record::recipe::{crop_origin, Align};
+//! use mosaicd::record::{crop_origin, Align};
 //! // Halfway along one segment from (0,0) to (9,5), 3 frames: (0,0), (4.5→5, 2.5→3), (9,5).
 //! assert_eq!(crop_origin(&[[0, 0], [9, 5]], 1, 3, Align::Any), (5, 3));
 //! assert_eq!(crop_origin(&[[0, 0], [9, 5]], 1, 3, Align::Even), (4, 2));
@@ -159,7 +159,7 @@ impl Default for RecipeRecorder {
     }
 }
 
-/// A recording recipe (see the [module overview](self)).
+/// A recording recipe.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Recipe {
@@ -350,7 +350,7 @@ pub fn crop_origin(waypoints: &[[usize; 2]], index: u64, frames: u64, align: Ali
 
 /// A deterministic synthetic sRGB scene drawn by our own code (no data): sky gradient, ground,
 /// coloured boxes and discs, and a block of vertical stripes of rising frequency.
-pub fn synthetic_scene(width: usize, height: usize, seed: u64) -> Image<[u8; 3]> {
+pub(crate) fn synthetic_scene(width: usize, height: usize, seed: u64) -> Image<[u8; 3]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let horizon = height * 3 / 5;
     let mut img = Image::from_fn(width, height, |x, y| {
@@ -434,7 +434,7 @@ fn reverse_options(spec: &SourceSpec, profile: &CameraProfile) -> Result<Reverse
 
 /// The still frames of a recipe (files resolved under `data_root`): one, or one per `files`
 /// entry; frame `i` of the stream is cut from still `i mod n`.
-pub fn source_frames(recipe: &Recipe, data_root: &Path) -> Result<Vec<RawFrame>, RecipeError> {
+pub(crate) fn source_frames(recipe: &Recipe, data_root: &Path) -> Result<Vec<RawFrame>, RecipeError> {
     let spec = &recipe.source;
     if spec.files.is_empty() {
         return Ok(vec![source_frame(recipe, data_root)?]);
@@ -468,7 +468,7 @@ fn scaled(rgb: Image<[u8; 3]>, scale: Option<f64>) -> Image<[u8; 3]> {
 }
 
 /// The still frame of a recipe with one source file or scene (files resolved under `data_root`).
-pub fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, RecipeError> {
+pub(crate) fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, RecipeError> {
     let spec = &recipe.source;
     let file = || -> Result<PathBuf, RecipeError> {
         let f = spec.file.as_ref().ok_or(RecipeError::Value {
@@ -515,7 +515,7 @@ pub fn source_frame(recipe: &Recipe, data_root: &Path) -> Result<RawFrame, Recip
 }
 
 /// Frame `index` of the recipe's stream from its still frame: crop, noise, metadata.
-pub fn recipe_frame(recipe: &Recipe, still: &RawFrame, index: u64) -> Result<RawFrame, RecipeError> {
+pub(crate) fn recipe_frame(recipe: &Recipe, still: &RawFrame, index: u64) -> Result<RawFrame, RecipeError> {
     let m = &recipe.motion;
     let (x, y) = crop_origin(&m.waypoints, index, recipe.frames, m.align);
     let mut f = still.crop(x, y, m.width, m.height)?;

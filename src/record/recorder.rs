@@ -20,10 +20,12 @@ use files::{numbered_files, numbered_path};
 mod files;
 mod options;
 
-pub use files::{wall_clock_metadata, WALL_CLOCK_METADATA};
+pub(crate) use files::wall_clock_metadata;
+pub use files::WALL_CLOCK_METADATA;
+pub(crate) use options::DEFAULT_FLUSH_FRAMES;
 pub use options::{
     Compression, FlushPolicy, PreviewOptions, RecorderOptions, RecordingSummary, RotatePolicy,
-    DEFAULT_CHUNK_SIZE, DEFAULT_COMPRESSION_LEVEL, DEFAULT_FLUSH_FRAMES,
+    DEFAULT_COMPRESSION_LEVEL,
 };
 
 /// Write buffer in front of the file (bytes).

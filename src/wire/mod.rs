@@ -1,14 +1,21 @@
 //! What other processes read: the `#[repr(C)]` messages on mosaicd's iceoryx2 services
 //! ([`messages`]), the MCAP recording schemas with their encoders and decoders ([`schema`]), the
-//! topic names ([`Topics`]) and reading recordings back ([`read`]).
+//! topic names ([`Topics`]) and reading recordings back ([`RecordingInfo`], [`for_each_message`],
+//! [`read_json_topic`], …, from the private `read.rs`). The two formats stay public modules: their
+//! docs are the format's specification.
 //!
 //! The daemon's writers (`publish/`, `record/`, the pipeline's sinks) and its readers
 //! (`capture::mcap_source`, `mosaicd listen`, tests, subscribers in other processes) all import
 //! these definitions from here, so the format has one home and nothing in it depends on who writes.
 
 pub mod messages;
-pub mod read;
+pub(crate) mod read;
 pub mod schema;
+
+pub use read::{
+    for_each_message, read_annotations, read_detections, read_json_topic, read_stats, read_summary,
+    ChannelInfo, Logged, RecordingInfo,
+};
 
 use std::path::PathBuf;
 

@@ -16,9 +16,9 @@ use super::RecordError;
 use crate::raw::FrameLimits;
 
 /// Recorders refuse chunk-size targets above a quarter of this (64 MiB), bytes.
-pub const MAX_RECORD_BYTES: u64 = 256 * 1024 * 1024;
+pub(crate) const MAX_RECORD_BYTES: u64 = 256 * 1024 * 1024;
 /// Room for a raw-frame message's JSON header and the MCAP record framing, bytes.
-pub const FRAME_MESSAGE_SLACK_BYTES: u64 = 64 * 1024;
+pub(crate) const FRAME_MESSAGE_SLACK_BYTES: u64 = 64 * 1024;
 
 /// The largest record or (de)compressed chunk a reader accepts under `limits`, bytes, so that a
 /// corrupt or hostile length field (an 8.5 KB zstd chunk can claim 250 MB) is refused before
@@ -26,7 +26,7 @@ pub const FRAME_MESSAGE_SLACK_BYTES: u64 = 64 * 1024;
 /// holds at most its chunk-size target (at most `MAX_RECORD_BYTES / 4`) plus the one message that
 /// crosses it, a raw frame of at most [`FrameLimits::max_sample_bytes`] and its header. With the
 /// default limit (2^26 pixels) that is 192 MiB + 64 KiB.
-pub fn record_length_limit(limits: FrameLimits) -> u64 {
+pub(crate) fn record_length_limit(limits: FrameLimits) -> u64 {
     (MAX_RECORD_BYTES / 4)
         .saturating_add(limits.max_sample_bytes())
         .saturating_add(FRAME_MESSAGE_SLACK_BYTES)
@@ -35,7 +35,7 @@ pub fn record_length_limit(limits: FrameLimits) -> u64 {
 /// Reader options that check everything: chunk CRCs (before any message of the chunk is used),
 /// data-section and summary CRCs, and record lengths limited to [`record_length_limit`] of the
 /// process's frame-size limit.
-pub fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
+pub(crate) fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
     mcap::sans_io::LinearReaderOptions::default()
         .with_prevalidate_chunk_crcs(true)
         .with_validate_data_section_crc(true)
@@ -44,7 +44,7 @@ pub fn strict_reader_options() -> mcap::sans_io::LinearReaderOptions {
 }
 
 /// Re-exported from [`super`], where the recording error uses it.
-pub use super::mcap_detail;
+pub(crate) use super::mcap_detail;
 
 /// One channel of a recording.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -135,7 +135,7 @@ const FOOTER_RECORD_BYTES: u64 = 1 + 8 + 8 + 8 + 4;
 /// `summary_offset_start`). The summary reader of the `mcap` crate does not check it, and the
 /// streaming reader only at the very end, after every frame: this finds a damaged summary at open.
 /// `Ok(())` too for a file without a footer, a summary or a CRC (0 = not computed).
-pub fn check_summary_crc<R: Read + Seek>(r: &mut R) -> mcap::McapResult<()> {
+pub(crate) fn check_summary_crc<R: Read + Seek>(r: &mut R) -> mcap::McapResult<()> {
     use std::io::SeekFrom;
     let len = r.seek(SeekFrom::End(0))?;
     let magic = mcap::MAGIC.len() as u64;
@@ -176,7 +176,7 @@ pub fn check_summary_crc<R: Read + Seek>(r: &mut R) -> mcap::McapResult<()> {
 }
 
 /// Read the summary section through the footer (seeking), validating its CRC
-/// ([`check_summary_crc`]) and limiting record lengths ([`record_length_limit`]); `Ok(None)` when
+/// (`check_summary_crc`) and limiting record lengths (`record_length_limit`); `Ok(None)` when
 /// the file has no summary.
 pub fn read_summary<R: Read + Seek>(r: &mut R) -> mcap::McapResult<Option<mcap::Summary>> {
     use mcap::sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};

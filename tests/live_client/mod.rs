@@ -194,7 +194,7 @@ pub fn boxes(a: &ImageAnnotations) -> Vec<Detection> {
 /// The received image demosaiced, with the received boxes drawn on it, as a PNG.
 pub fn write_picture(img: &RawImage, dets: &[Detection], path: &Path) {
     use mosaicd::image::Image;
-    use mosaicd::isp::demosaic::rgb_from_mosaic_u8;
+    use mosaicd::isp::rgb_from_mosaic_u8;
     let cfa = img
         .encoding
         .trim_start_matches("bayer_")
@@ -208,7 +208,7 @@ pub fn write_picture(img: &RawImage, dets: &[Detection], path: &Path) {
         mosaicd::isp::DemosaicMethod::Bilinear,
     )
     .unwrap();
-    mosaicd::eval::draw::draw_boxes(&mut rgb, dets);
+    mosaicd::eval::draw_boxes(&mut rgb, dets);
     let flat: Vec<u8> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .flat_map(|(x, y)| rgb.get(x, y))

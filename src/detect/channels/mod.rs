@@ -25,7 +25,7 @@
 //! # The math
 //!
 //! Input values `I` are in 8-bit units and scaled to `[0, 1]` (`I/255`); a mosaic is the frame in
-//! its tone ([`crate::raw::tone`]: `srgb` applies the frame's white balance first).
+//! its tone ([`MosaicTone`](crate::raw::MosaicTone): `srgb` applies the frame's white balance first).
 //!
 //! 1. **Input smoothing** (Dollár's `pColor.smooth`; off in his INRIA detector and by default
 //!    here): the separable triangle filter of radius `r`, `t_r(k) = (r + 1 − |k|)/(r + 1)²`,
@@ -146,7 +146,7 @@ pub enum ChannelsError {
     },
     /// A resize inside the pyramid failed.
     #[error(transparent)]
-    Resize(#[from] crate::detect::pyramid::PyramidError),
+    Resize(#[from] crate::resize::ResizeError),
 }
 
 /// What the channels are computed from; values in 8-bit units (0..=255).

@@ -7,7 +7,7 @@
 //! computed. Every other level is resampled (bilinear) from the unsmoothed channels of the
 //! nearest exact level `R` (nearest in level index, as Dollár) and scaled per channel type by the
 //! power law (both in one pass: the detector's one bilinear resize with a factor per plane,
-//! [`crate::detect::pyramid::resize_planes_scaled`])
+//! [`crate::resize::resize_planes_scaled`])
 //!
 //! ```text
 //! C_s ≈ resample(C_R) · (s / s_R)^(−λ_Ω)
@@ -25,8 +25,8 @@
 
 use rayon::prelude::*;
 
-use crate::detect::pyramid::{resize_bilinear, resize_mosaic, resize_planes_scaled_with};
 use crate::image::{Image, ImageView};
+use crate::resize::{resize_bilinear, resize_mosaic, resize_planes_scaled_with};
 
 use crate::kernels::Isa;
 
@@ -188,7 +188,7 @@ fn resized_channels(
 
 /// Resample every channel of `src` to `w x h` blocks and multiply channel `c` by `ratio(c)`: the
 /// detector's one bilinear resize with a factor per plane
-/// ([`crate::detect::pyramid::resize_planes_scaled`], the ten planes in parallel), on kernel
+/// ([`crate::resize::resize_planes_scaled`], the ten planes in parallel), on kernel
 /// path `isa`.
 fn resample_channels(
     isa: Isa,

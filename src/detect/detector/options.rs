@@ -3,9 +3,9 @@
 use std::time::Duration;
 
 use super::super::model::ModelError;
-use super::super::pyramid::PyramidError;
 use super::super::score::{ScoreError, ScorePrecision};
 use crate::features::hog::{HogError, HogTimings};
+use crate::resize::ResizeError;
 
 /// Errors of the detector.
 #[derive(Debug, thiserror::Error)]
@@ -15,7 +15,7 @@ pub enum DetectError {
     Hog(#[from] HogError),
     /// Pyramid failed.
     #[error(transparent)]
-    Pyramid(#[from] PyramidError),
+    Pyramid(#[from] ResizeError),
     /// Model invalid.
     #[error(transparent)]
     Model(#[from] ModelError),

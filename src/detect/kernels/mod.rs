@@ -1,8 +1,7 @@
-//! Per-instruction-set kernels of the detector's SVM stage ([`super::score`]) and of the
-//! detectors' one bilinear resize ([`super::pyramid`]: HOG's levels, the ACF channel pyramid's
-//! exact and approximated levels): every intrinsic of those two modules lives here, one file per
-//! ISA, with the scalar pieces the kernels share with those modules (the 8-bit quantiser, the
-//! window-sum and resize row loops), so that nothing here imports from above.
+//! Per-instruction-set kernels of the detector's SVM stage ([`super::score`]): every intrinsic of
+//! that module lives here, one file per ISA, with the scalar pieces the kernels share with it (the
+//! 8-bit quantiser, the window-sum row loops), so that nothing here imports from above. The
+//! bilinear resize of the detectors' pyramids has its own kernels, [`crate::resize`].
 //!
 //! The algorithm files choose a kernel from [`crate::kernels::isa`] (and, inside a path, the
 //! sub-features of [`crate::kernels::features`]), check every length a kernel relies on once
@@ -14,7 +13,6 @@
 //! | f32 block products | `mul_add` chain | 8 lanes, 12-position tiles | 16 lanes, 21-position tiles | 2×4 lanes, `fmla` by lane, 12-position tiles |
 //! | 8-bit block products | i32 arithmetic | `vpmaddubsw` + `vpmaddwd`, or `vpdpbusd` ymm (AVX-VNNI) | `vpdpbusd` zmm (AVX-512 VNNI) | `sdot` (dotprod), else `smull`/`sadalp` |
 //! | 8-bit quantiser | `round(180·v)` | 8 lanes | 16 lanes + gathers | 4 lanes |
-//! | pyramid rows (HOG levels, ACF exact and approximated levels) | plain loops | horizontal: 8 outputs from 16 loaded values (`vpermps`); vertical: the loop compiled for AVX2 | horizontal: 16 outputs by `vpermt2ps` taps | horizontal: 4 outputs from 8 loaded values (`tbl`); vertical: 4 lanes |
 //! | SVM window sums | plain loops | the loops compiled for AVX2 | (AVX2's) | plain loops |
 
 use std::ops::AddAssign;
@@ -34,22 +32,8 @@ pub(crate) const TILE_K_NARROW: usize = 12;
 /// 105 = 5·21).
 pub(crate) const TILE_K_AVX512: usize = 21;
 
-/// Prefetch every cache line of `row` into L2 (no effect on results; nothing on other targets).
-pub(crate) fn prefetch_row(row: &[f32]) {
-    #[cfg(target_arch = "x86_64")]
-    for k in (0..row.len()).step_by(16) {
-        // SAFETY: prefetching an address inside a live slice has no side effects (SSE, part of
-        // the x86-64 baseline).
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T1 }>(row.as_ptr().add(k).cast())
-        };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = row;
-}
-
-// The scalar pieces the per-ISA files share with the algorithm files (score.rs and pyramid.rs
-// use them too): kept here, below both, so the kernel files import nothing from above.
+// The scalar pieces the per-ISA files share with the algorithm file (score.rs uses them too):
+// kept here, below both, so the kernel files import nothing from above.
 
 /// Scale of block values on the 8-bit path: `q = round(180·v)`. L2-Hys values lie in [0, 1] with
 /// `‖v‖₂ ≤ 1`, so two values of a block quantise to a sum of at most 255: the bound that keeps
@@ -84,45 +68,5 @@ pub(crate) fn add_window_row<T: Copy + AddAssign>(
         for (v, &p) in row.iter_mut().zip(src) {
             *v += p;
         }
-    }
-}
-
-/// The column taps of 16 consecutive outputs whose sources all lie in the `32·pairs` values from
-/// `base`: the AVX-512 horizontal pass loads those values (`2·pairs` registers) and picks each
-/// output's two taps with `vpermt2ps`, one per pair of registers, keeping the pair that holds the
-/// tap (no gathers).
-// Read only by the AVX-512 pass: built (and tested) everywhere, used on x86-64.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Perm16 {
-    /// First source value of the window.
-    pub(crate) base: u32,
-    /// Register pairs (of 32 values) the window spans.
-    pub(crate) pairs: u32,
-    /// Offsets of the left taps from `base` (< `32·pairs`).
-    pub(crate) p: [u32; 16],
-    /// Offsets of the right taps from `base`.
-    pub(crate) q: [u32; 16],
-    /// Weights of the right taps.
-    pub(crate) fx: [f32; 16],
-}
-
-/// The scalar horizontal pass of the bilinear resize from output `from` on (the reference of every
-/// path, and the SIMD passes' tails and fallbacks): `out[x] = a[p[x]] + (a[q[x]] − a[p[x]])·f[x]`.
-#[inline(always)]
-pub(crate) fn horizontal_row(a: &[f32], p: &[u32], q: &[u32], f: &[f32], out: &mut [f32], from: usize) {
-    for x in from..out.len() {
-        let (ap, aq) = (a[p[x] as usize], a[q[x] as usize]);
-        out[x] = ap + (aq - ap) * f[x];
-    }
-}
-
-/// The scalar vertical pass and a factor (the reference of every path):
-/// `out[x] = (r0[x] + (r1[x] − r0[x])·fy)·k`, each operation rounded on its own (`k = 1` leaves
-/// the interpolation's bits unchanged: a product by one is exact).
-#[inline(always)]
-pub(crate) fn vertical_row(r0: &[f32], r1: &[f32], fy: f32, k: f32, out: &mut [f32]) {
-    for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
-        *o = (v0 + (v1 - v0) * fy) * k;
     }
 }

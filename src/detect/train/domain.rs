@@ -14,7 +14,6 @@ use rand::Rng;
 
 use crate::data::{load_raw_frame, raw_profile, RawInput};
 use crate::detect::model::Domain;
-use crate::detect::pyramid::{resize_bilinear, resize_mosaic};
 use crate::features::hog::{block_grid, BlockGrid, Exec, HogInput, HogSpec, CELL_SIZE};
 use crate::image::Image;
 use crate::isp::grey::grey_from_rgb_u8;
@@ -22,6 +21,7 @@ use crate::isp::{
     raw_from_srgb, srgb_from_raw, CameraProfile, ForwardIspOptions, NoiseLevel, ReverseIspOptions,
 };
 use crate::raw::{Cfa, Colour};
+use crate::resize::{resize_bilinear, resize_mosaic};
 
 /// Offset of the 64x128 window inside the 96x160 INRIA crops, in cells.
 const POS_WINDOW_CELL: usize = 16 / CELL_SIZE;

@@ -26,13 +26,13 @@
 //!
 //! # Input pipelines of the evaluation
 //! [`InputPipeline::Sampled`] is the training convention above. [`InputPipeline::ReverseIsp`] is the
-//! paper's: every sRGB image goes through the reverse ISP ([`crate::isp::reverse`], default camera
+//! paper's: every sRGB image goes through the reverse ISP ([`raw_from_srgb`](crate::isp::raw_from_srgb), default camera
 //! profile, the chosen CFA) to a raw frame, optionally with the paper's eq. 24 noise at one of the
 //! three levels (seeded per image, so runs are deterministic), then the mosaic domain reads the raw
 //! frame directly in the model's tone ([`MosaicPrep`]: [`MosaicTone::Linear`], the raw frame as
 //! it is, or [`MosaicTone::Srgb`], each site white balanced and sRGB-encoded with the frame's own
 //! gains, which are the profile's) while the colour and grey domains see it through the forward ISP
-//! ([`crate::isp::forward`], Malvar demosaicing). A sampled mosaic is already white balanced and
+//! ([`srgb_from_raw`](crate::isp::srgb_from_raw), Malvar demosaicing). A sampled mosaic is already white balanced and
 //! sRGB-encoded, so the tone does not change it.
 //!
 //! Descriptors are read from the block grid of the whole image (positives: window (2, 2) of the

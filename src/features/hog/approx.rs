@@ -78,8 +78,8 @@ use rayon::prelude::*;
 use super::blocks::{block_grid_shape, blocks_in_bands, blocks_in_bands_with, blocks_of};
 use super::input::planes_of;
 use super::kernels::{self, CellKernel, FillKernel};
+pub use super::types::MicroGrid;
 use super::types::{cell_len, AxisTap, CellScratch, FillScratch, Taps, LEFT_PROFILES, RIGHT_PROFILES};
-pub use super::types::{f16_bits, f32_from_f16, MicroGrid};
 use super::{
     BlockGrid, Exec, GammaPlanes, HogError, HogSpec, BAND_BLOCK_ROWS, BLOCK_CELLS, CELL_SIZE, PROFILES,
 };
@@ -521,6 +521,7 @@ impl Taps {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::hog::types::{f16_bits, f32_from_f16};
     use crate::features::hog::{blocks_from_cells, cell_grid_from_gamma_planes, CellGrid, HogOptions};
 
     #[test]

@@ -273,7 +273,7 @@ impl FillScratch {
 
 /// IEEE 754 half-precision bits of `x`, rounded to nearest, ties to even (overflow to infinity,
 /// underflow through the subnormals to zero; a NaN stays a quiet NaN).
-pub fn f16_bits(x: f32) -> u16 {
+pub(super) fn f16_bits(x: f32) -> u16 {
     let b = x.to_bits();
     let sign = ((b >> 16) & 0x8000) as u16;
     let exp = ((b >> 23) & 0xff) as i32;
@@ -303,7 +303,7 @@ pub fn f16_bits(x: f32) -> u16 {
 
 /// The `f32` value of half-precision bits `h` (exact; a NaN keeps its payload and comes back
 /// quiet).
-pub fn f32_from_f16(h: u16) -> f32 {
+pub(super) fn f32_from_f16(h: u16) -> f32 {
     let sign = u32::from(h & 0x8000) << 16;
     let exp = u32::from((h >> 10) & 0x1f);
     let man = u32::from(h & 0x3ff);

@@ -8,7 +8,6 @@ use super::buffers;
 use super::kernels;
 use super::scale_space::{blur_step_with, downsample2_step_into, upsample2_step};
 use super::spec::{Keypoint, SiftSpec};
-use crate::features::superpixel::SuperPixelError;
 use crate::image::Image;
 use crate::kernels::Isa;
 
@@ -99,7 +98,7 @@ fn octave_count(base_w: usize, base_h: usize, spec: &SiftSpec) -> usize {
 }
 
 /// Build the Gaussian and DoG pyramids. `src` is already scaled to the 0..255 range.
-pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, SuperPixelError> {
+pub(crate) fn build_pyramid(src: &Image<f32>, spec: &SiftSpec) -> Result<Pyramid, super::SiftError> {
     let step = spec.step();
     let st = step as f64;
     let tp0 = std::time::Instant::now();
@@ -379,7 +378,7 @@ pub(crate) struct GradScratch {
 
 impl GradScratch {
     /// Empty every list (capacity kept).
-    pub fn clear(&mut self) {
+    pub(super) fn clear(&mut self) {
         for v in [
             &mut self.dx,
             &mut self.dy,
@@ -393,7 +392,7 @@ impl GradScratch {
     }
 
     /// Fill `mag` and `ori` from `dx` and `dy`.
-    pub fn polar(&mut self, path: Isa) {
+    pub(super) fn polar(&mut self, path: Isa) {
         let n = self.dx.len();
         self.mag.resize(n, 0.0);
         self.ori.resize(n, 0.0);

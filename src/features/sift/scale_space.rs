@@ -7,18 +7,18 @@
 //! (the paper's 2x2 super-pixel), and the result stays a valid mosaic of the same pattern. Kernel
 //! sigmas passed here are in **plane** pixels: a mosaic-pixel sigma `s` is `s / 2` on a plane.
 //!
-//! The pyramid uses `features::superpixel` (`gaussian_blur` / `blur_mosaic`, `resize_bilinear` /
-//! `resize_mosaic`, `downsample2` / `downsample2_mosaic`) through [`blur_step`], [`upsample2_step`]
-//! and [`downsample2_step`]. The plain-slice kernels below (one code path for both steps) were
-//! the stand-in before that module landed; they stay as the test oracle the super-pixel
-//! functions are checked against.
+//! The pyramid uses `features::superpixel` (`gaussian_blur` / `blur_mosaic`, `downsample2` /
+//! `downsample2_mosaic`) and the crate's one resize ([`crate::resize`]: `resize_bilinear` /
+//! `resize_mosaic`) through [`blur_step`], [`upsample2_step`] and [`downsample2_step`]. The
+//! plain-slice kernels below (one code path for both steps) were the stand-in before those
+//! modules landed; they stay as the test oracle the shared functions are checked against.
 
 use rayon::prelude::*;
 
 use super::kernels;
 use crate::features::superpixel::{
-    blur_mosaic, downsample2 as sp_downsample2, downsample2_mosaic, gaussian_blur, resize_bilinear,
-    resize_mosaic, GaussianKernel, SuperPixelError,
+    blur_mosaic, downsample2 as sp_downsample2, downsample2_mosaic, gaussian_blur, GaussianKernel,
+    SuperPixelError,
 };
 use crate::image::Image;
 use crate::kernels::Isa;
@@ -281,13 +281,16 @@ fn reflect(mut i: isize, n: usize) -> usize {
 }
 
 /// x2 bilinear upsampling of the image or of every colour plane.
-pub(crate) fn upsample2_step(src: &Image<f32>, step: usize) -> Result<Image<f32>, SuperPixelError> {
+pub(crate) fn upsample2_step(
+    src: &Image<f32>,
+    step: usize,
+) -> Result<Image<f32>, crate::resize::ResizeError> {
     let mut dst = Image::new(0, 0);
     let (w, h) = src.dimensions();
     if step == 1 {
-        resize_bilinear(src.view(), 2 * w, 2 * h, &mut dst)?;
+        crate::resize::resize_bilinear(src.view(), 2 * w, 2 * h, &mut dst)?;
     } else {
-        resize_mosaic(src.view(), 2 * w, 2 * h, &mut dst)?;
+        crate::resize::resize_mosaic(src.view(), 2 * w, 2 * h, &mut dst)?;
     }
     Ok(dst)
 }

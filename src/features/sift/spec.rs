@@ -32,6 +32,9 @@ pub enum SiftError {
     /// A scale-space operation failed (sizes are checked first, so this signals a bug).
     #[error(transparent)]
     ScaleSpace(#[from] crate::features::superpixel::SuperPixelError),
+    /// The x2 upsampling of the input failed (sizes are checked first, so this signals a bug).
+    #[error(transparent)]
+    Resize(#[from] crate::resize::ResizeError),
     /// An option is out of its range.
     #[error("SIFT option {name} = {value} is invalid (allowed: {allowed})")]
     InvalidOption {

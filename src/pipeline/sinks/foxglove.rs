@@ -71,7 +71,7 @@ pub enum LiveViewError {
 
 /// Client counts, kept by the server's listener and read by the sinks.
 #[derive(Debug, Default)]
-pub struct ClientCounts {
+pub(crate) struct ClientCounts {
     /// Clients connected now.
     pub connected: AtomicU64,
     /// Clients that connected since the start.
@@ -194,7 +194,7 @@ impl LiveView {
 
 /// What one camera's live view published, cumulative.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-pub struct LiveCounters {
+pub(crate) struct LiveCounters {
     /// Frames the sink received.
     pub frames: u64,
     /// Frames published to at least one client (an image or annotations).
@@ -209,7 +209,7 @@ pub struct LiveCounters {
 }
 
 /// One camera's live view channels, on its sink thread.
-pub struct FoxgloveSink {
+pub(crate) struct FoxgloveSink {
     camera: String,
     decimation: usize,
     preview: Channel<RawImage>,
@@ -255,7 +255,8 @@ impl FoxgloveSink {
     }
 
     /// The counters so far.
-    pub fn counters(&self) -> LiveCounters {
+    #[cfg(test)]
+    pub(crate) fn counters(&self) -> LiveCounters {
         self.counters
     }
 

@@ -33,7 +33,7 @@ use crate::wire::messages::{BoxMsg, DescriptorsMsg, DetectionsMsg, GradientsHead
 /// still subscribed (see the module documentation). A subscriber that polls at least this often
 /// receives everything up to the final stats (`mosaicd listen` and the Python client poll every
 /// millisecond).
-pub const FINAL_LINGER: Duration = Duration::from_millis(500);
+pub(crate) const FINAL_LINGER: Duration = Duration::from_millis(500);
 /// How often the linger counts the subscribers.
 const LINGER_POLL: Duration = Duration::from_millis(1);
 
@@ -62,7 +62,7 @@ pub struct IceoryxSink {
 impl IceoryxSink {
     /// A factory for the pipeline. `keypoints`: also publish the keypoints service
     /// (`compute.keypoints`); `descriptors`: and the descriptors service
-    /// (`compute.keypoint_descriptors`). The sink lingers up to [`FINAL_LINGER`] for subscribers.
+    /// (`compute.keypoint_descriptors`). The sink lingers up to `FINAL_LINGER` for subscribers.
     pub fn factory(camera: &str, cfg: &PublishConfig, keypoints: bool, descriptors: bool) -> SinkFactory {
         Self::factory_with_linger(camera, cfg, keypoints, descriptors, FINAL_LINGER)
     }
@@ -143,7 +143,7 @@ impl IceoryxSink {
         })
     }
 
-    /// The same sink with the linger `linger` instead of [`FINAL_LINGER`].
+    /// The same sink with the linger `linger` instead of `FINAL_LINGER`.
     pub fn with_linger(mut self, linger: Duration) -> Self {
         self.linger = linger;
         self
@@ -181,7 +181,7 @@ impl IceoryxSink {
 }
 
 /// The keypoints message of a result (`None` when the stage computed no keypoints).
-pub fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
+pub(crate) fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
     let kps = r.output.keypoints.as_ref()?;
     let mut m = KeypointsMsg {
         index: r.index,
@@ -197,7 +197,7 @@ pub fn keypoints_msg(r: &FrameResult) -> Option<KeypointsMsg> {
 }
 
 /// The descriptors message of a result (`None` when the stage computed no descriptors).
-pub fn descriptors_msg(r: &FrameResult) -> Option<DescriptorsMsg> {
+pub(crate) fn descriptors_msg(r: &FrameResult) -> Option<DescriptorsMsg> {
     let d = r.output.descriptors.as_ref()?;
     let mut m = DescriptorsMsg {
         index: r.index,
@@ -210,7 +210,7 @@ pub fn descriptors_msg(r: &FrameResult) -> Option<DescriptorsMsg> {
 }
 
 /// The detections message of a result.
-pub fn detections_msg(r: &FrameResult) -> DetectionsMsg {
+pub(crate) fn detections_msg(r: &FrameResult) -> DetectionsMsg {
     let mut m = DetectionsMsg {
         index: r.index,
         sequence: r.meta.sequence,

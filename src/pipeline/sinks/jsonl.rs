@@ -19,11 +19,11 @@ use super::{FrameResult, Sink, SinkError, SinkFactory};
 use crate::wire::messages::StatsMsg;
 
 /// Key under which wall-clock (non-deterministic) values are grouped.
-pub const WALL_KEY: &str = "wall";
+pub(crate) const WALL_KEY: &str = "wall";
 
 /// The JSON record of one frame (`"keypoints"` only when the stage computes them, `"descriptors"`
 /// only when it computes those: base64, one per keypoint, same order).
-pub fn frame_json(r: &FrameResult) -> serde_json::Value {
+pub(crate) fn frame_json(r: &FrameResult) -> serde_json::Value {
     let mut v = json!({
         "type": "frame",
         "camera": &*r.camera,
@@ -54,7 +54,7 @@ pub fn descriptors_json(d: &[[u8; crate::features::sift::DESCRIPTOR_LEN]]) -> se
 }
 
 /// The JSON record of a stats message.
-pub fn stats_json(camera: &str, s: &StatsMsg) -> serde_json::Value {
+pub(crate) fn stats_json(camera: &str, s: &StatsMsg) -> serde_json::Value {
     json!({
         "type": if s.is_final != 0 { "final_stats" } else { "stats" },
         "camera": camera,
@@ -75,7 +75,7 @@ pub fn stats_json(camera: &str, s: &StatsMsg) -> serde_json::Value {
 
 /// A stats record as an output file stores it: `None` for a timer-driven (periodic) record when
 /// `deterministic`, and the final record without its `"wall"` group.
-pub fn stats_record(camera: &str, s: &StatsMsg, deterministic: bool) -> Option<serde_json::Value> {
+pub(crate) fn stats_record(camera: &str, s: &StatsMsg, deterministic: bool) -> Option<serde_json::Value> {
     if deterministic && s.is_final == 0 {
         return None;
     }
@@ -114,7 +114,7 @@ pub fn strip_wall_clock(text: &str) -> String {
 }
 
 /// Writes results as JSON lines to a file.
-pub struct JsonlSink {
+pub(crate) struct JsonlSink {
     camera: String,
     path: PathBuf,
     out: std::io::BufWriter<std::fs::File>,
@@ -124,7 +124,7 @@ pub struct JsonlSink {
 impl JsonlSink {
     /// A factory for the pipeline (the file is created in the sink thread). `deterministic`
     /// leaves wall-clock values out (`daemon.deterministic_outputs`).
-    pub fn factory(camera: &str, path: PathBuf, deterministic: bool) -> SinkFactory {
+    pub(crate) fn factory(camera: &str, path: PathBuf, deterministic: bool) -> SinkFactory {
         let camera = camera.to_string();
         Box::new(move || {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -28,7 +28,7 @@ use super::{FrameResult, Sink, SinkError, SinkFactory};
 use crate::pipeline::daemon::DaemonError;
 
 /// The recorder sink.
-pub struct McapSink {
+pub(crate) struct McapSink {
     camera: String,
     recorder: McapRecorder,
     frames: bool,

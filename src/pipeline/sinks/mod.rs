@@ -11,10 +11,10 @@
 //!
 //! The engine ([`super::engine`]) imports this module, never the other way round.
 
-pub mod foxglove;
-pub mod iceoryx;
-pub mod jsonl;
-pub mod mcap;
+pub(crate) mod foxglove;
+pub(crate) mod iceoryx;
+pub(crate) mod jsonl;
+pub(crate) mod mcap;
 
 use std::sync::Arc;
 
@@ -23,10 +23,8 @@ use crate::pool::BufferPool;
 use crate::raw::{FrameMeta, RawFrame};
 use crate::wire::messages::StatsMsg;
 
-pub use jsonl::{
-    descriptors_json, frame_json, stats_json, stats_record, strip_wall_clock, CollectSink, JsonlSink,
-    WALL_KEY,
-};
+pub use jsonl::{descriptors_json, strip_wall_clock, CollectSink};
+pub(crate) use jsonl::{stats_json, JsonlSink};
 
 /// Events a sink thread receives.
 #[derive(Debug, Clone)]

@@ -21,11 +21,11 @@ fn cfa_from_rawloader(name: &str, origin: &Path) -> Result<Cfa, RawError> {
 }
 
 /// Room for a camera raw file's metadata and embedded previews on top of its samples, bytes.
-pub const CAMERA_RAW_SLACK_BYTES: u64 = 64 << 20;
+pub(super) const CAMERA_RAW_SLACK_BYTES: u64 = 64 << 20;
 
 /// The largest camera raw file accepted under `limits`: the samples of the largest frame (16 bits
 /// each; compressed files are smaller) plus [`CAMERA_RAW_SLACK_BYTES`].
-pub fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
+pub(super) fn max_camera_raw_bytes(limits: FrameLimits) -> u64 {
     limits.max_sample_bytes().saturating_add(CAMERA_RAW_SLACK_BYTES)
 }
 
@@ -41,7 +41,7 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// Load a camera raw file: a Kodak DC40/DC50 KDC (identified by its TIFF make and model, see
 /// [`crate::raw::kodak_radc`]) through our RADC decoder, anything else through `rawloader`.
 ///
-/// The file is `stat`ed first: one larger than [`max_camera_raw_bytes`] is
+/// The file is `stat`ed first: one larger than `max_camera_raw_bytes` is
 /// [`RawError::FileTooLarge`] before it is read; a decoded frame beyond the frame-size limit is
 /// [`RawError::TooLarge`] (rawloader allocates the frame its header describes while decoding:
 /// that allocation is bounded by rawloader, not by us). Before rawloader is called, three
@@ -49,10 +49,10 @@ fn decode_quietly(bytes: &[u8]) -> Result<rawloader::RawImage, rawloader::RawLoa
 /// (the file's TIFF tree, an MRW's TIFF block, a Sony file's private and SR2 IFDs, a Canon
 /// CIFF's heaps) would exceed
 /// [`MAX_TIFF_IFD_VISITS`] IFDs (counted by [`rawloader_ifd_visits`]) is [`RawError::TiffWalk`];
-/// an MRW length that wraps rawloader's 32-bit arithmetic ([`mrw_length_wrap`]) is
-/// [`RawError::MrwLength`]; a Sigma X3F ([`is_x3f`]: rawloader walks its TIFF and then decodes
-/// none) is [`RawError::Format`]; a Sony SRF ([`sony_srf_size`]) whose declared image exceeds the
-/// frame-size limit or does not fit in the file after [`SRF_DATA_OFFSET`] is
+/// an MRW length that wraps rawloader's 32-bit arithmetic (`mrw_length_wrap`) is
+/// [`RawError::MrwLength`]; a Sigma X3F (`is_x3f`: rawloader walks its TIFF and then decodes
+/// none) is [`RawError::Format`]; a Sony SRF (`sony_srf_size`) whose declared image exceeds the
+/// frame-size limit or does not fit in the file after `SRF_DATA_OFFSET` is
 /// [`RawError::SrfSize`] (rawloader reserves `width * height * 2` bytes for it before reading
 /// any: a failed reservation aborts the process).
 pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
@@ -64,7 +64,7 @@ pub fn load_camera_raw(path: &Path) -> Result<RawFrame, RawError> {
 /// Decode the bytes of a camera raw file already in memory: everything [`load_camera_raw`] does
 /// after its read (it calls this), with the same checks and errors; `path` names the source in
 /// errors and in the frame's metadata. The caller bounds the bytes' length
-/// ([`max_camera_raw_bytes`] is the file loader's bound).
+/// (`max_camera_raw_bytes` is the file loader's bound).
 pub fn camera_raw_from_bytes(bytes: &[u8], path: &Path) -> Result<RawFrame, RawError> {
     let limits = FrameLimits::process();
     if let Some(info) = kodak_radc::identify(bytes) {

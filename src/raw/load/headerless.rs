@@ -180,7 +180,7 @@ pub fn load_headerless(path: &Path, fmt: &RawFormat) -> Result<RawFrame, RawErro
 }
 
 /// The headerless format described by `opts` for the file at `path`.
-pub fn headerless_format(path: &Path, opts: &InputOptions) -> Result<RawFormat, RawError> {
+pub(crate) fn headerless_format(path: &Path, opts: &InputOptions) -> Result<RawFormat, RawError> {
     let (Some(width), Some(height)) = (opts.width, opts.height) else {
         return Err(format_err(
             path,

@@ -18,7 +18,7 @@
 //! BMP colour images through [`decode_image`]) and `camera` (rawloader and Kodak RADC).
 //!
 //! ```
-//! use mosaicd::raw::load::{frame_from_bytes, Container, Endian, RawFormat};
+//! use mosaicd::raw::{frame_from_bytes, Container, Endian, RawFormat};
 //! use mosaicd::raw::{Cfa, Levels};
 //! // 2x2, 10-bit, little-endian u16: values 1, 2, 3, 1023
 //! let bytes = [1u8, 0, 2, 0, 3, 0, 0xff, 0x03];
@@ -52,7 +52,7 @@
 //! References: Netpbm PGM specification (16-bit samples are big-endian); PNG specification
 //! (16-bit samples are big-endian, the `png`/`image` crates return native values).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::RawError;
 
@@ -64,15 +64,15 @@ mod png;
 mod rgb;
 mod tiff_walk;
 
-pub use camera::{camera_raw_from_bytes, load_camera_raw, max_camera_raw_bytes, CAMERA_RAW_SLACK_BYTES};
+pub use camera::{camera_raw_from_bytes, load_camera_raw};
 pub use common::{Container, Endian, InputOptions, LoadedInput, MosaicFormat};
-pub use headerless::{frame_from_bytes, headerless_format, load_headerless, RawFormat};
-pub use pgm::{load_pgm_mosaic, pgm_from_bytes, pgm_mosaic_from_bytes, write_pgm, MAX_PGM_HEADER_BYTES};
-pub use png::{load_png_mosaic, png_mosaic_meta, write_png16, PngMosaicMeta, PNG_TEXT_KEY};
-pub use rgb::{decode_image, decode_image_bytes, load_rgb8};
-pub use tiff_walk::{
-    is_x3f, mrw_length_wrap, rawloader_ifd_visits, sony_srf_size, MAX_TIFF_IFD_VISITS, SRF_DATA_OFFSET,
-};
+pub(crate) use headerless::headerless_format;
+pub use headerless::{frame_from_bytes, load_headerless, RawFormat};
+pub(crate) use pgm::{load_pgm_mosaic, pgm_mosaic_from_bytes};
+pub use png::load_png_mosaic;
+pub use rgb::decode_image;
+pub(crate) use rgb::{decode_image_bytes, load_rgb8};
+pub use tiff_walk::{rawloader_ifd_visits, MAX_TIFF_IFD_VISITS};
 
 use common::need_cfa;
 use png::{png_header, png_header_from, png_mosaic_from_image};
@@ -190,8 +190,9 @@ fn load_from(src: Src<'_>, opts: &InputOptions) -> Result<LoadedInput, RawError>
 }
 
 /// A path for error messages when there is no file.
-pub fn memory_origin() -> PathBuf {
-    PathBuf::from("<memory>")
+#[cfg(test)]
+pub(crate) fn memory_origin() -> std::path::PathBuf {
+    std::path::PathBuf::from("<memory>")
 }
 
 #[cfg(test)]

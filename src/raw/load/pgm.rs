@@ -2,15 +2,18 @@
 
 use std::path::Path;
 
-use super::common::{bits_for, format_err, io_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
+use super::common::{bits_for, format_err, mosaic_frame, read_at_most, too_large, MosaicFormat};
 use crate::raw::{FrameLimits, RawError, RawFrame, RawPixels};
 
 /// Room for a PGM's header and comments on top of its samples, bytes.
-pub const MAX_PGM_HEADER_BYTES: u64 = 1 << 20;
+pub(super) const MAX_PGM_HEADER_BYTES: u64 = 1 << 20;
 
 /// Parse a binary PGM (`P5`) from bytes: width, height, maxval, samples (big-endian when
 /// maxval > 255, as the Netpbm specification says).
-pub fn pgm_from_bytes(bytes: &[u8], origin: &Path) -> Result<(usize, usize, u16, RawPixels), RawError> {
+pub(super) fn pgm_from_bytes(
+    bytes: &[u8],
+    origin: &Path,
+) -> Result<(usize, usize, u16, RawPixels), RawError> {
     let bad = |what: &str| format_err(origin, format!("not a binary PGM (P5): {what}"));
     if bytes.len() < 2 || &bytes[..2] != b"P5" {
         return Err(bad("magic number is not P5"));
@@ -119,7 +122,7 @@ pub fn pgm_from_bytes(bytes: &[u8], origin: &Path) -> Result<(usize, usize, u16,
 ///
 /// The file is `stat`ed first: one larger than the largest frame within the frame-size limit
 /// plus [`MAX_PGM_HEADER_BYTES`] is refused before it is read.
-pub fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawError> {
+pub(crate) fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawError> {
     let max = FrameLimits::process()
         .max_sample_bytes()
         .saturating_add(MAX_PGM_HEADER_BYTES);
@@ -129,14 +132,19 @@ pub fn load_pgm_mosaic(path: &Path, fmt: &MosaicFormat) -> Result<RawFrame, RawE
 
 /// A binary PGM (`P5`) mosaic from bytes already in memory: what [`load_pgm_mosaic`] does after
 /// its read (it calls this). `origin` names the source in errors and in the frame's metadata.
-pub fn pgm_mosaic_from_bytes(bytes: &[u8], fmt: &MosaicFormat, origin: &Path) -> Result<RawFrame, RawError> {
+pub(crate) fn pgm_mosaic_from_bytes(
+    bytes: &[u8],
+    fmt: &MosaicFormat,
+    origin: &Path,
+) -> Result<RawFrame, RawError> {
     let (w, h, maxval, pixels) = pgm_from_bytes(bytes, origin)?;
     mosaic_frame(w, h, pixels, bits_for(maxval as u32), fmt, origin)
 }
 
 /// Write a frame as a binary PGM (`P5`) with maxval `2^bit_depth - 1` (big-endian 16-bit samples
 /// when the bit depth exceeds 8).
-pub fn write_pgm(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
+#[cfg(test)]
+pub(super) fn write_pgm(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let maxval = frame.max_value();
     let mut out = format!("P5\n{} {}\n{}\n", frame.width(), frame.height(), maxval).into_bytes();
     for v in frame.to_u16_vec() {
@@ -146,7 +154,7 @@ pub fn write_pgm(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
             out.push(v as u8);
         }
     }
-    std::fs::write(path, out).map_err(|e| io_err(path, e))
+    std::fs::write(path, out).map_err(|e| super::common::io_err(path, e))
 }
 
 #[cfg(test)]

@@ -37,11 +37,11 @@ pub(super) fn png_mosaic_from_image(
 
 /// Keyword of the PNG `tEXt` chunk in which [`write_png16`] records the pattern, bit depth and
 /// levels, so that our own mosaic PNGs load without flags.
-pub const PNG_TEXT_KEY: &str = "mosaicd-mosaic";
+pub(super) const PNG_TEXT_KEY: &str = "mosaicd-mosaic";
 
 /// What a mosaic PNG written by [`write_png16`] says about itself.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PngMosaicMeta {
+pub(super) struct PngMosaicMeta {
     /// Pattern at (0, 0).
     pub cfa: Cfa,
     /// Significant bits.
@@ -52,7 +52,8 @@ pub struct PngMosaicMeta {
 
 impl PngMosaicMeta {
     /// The text stored in the chunk: `cfa=RGGB bit_depth=14 black=600,600,600,600 white=15520`.
-    pub fn to_text(&self) -> String {
+    #[cfg(test)]
+    pub(super) fn to_text(self) -> String {
         let b = self.levels.black;
         format!(
             "cfa={} bit_depth={} black={},{},{},{} white={}",
@@ -61,7 +62,7 @@ impl PngMosaicMeta {
     }
 
     /// Parse [`PngMosaicMeta::to_text`]'s format; every field is required.
-    pub fn parse(text: &str) -> Option<Self> {
+    pub(super) fn parse(text: &str) -> Option<Self> {
         let (mut cfa, mut bits, mut black, mut white) = (None, None, None, None);
         for field in text.split_whitespace() {
             let (k, v) = field.split_once('=')?;
@@ -89,7 +90,8 @@ impl PngMosaicMeta {
 
 /// Write a frame as a 16-bit grey PNG: values as stored (not scaled), with the pattern, bit depth
 /// and levels in a `tEXt` chunk ([`PNG_TEXT_KEY`]) that [`super::load_input`] reads.
-pub fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
+#[cfg(test)]
+pub(super) fn write_png16(frame: &RawFrame, path: &Path) -> Result<(), RawError> {
     let (w, h) = (frame.width(), frame.height());
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
         return Err(format_err(path, format!("frame {w}x{h} too large for PNG")));
@@ -150,7 +152,8 @@ pub(super) fn png_header_from<R: std::io::BufRead + std::io::Seek>(
 }
 
 /// Read the mosaic description [`write_png16`] stores in a PNG, if any.
-pub fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
+#[cfg(test)]
+pub(super) fn png_mosaic_meta(path: &Path) -> Result<Option<PngMosaicMeta>, RawError> {
     Ok(png_header(path)?.1)
 }
 

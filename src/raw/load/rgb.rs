@@ -11,7 +11,7 @@ use crate::raw::{Cfa, FrameLimits, RawError};
 /// frame-size limit: the header's width and height are checked against
 /// [`FrameLimits::process`] before any pixel is decoded, and the decoder's own allocations are
 /// capped ([`FrameLimits::image_limits`]). Every image decode in mosaicd goes through here or
-/// through [`decode_image_bytes`].
+/// through `decode_image_bytes`.
 pub fn decode_image(path: &Path) -> Result<image::DynamicImage, RawError> {
     let reader = image::ImageReader::open(path).map_err(|e| io_err(path, e))?;
     decode_within_limits(reader, path)
@@ -19,7 +19,7 @@ pub fn decode_image(path: &Path) -> Result<image::DynamicImage, RawError> {
 
 /// [`decode_image`] for an image already in memory: the format is the one `origin`'s extension
 /// names (as for a file), the same limits apply, and `origin` names the source in errors.
-pub fn decode_image_bytes(bytes: &[u8], origin: &Path) -> Result<image::DynamicImage, RawError> {
+pub(crate) fn decode_image_bytes(bytes: &[u8], origin: &Path) -> Result<image::DynamicImage, RawError> {
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
     if let Ok(format) = image::ImageFormat::from_path(origin) {
         reader.set_format(format);
@@ -48,7 +48,7 @@ fn decode_within_limits<R: std::io::BufRead + std::io::Seek>(
 }
 
 /// Load an 8-bit RGB (or RGBA, alpha dropped) PNG, JPEG or BMP.
-pub fn load_rgb8(path: &Path) -> Result<Image<[u8; 3]>, RawError> {
+pub(crate) fn load_rgb8(path: &Path) -> Result<Image<[u8; 3]>, RawError> {
     rgb8_from_image(decode_image(path)?, path)
 }
 

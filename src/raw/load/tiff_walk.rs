@@ -88,7 +88,7 @@ pub fn rawloader_ifd_visits(bytes: &[u8], limit: u64) -> u64 {
 
 /// Where rawloader 0.37's Sony SRF decoder (`ArwDecoder::image_srf`) reads the samples: 16-bit,
 /// `width * height * 2` bytes (encrypted) from this byte of the file (a constant from dcraw).
-pub const SRF_DATA_OFFSET: u64 = 862_144;
+pub(super) const SRF_DATA_OFFSET: u64 = 862_144;
 
 /// The image size a Sony SRF declares, `Some((width, height))`, when `rawloader::decode` would
 /// take its SRF path for `bytes`; `None` otherwise (and when the TIFF walk exceeds
@@ -103,7 +103,7 @@ pub const SRF_DATA_OFFSET: u64 = 862_144;
 /// reservation aborts the process (rawloader's `catch_unwind` cannot catch it). The samples
 /// are read from [`SRF_DATA_OFFSET`], so a real file holds `SRF_DATA_OFFSET + width * height *
 /// 2` bytes at least.
-pub fn sony_srf_size(bytes: &[u8]) -> Option<(u32, u32)> {
+pub(super) fn sony_srf_size(bytes: &[u8]) -> Option<(u32, u32)> {
     let mut w = Walker::new(bytes, PAD, MAX_TIFF_IFD_VISITS);
     let (_, f) = w.tiff_tree().ok()??;
     let srf = f[F_DNG].is_none()
@@ -749,7 +749,7 @@ fn mrw_blocks(bytes: &[u8]) -> Mrw {
 /// checks on (debug builds: rawloader catches it) and wraps without (release builds): a block
 /// length of `0xFFFF_FFF8` then steps by 0 and the loop never ends (a 52-byte file keeps
 /// `mosaicd gradients` busy forever). `None` for any other file, MRW or not.
-pub fn mrw_length_wrap(bytes: &[u8]) -> Option<(usize, u32)> {
+pub(super) fn mrw_length_wrap(bytes: &[u8]) -> Option<(usize, u32)> {
     let buf = Padded { bytes, pad: PAD };
     if buf.u32(0, true) != Some(MRW_MAGIC) {
         return None;
@@ -763,7 +763,7 @@ pub fn mrw_length_wrap(bytes: &[u8]) -> Option<(usize, u32)> {
 /// A Sigma X3F (`FOVb`): rawloader 0.37 walks its embedded TIFF root (unbounded like any other)
 /// and then decodes no X3F image (its one compressed format returns "not implemented"; X3F
 /// holds three colours per pixel, not a mosaic), so such files are refused before rawloader.
-pub fn is_x3f(bytes: &[u8]) -> bool {
+pub(super) fn is_x3f(bytes: &[u8]) -> bool {
     bytes.starts_with(b"FOVb")
 }
 

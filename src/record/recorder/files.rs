@@ -14,7 +14,7 @@ use crate::wire::RecordError;
 pub const WALL_CLOCK_METADATA: &str = "mosaicd.clock";
 
 /// The [`WALL_CLOCK_METADATA`] record of a reading.
-pub fn wall_clock_metadata(w: &WallClock) -> mcap::records::Metadata {
+pub(crate) fn wall_clock_metadata(w: &WallClock) -> mcap::records::Metadata {
     let metadata = BTreeMap::from([
         ("timestamps".to_string(), "CLOCK_MONOTONIC".to_string()),
         (

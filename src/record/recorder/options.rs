@@ -8,10 +8,10 @@ use crate::clock::WallClockSource;
 use crate::wire::RecordError;
 
 /// Default uncompressed chunk size target (bytes): a few 1080p frames per chunk at most.
-pub const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
+pub(super) const DEFAULT_CHUNK_SIZE: u64 = 8 * 1024 * 1024;
 
 /// Default flush cadence in frames (a crash loses at most this many frames).
-pub const DEFAULT_FLUSH_FRAMES: u32 = 30;
+pub(crate) const DEFAULT_FLUSH_FRAMES: u32 = 30;
 
 /// Default zstd level: level 1 is about 4x faster than zstd's default (3) on noisy 12-bit 1080p
 /// frames for a file about 2 % larger (measured: docs/recording.md).

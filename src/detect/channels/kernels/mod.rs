@@ -9,9 +9,8 @@
 //! | block aggregation: magnitude and six orientation sums of 4x4 pixels | per block | 8 blocks (4x8 transposition) | 8 blocks (`vld4`) |
 //! | Dollár's LUV of `(r, g, b)` | per value | 8 values | 4 values |
 //!
-//! The resampling of the approximated levels is the detector's one bilinear resize
-//! ([`crate::detect::pyramid::resize_planes_scaled`]), whose kernels are in
-//! [`crate::detect::kernels`].
+//! The resampling of the approximated levels is the crate's one bilinear resize
+//! ([`crate::resize::resize_planes_scaled`]), which has its own kernels.
 //!
 //! Every kernel is the same IEEE operations in the same order on every path (multiplications
 //! and additions kept separate, never fused; `sqrt` and division correctly rounded; each block
