@@ -1,15 +1,15 @@
 //! `mosaicd train --detector acf` (training and `--acf-evaluate`). `mosaicd detect`, `eval
-//! detection` and `bench detect` run ACF models through [`mosaicd::detect::people`].
+//! detection` and `bench detect` run ACF models through [`mosaicd::detect::PeopleDetector`].
 
 use std::time::Instant;
 
 use anyhow::Context;
-use mosaicd::detect::AcfModel;
 use mosaicd::detect::PyramidOptions;
 use mosaicd::detect::{
     calibrate_cascade, evaluate_acf_windows, positive_windows, set_trace, train_acf, AcfTrainOptions,
 };
 use mosaicd::detect::{inner_split, inner_val_fraction, list_negative_dirs, split_data, InputPipeline};
+use mosaicd::detect::{AcfModel, FeatureSet};
 use mosaicd::detect::{BoostOptions, TraceOptions, TreeOptions};
 use mosaicd::raw::Gains;
 
@@ -65,6 +65,10 @@ pub fn train(a: &TrainArgs) -> anyhow::Result<()> {
             discrete: !x.acf_real,
             ..BoostOptions::default()
         },
+        features: FeatureSet::ALL
+            .into_iter()
+            .find(|f| f.name() == x.acf_features)
+            .context("--acf-features: all or gradient")?,
         n_neg: x.acf_neg,
         per_neg: x.acf_per_neg,
         acc_neg: x.acf_acc_neg,
@@ -255,19 +259,18 @@ mod tests {
         train: TrainArgs,
     }
 
+    /// `mosaicd train --detector acf --domain mosaic --out m.json` followed by `extra`.
+    fn acf(extra: &[&str]) -> Result<Cli, clap::Error> {
+        let base = ["x", "--detector", "acf", "--domain", "mosaic", "--out", "m.json"];
+        Cli::try_parse_from(base.iter().chain(extra))
+    }
+
     #[test]
     fn train_parses_the_acf_options_and_keeps_hog_the_default() {
         let c = Cli::try_parse_from(["x", "--domain", "mosaic", "--out", "m.json"]).unwrap();
         assert_eq!(c.train.detector, DetectorArg::Hog);
         assert_eq!(c.train.acf.acf_stages, vec![32, 128, 512, 2048]);
-        let c = Cli::try_parse_from([
-            "x",
-            "--detector",
-            "acf",
-            "--domain",
-            "mosaic",
-            "--out",
-            "m.json",
+        let c = acf(&[
             "--acf-stages",
             "4,8",
             "--acf-lambdas",
@@ -280,5 +283,9 @@ mod tests {
         assert_eq!(c.train.acf.acf_stages, vec![4, 8]);
         assert_eq!(c.train.acf.acf_lambdas, Some(vec![0.0, 0.1, 0.1]));
         assert_eq!(c.train.acf.acf_casc_thr, Some(-8.0));
+        assert_eq!(c.train.acf.acf_features, "all");
+        let c = acf(&["--acf-features", "gradient"]).unwrap();
+        assert_eq!(c.train.acf.acf_features, "gradient");
+        assert!(acf(&["--acf-features", "luv"]).is_err());
     }
 }

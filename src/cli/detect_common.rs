@@ -516,6 +516,10 @@ pub struct AcfTrainArgs {
     /// ACF: Real AdaBoost instead of discrete (Dollár's and our default).
     #[arg(long)]
     pub acf_real: bool,
+    /// ACF: the channels the trees may read, written into the model: `all` (Dollár's) or
+    /// `gradient` (magnitude and orientations, no colour channel: a channel ablation).
+    #[arg(long, default_value = "all", value_parser = ["all", "gradient"])]
+    pub acf_features: String,
     /// ACF: negative windows sampled per stage (nNeg).
     #[arg(long, default_value_t = 5000)]
     pub acf_neg: usize,

@@ -9,6 +9,8 @@
 //!   "domain": "mosaic",              // mosaic | grey | colour: the input it was trained on
 //!   "win_width": 64, "win_height": 128,   // pixels; features: 10 x 16 x 32 blocks
 //!   "channels": { ChannelOptions }, "pyramid": { PyramidOptions },
+//!   "features": "gradient",               // optional (absent: "all"): the channels the trees may
+//!                                         // read ([`FeatureSet`]; a channel ablation)
 //!   "casc_thr": -1.0, "casc_cal": 0.005,  // soft cascade (casc_cal already added to the leaves)
 //!   "casc_trace": [r_1, …, r_T],          // optional: calibrated per-tree rejection (replaces
 //!                                         // casc_thr while scoring; boost::calibrate_trace)
@@ -42,7 +44,7 @@ use super::model::{Domain, ModelError, MAX_MODEL_FILE_BYTES};
 use super::nms::{greedy_nms, group_rectangles};
 use crate::detect::channels::{
     pyramid, ChannelInput, ChannelOptions, ChannelPyramid, ChannelSpec, Channels, ChannelsError,
-    PyramidOptions, N_CHANNELS, SHRINK,
+    PyramidOptions, MAG_CHANNEL, N_CHANNELS, SHRINK,
 };
 use crate::geometry::Detection;
 use crate::raw::tone::MosaicTone;
@@ -82,6 +84,47 @@ pub enum AcfError {
     },
 }
 
+/// The channels a model's trees may read. Every channel is still computed (the pyramid is the
+/// same); a model that reads fewer only never splits on the others, which [`AcfModel::validate`]
+/// checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FeatureSet {
+    /// All ten channels (Dollár's).
+    #[default]
+    All,
+    /// The gradient magnitude and the six orientation channels: no colour (L, U, V) feature.
+    Gradient,
+}
+
+impl FeatureSet {
+    /// Both, for loops and option parsing.
+    pub const ALL: [FeatureSet; 2] = [FeatureSet::All, FeatureSet::Gradient];
+
+    /// The name in model files and on the command line: `all` or `gradient`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FeatureSet::All => "all",
+            FeatureSet::Gradient => "gradient",
+        }
+    }
+
+    /// The first channel the trees may read (the readable channels are this one and the ones
+    /// after it).
+    pub fn first_channel(self) -> usize {
+        match self {
+            FeatureSet::All => 0,
+            FeatureSet::Gradient => MAG_CHANNEL,
+        }
+    }
+
+    /// Whether this is the default, [`FeatureSet::All`] (not written into model files, so files
+    /// from before the option are written back byte for byte).
+    pub fn is_all(&self) -> bool {
+        *self == FeatureSet::All
+    }
+}
+
 /// A trained ACF detector.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AcfModel {
@@ -97,6 +140,9 @@ pub struct AcfModel {
     pub win_height: usize,
     /// Channel options.
     pub channels: ChannelOptions,
+    /// The channels the trees may read (absent in files from before the option: all).
+    #[serde(default, skip_serializing_if = "FeatureSet::is_all")]
+    pub features: FeatureSet,
     /// Pyramid options (per octave, approximated levels, λ; `upsample` is the default).
     pub pyramid: PyramidOptions,
     /// Soft-cascade threshold.
@@ -177,6 +223,18 @@ impl AcfModel {
         }
         ChannelSpec::new(self.channels)?;
         self.classifier.validate()?;
+        let (w, h) = self.window_blocks();
+        let first = (self.features.first_channel() * w * h) as u32;
+        for (i, t) in self.classifier.trees.iter().enumerate() {
+            if let Some(k) = (0..t.fid.len()).find(|&k| t.child[k] != 0 && t.fid[k] < first) {
+                return bad(format!(
+                    "features \"{}\": tree {i} node {k} reads feature {} of channel {}",
+                    self.features.name(),
+                    t.fid[k],
+                    t.fid[k] as usize / (w * h)
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -630,6 +688,7 @@ mod tests {
             win_width: 64,
             win_height: 128,
             channels: ChannelOptions::default(),
+            features: FeatureSet::All,
             pyramid: PyramidOptions::default(),
             casc_thr: CASC_THR,
             casc_cal: 0.0,
@@ -695,6 +754,55 @@ mod tests {
         let hog = dir.path().join("hog.json");
         std::fs::write(&hog, r#"{"format":"mosaicd-hog-svm"}"#).unwrap();
         assert!(!is_acf_model_file(&hog));
+    }
+
+    #[test]
+    fn feature_set_is_written_only_when_not_all_and_validated() {
+        // the default is not written: a file from before the option reads as `all`
+        let m = stump_model(0, 0, 0, 0.5);
+        let text = m.to_json();
+        assert!(!text.contains("\"features\""), "{text}");
+        assert_eq!(
+            AcfModel::from_json(&text, "test").unwrap().features,
+            FeatureSet::All
+        );
+        // a gradient model round-trips with the key
+        let mut g = stump_model(MAG_CHANNEL + 2, 3, 4, 0.1);
+        g.features = FeatureSet::Gradient;
+        let text = g.to_json();
+        assert!(text.contains("\"features\":\"gradient\""), "{text}");
+        assert_eq!(AcfModel::from_json(&text, "test").unwrap(), g);
+        // a gradient model reading a colour feature is refused, naming tree, node and channel;
+        // the last colour feature and the first gradient one are the boundary
+        for (c, x, y, ok) in [(0, 0, 0, false), (2, 15, 31, false), (MAG_CHANNEL, 0, 0, true)] {
+            let mut b = stump_model(c, x, y, 0.5);
+            b.features = FeatureSet::Gradient;
+            match b.validate("x") {
+                Ok(()) => assert!(ok, "channel {c} accepted"),
+                Err(AcfError::Invalid { what, .. }) => {
+                    assert!(!ok, "{what}");
+                    assert!(what.contains("tree 0 node 0 reads feature"), "{what}");
+                    assert!(what.ends_with(&format!("of channel {c}")), "{what}");
+                }
+                Err(e) => panic!("{e}"),
+            }
+        }
+        assert_eq!(FeatureSet::Gradient.first_channel(), MAG_CHANNEL);
+        assert_eq!(FeatureSet::All.first_channel(), 0);
+    }
+
+    #[test]
+    fn shipped_models_read_and_write_back_unchanged() {
+        // the shipped files predate `features`: they load as `all` and serialise to the same JSON
+        for f in ["acf-mosaic.json", "acf-colour.json"] {
+            let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(f);
+            let text = std::fs::read_to_string(&p).unwrap();
+            let m = AcfModel::load(&p).unwrap();
+            assert_eq!(m.features, FeatureSet::All, "{f}");
+            let want: serde_json::Value = serde_json::from_str(&text).unwrap();
+            let got: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+            assert!(got == want, "{f} changed when written back");
+        }
     }
 
     #[test]

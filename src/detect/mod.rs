@@ -18,7 +18,7 @@ pub(crate) mod svm;
 pub(crate) mod train;
 
 pub use crate::geometry::Detection;
-pub use acf::{AcfDetector, AcfError, AcfModel, AcfOptions, AcfStats, CASC_THR};
+pub use acf::{AcfDetector, AcfError, AcfModel, AcfOptions, AcfStats, FeatureSet, CASC_THR};
 pub use boost::{train_adaboost, BoostError, BoostOptions, BoostedTrees, TraceOptions, Tree, TreeOptions};
 pub use channels::{
     channels, pyramid, ChannelInput, ChannelOptions, ChannelPyramid, ChannelSpec, Channels, ChannelsError,

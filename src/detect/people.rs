@@ -430,6 +430,7 @@ mod tests {
             win_width: 64,
             win_height: 128,
             channels: ChannelOptions::default(),
+            features: super::super::acf::FeatureSet::All,
             pyramid: PyramidOptions::default(),
             casc_thr: -1.0,
             casc_cal: 0.0,

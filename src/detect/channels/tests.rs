@@ -416,6 +416,14 @@ fn small_levels() -> PyramidOptions {
     }
 }
 
+/// Every value of every level, as bits.
+fn pyramid_bits(p: &ChannelPyramid) -> Vec<u32> {
+    p.levels
+        .iter()
+        .flat_map(|l| l.channels.as_slice().iter().map(|v| v.to_bits()))
+        .collect()
+}
+
 #[test]
 fn kernel_paths_give_the_same_channels_and_pyramid() {
     // every input kind, every option that changes the pass (input smoothing, the normalisation
@@ -425,20 +433,32 @@ fn kernel_paths_give_the_same_channels_and_pyramid() {
     let inputs = s.inputs();
     let specs = option_sets();
     let opts = small_levels();
-    let bits = |p: &ChannelPyramid| -> Vec<u32> {
-        p.levels
-            .iter()
-            .flat_map(|l| l.channels.as_slice().iter().map(|v| v.to_bits()))
-            .collect()
-    };
     for spec in &specs {
         for input in &inputs {
             let want = pyramid_on(crate::kernels::Isa::Scalar, input, spec, &opts).unwrap();
             assert_eq!(want.levels.len(), 18);
             for isa in crate::kernels::Isa::available() {
                 let got = pyramid_on(isa, input, spec, &opts).unwrap();
-                assert!(bits(&got) == bits(&want), "{isa}: {spec:?}");
+                assert!(pyramid_bits(&got) == pyramid_bits(&want), "{isa}: {spec:?}");
             }
+        }
+    }
+}
+
+#[test]
+fn grey_is_colour_with_equal_planes() {
+    // "the same features on colour and grey images": a grey image and the colour image with
+    // r = g = b have the same channels and pyramid bit for bit on every path (the strongest of
+    // three equal gradients is the one gradient; LUV of equal values either way)
+    let s = Scenes::new();
+    let rgb = s.grey.map(|v| [v, v, v]);
+    let opts = small_levels();
+    for spec in &option_sets() {
+        for isa in crate::kernels::Isa::available() {
+            let g = pyramid_on(isa, &ChannelInput::GreyU8(s.grey.view()), spec, &opts).unwrap();
+            let c = pyramid_on(isa, &ChannelInput::Rgb8(rgb.view()), spec, &opts).unwrap();
+            assert_eq!(g.levels.len(), 18);
+            assert!(pyramid_bits(&g) == pyramid_bits(&c), "{isa}: {spec:?}");
         }
     }
 }

@@ -15,6 +15,12 @@
 //! adds them to a random subset of the earlier negatives so that at most
 //! `max(n_neg, acc_neg)` are kept (Dollár's `nAccNeg`).
 //!
+//! # Channel ablation
+//! With [`FeatureSet::Gradient`] boosting sees each window's features without those of the
+//! colour channels (the first three planes of the channel-major window), and the trees' feature
+//! indices are shifted back after boosting: the model reads the same windows of the same
+//! pyramid, never a colour feature. The default ([`FeatureSet::All`]) trains as before.
+//!
 //! # Where we differ from Dollár
 //! * Negative windows' features are read from the detector's pyramid (approximated levels
 //!   included), not recomputed from a crop resized to the window: what the detector sees.
@@ -36,7 +42,9 @@ use super::domain::{image_seed, load_rgb, DomainImage, InputPipeline, NEG_SEED_O
 use super::error::TrainError;
 use super::split::{inner_split, Split};
 use super::windows::{held_out_negative, photo_indices, window_eval, WindowEval};
-use crate::detect::acf::{AcfDetector, AcfError, AcfModel, AcfOptions, CASC_CAL, CASC_THR, FORMAT, VERSION};
+use crate::detect::acf::{
+    AcfDetector, AcfError, AcfModel, AcfOptions, FeatureSet, CASC_CAL, CASC_THR, FORMAT, VERSION,
+};
 use crate::detect::boost::{calibrate_trace, train_adaboost, BoostOptions, TraceOptions};
 use crate::detect::channels::{
     channels, measure_lambdas, pyramid, ChannelInput, ChannelOptions, ChannelSpec, PyramidOptions, SHRINK,
@@ -79,6 +87,9 @@ pub struct AcfTrainOptions {
     pub boost: BoostOptions,
     /// Channel options.
     pub channels: ChannelOptions,
+    /// The channels the trees may read (written into the model): all, or a channel ablation
+    /// ([`FeatureSet::Gradient`]: boosting sees only the features of the gradient channels).
+    pub features: FeatureSet,
     /// Pyramid options (for the negatives and written into the model).
     pub pyramid: PyramidOptions,
     /// Negative windows sampled per stage (`nNeg`).
@@ -112,6 +123,7 @@ impl Default for AcfTrainOptions {
             stages: vec![32, 128, 512, 2048],
             boost: BoostOptions::default(),
             channels: ChannelOptions::default(),
+            features: FeatureSet::All,
             pyramid: PyramidOptions::default(),
             n_neg: 5000,
             per_neg: 25,
@@ -162,6 +174,7 @@ fn model_of(
         win_width: o.pyramid.min_size.0,
         win_height: o.pyramid.min_size.1,
         channels: o.channels,
+        features: o.features,
         pyramid: pyr,
         casc_thr: o.casc_thr,
         casc_cal: CASC_CAL,
@@ -245,9 +258,17 @@ pub fn train_acf(
         .enumerate()
         .map(|(i, p)| DomainImage::from_rgb_via(&load_rgb(p)?, o.domain, o.cfa, &o.pipeline, i as u64, &prep))
         .collect::<Result<_, _>>()?;
+    // Boosting sees the features from the first readable channel on (the window's features are
+    // channel-major): `skip` features are dropped from every sample, and added back to the trees'
+    // feature indices after boosting.
+    let skip = o.features.first_channel() * win.0 * win.1;
+    let readable = |mut x: Vec<f32>| {
+        x.drain(..skip);
+        x
+    };
     let x1: Vec<Vec<f32>> = pos_imgs
         .par_iter()
-        .map(|img| positive_features(&spec, img, o.cfa, win))
+        .map(|img| positive_features(&spec, img, o.cfa, win).map(readable))
         .collect::<Result<_, _>>()?;
     progress(&format!(
         "acf: {} positive windows ({:.1} s)",
@@ -389,7 +410,7 @@ pub fn train_acf(
                     .collect::<Result<_, TrainError>>()?
             }
         };
-        let mut new: Vec<Vec<f32>> = fresh.into_iter().flatten().collect();
+        let mut new: Vec<Vec<f32>> = fresh.into_iter().flatten().map(readable).collect();
         let mut rng = stream(usize::MAX >> 40);
         if new.len() > o.n_neg {
             let keep = sorted_sample(&mut rng, new.len(), o.n_neg);
@@ -420,6 +441,7 @@ pub fn train_acf(
         let mut prog = |s: &str| progress(&format!("acf stage {stage}: {s}"));
         let mut clf = train_adaboost(&x0, &x1, &boost, &mut prog)?;
         clf.calibrate(CASC_CAL);
+        shift_features(&mut clf, skip);
         let trees = clf.trees.len();
         model = Some(model_of(o, pyr, boost, clf));
         let secs = ts.elapsed().as_secs_f64();
@@ -438,6 +460,7 @@ pub fn train_acf(
         "input_pipeline": o.pipeline.name(), "mosaic_tone": o.mosaic_tone,
         "stages": o.stages, "n_neg": o.n_neg, "per_neg": o.per_neg, "acc_neg": o.acc_neg,
         "max_neg_images": o.max_neg_images, "lambdas_measured": o.measure_lambdas,
+        "features": o.features.name(),
         "train_positives": split.train_pos.len(), "train_negative_images": negs.len(),
         "positive_windows": x1.len(),
         "stage_log": stages_log,
@@ -452,6 +475,19 @@ pub fn train_acf(
         set_trace(&mut m, &trace, t, &src);
     }
     Ok(m)
+}
+
+/// The trees of `clf`, boosted on features without the first `skip` of each window, read the
+/// whole window: `skip` is added to every split's feature index and to the feature count.
+fn shift_features(clf: &mut crate::detect::boost::BoostedTrees, skip: usize) {
+    clf.n_features += skip;
+    for t in &mut clf.trees {
+        for k in 0..t.fid.len() {
+            if t.child[k] != 0 {
+                t.fid[k] += skip as u32;
+            }
+        }
+    }
 }
 
 /// A per-tree rejection trace (`calibrate_trace`) from the running scores, under `model`, of
@@ -582,11 +618,12 @@ fn sorted_sample(rng: &mut impl Rng, len: usize, n: usize) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::detect::channels::MAG_CHANNEL;
 
-    #[test]
-    fn training_on_shared_data_is_the_same_for_1_and_2_threads() {
-        // A small run on the shared INRIA crops and negatives (fails with the data directory
-        // named when $MOSAICD_DATA is missing, like every data test).
+    /// Fold 0's first 40 training positives and 4 negative images, for small runs on the shared
+    /// INRIA crops and negatives (fails with the data directory named when $MOSAICD_DATA is
+    /// missing, like every data test).
+    fn small_split() -> Split {
         crate::data::data_path("pedestrian/inria_pos_96x160").unwrap_or_else(|e| panic!("{e}"));
         let mut split = super::super::split_data(
             &crate::data::data_root().unwrap_or_else(|e| panic!("{e}")),
@@ -597,13 +634,41 @@ mod tests {
         .unwrap();
         split.train_pos.truncate(40);
         split.train_neg.truncate(4);
-        let o = AcfTrainOptions {
+        split
+    }
+
+    /// Two stages of 2 and 4 trees on at most 60 negative windows per stage.
+    fn small_options() -> AcfTrainOptions {
+        AcfTrainOptions {
             stages: vec![2, 4],
             n_neg: 60,
             per_neg: 15,
             acc_neg: 100,
             ..AcfTrainOptions::default()
-        };
+        }
+    }
+
+    /// The features of `split`'s training positives for `m`, and how many of them `m` scores
+    /// above its cascade threshold.
+    fn training_positives_above(split: &Split, m: &AcfModel) -> (Vec<Vec<f32>>, usize) {
+        let det = AcfDetector::new(m.clone(), &AcfOptions::default()).unwrap();
+        let xs = positive_windows(
+            &split.train_pos,
+            m,
+            m.domain,
+            Cfa::Rggb,
+            &InputPipeline::Sampled,
+            Gains::FromFile,
+        )
+        .unwrap();
+        let above = xs.iter().filter(|x| det.score_features(x) > m.casc_thr).count();
+        (xs, above)
+    }
+
+    #[test]
+    fn training_on_shared_data_is_the_same_for_1_and_2_threads() {
+        let split = small_split();
+        let o = small_options();
         let run = |t: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(t)
@@ -621,18 +686,46 @@ mod tests {
         assert_eq!(a.provenance["positive_windows"], 40);
         assert!(a.pyramid.lambdas[1] > 0.0, "{:?}", a.pyramid.lambdas);
         // the trained model scores its own training positives above the cascade threshold
-        let det = AcfDetector::new(a.clone(), &AcfOptions::default()).unwrap();
-        let xs = positive_windows(
-            &split.train_pos,
-            &a,
-            a.domain,
-            Cfa::Rggb,
-            &InputPipeline::Sampled,
-            Gains::FromFile,
-        )
-        .unwrap();
-        let above = xs.iter().filter(|x| det.score_features(x) > a.casc_thr).count();
+        let (xs, above) = training_positives_above(&split, &a);
         assert!(above * 2 > xs.len(), "{above} of {}", xs.len());
+    }
+
+    #[test]
+    fn a_gradient_model_never_reads_a_colour_feature() {
+        // the channel ablation: boosting on the gradient channels' features only; the trees'
+        // indices point into the whole window, past the colour planes
+        let split = small_split();
+        let o = AcfTrainOptions {
+            stages: vec![2, 8],
+            trace: None,
+            features: FeatureSet::Gradient,
+            ..small_options()
+        };
+        let m = train_acf(&split, &o, &mut |_| {}).unwrap();
+        assert_eq!(m.features, FeatureSet::Gradient);
+        assert_eq!(m.provenance["features"], "gradient");
+        assert_eq!(m.classifier.n_features, m.n_features());
+        m.validate("trained").unwrap();
+        let colour = MAG_CHANNEL * 16 * 32;
+        let splits: Vec<u32> = m
+            .classifier
+            .trees
+            .iter()
+            .flat_map(|t| (0..t.fid.len()).filter(|&k| t.child[k] != 0).map(|k| t.fid[k]))
+            .collect();
+        assert!(
+            !splits.is_empty() && splits.iter().all(|&f| f as usize >= colour),
+            "{splits:?}"
+        );
+        // it learned something on the gradients, and the colour features do not change a score
+        let (xs, above) = training_positives_above(&split, &m);
+        assert!(above * 2 > xs.len(), "{above} of {}", xs.len());
+        let det = AcfDetector::new(m.clone(), &AcfOptions::default()).unwrap();
+        for x in &xs {
+            let mut z = x.clone();
+            z[..colour].fill(0.0);
+            assert_eq!(det.score_features(&z).to_bits(), det.score_features(x).to_bits());
+        }
     }
 
     #[test]
