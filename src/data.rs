@@ -140,6 +140,20 @@ pub const INFINITE_ISP_SCENES: [RawInput; 5] = [
     ),
 ];
 
+/// OpenISP's 1920x1080 10-bit RGGB test chart (`raw/openisp/test.RAW`): the benchmarks' frame,
+/// which they promote to a 12-bit container ([`crate::raw::RawFrame::promoted`]).
+pub const OPENISP_TEST: RawInput = RawInput {
+    name: "openisp_test",
+    rel: "raw/openisp/test.RAW",
+    width: 1920,
+    height: 1080,
+    cfa: Cfa::Rggb,
+    bit_depth: 10,
+    black: 0,
+    white: 1023,
+    infinite_isp_profile: false,
+};
+
 /// The real raw frames used by the experiments (see the data directory's `README.md`).
 pub const RAW_INPUTS: [RawInput; 3] = [
     RawInput {

@@ -414,6 +414,48 @@ fn record_fails_when_nothing_was_recorded() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
+/// `mosaicd bench detect --raw` reads the file through the headerless loader: a truncated file or
+/// samples above the file's depth are refused with the file named, and depths that leave the
+/// file fewer than 8 bits are refused before any read.
+#[test]
+fn bench_detect_refuses_a_bad_raw_file_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let bench = |file: &Path, extra: &[&str]| {
+        let out = Command::new(BIN)
+            .args([
+                "bench",
+                "detect",
+                "--no-peer",
+                "--frames",
+                "1",
+                "--width",
+                "64",
+                "--height",
+                "128",
+            ])
+            .arg("--raw")
+            .arg(file)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let short = dir.path().join("short.raw");
+    std::fs::write(&short, vec![0u8; 64 * 128 * 2 - 2]).unwrap();
+    let err = bench(&short, &[]);
+    assert!(err.contains("short.raw"), "{err}");
+    // 10-bit file (12-bit bench, shift 2) holding a 12-bit value
+    let hot = dir.path().join("hot.raw");
+    let mut bytes = vec![0u8; 64 * 128 * 2];
+    bytes[..2].copy_from_slice(&4000u16.to_le_bytes());
+    std::fs::write(&hot, &bytes).unwrap();
+    let err = bench(&hot, &[]);
+    assert!(err.contains("hot.raw"), "{err}");
+    let err = bench(&hot, &["--bit-depth", "9", "--shift", "2"]);
+    assert!(err.contains("must be at least 8"), "{err}");
+}
+
 /// What a load gave, comparable across entry points: the frame's geometry, format and samples
 /// (and whether an RGB image came with it), or the error's text.
 fn outcome(r: Result<(RawFrame, bool), RawError>) -> String {

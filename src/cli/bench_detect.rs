@@ -17,7 +17,7 @@ use mosaicd::eval::time_detector;
 use mosaicd::features::hog::{HogInput, MosaicTone};
 use mosaicd::progress::Progress;
 use mosaicd::raw::Gains;
-use mosaicd::raw::{Cfa, Levels, RawFrame};
+use mosaicd::raw::{load_headerless, Cfa, Container, Endian, Levels, RawFormat};
 
 use super::detect_common::SvmArg;
 
@@ -123,34 +123,50 @@ fn ms(d: Duration) -> f64 {
 
 /// Run `mosaicd bench detect`.
 pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
-    let path = match &a.raw {
-        Some(p) => p.clone(),
-        None => mosaicd::data::data_path("raw/openisp/test.RAW")?,
+    // the file's samples (`--bit-depth` − `--shift` bits) through the library's headerless loader,
+    // then promoted to the benchmarked depth
+    let file_bits = a
+        .bit_depth
+        .checked_sub(a.shift)
+        .filter(|b| *b >= 8)
+        .with_context(|| {
+            format!(
+                "--bit-depth {} minus --shift {} must be at least 8",
+                a.bit_depth, a.shift
+            )
+        })?;
+    let loaded = match &a.raw {
+        Some(p) => {
+            let white = ((1u32 << file_bits) - 1) as u16;
+            let fmt = RawFormat::new(
+                a.width,
+                a.height,
+                file_bits,
+                a.cfa,
+                Container::U16,
+                Endian::Little,
+                Levels::uniform(0, white),
+            );
+            load_headerless(p, &fmt).with_context(|| format!("--raw {}", p.display()))?
+        }
+        None => {
+            let test = &mosaicd::data::OPENISP_TEST;
+            if file_bits != test.bit_depth {
+                bail!(
+                    "the default frame ({}) is {}-bit: --bit-depth minus --shift must be {} (or give --raw)",
+                    test.rel,
+                    test.bit_depth,
+                    test.bit_depth
+                );
+            }
+            mosaicd::data::load_raw_frame(test)?
+        }
     };
-    let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-    let n = a.width * a.height;
-    if bytes.len() < 2 * n {
-        bail!(
-            "{}: truncated: {} bytes for {}x{} u16",
-            path.display(),
-            bytes.len(),
-            a.width,
-            a.height
-        );
-    }
-    let max = ((1u32 << a.bit_depth) - 1) as u16;
-    let data: Vec<u16> = bytes[..2 * n]
-        .chunks_exact(2)
-        .map(|b| (u16::from_le_bytes([b[0], b[1]]) << a.shift).min(max))
-        .collect();
-    let frame = RawFrame::from_u16(
-        a.width,
-        a.height,
-        data.clone(),
-        a.cfa,
-        a.bit_depth,
-        Levels::uniform(0, max),
-    )?;
+    let frame = loaded.promoted(a.shift)?;
+    let path = a
+        .raw
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(mosaicd::data::OPENISP_TEST.rel));
 
     let model = PeopleModel::load(&a.model, Domain::Mosaic)?.with_overrides(None, a.mosaic_tone);
     let opts = DetectorOptions {
@@ -219,16 +235,16 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         None
     } else {
         let tmp = tempfile_path()?;
-        let raw_bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let raw_bytes: Vec<u8> = frame.to_u16_vec().iter().flat_map(|v| v.to_le_bytes()).collect();
         std::fs::write(&tmp, raw_bytes)?;
         let out = Command::new(&a.python)
             .args(["-c", PEER])
             .arg(&tmp)
             .args([
-                a.width.to_string(),
-                a.height.to_string(),
+                frame.width().to_string(),
+                frame.height().to_string(),
                 a.bit_depth.to_string(),
-                a.cfa.opencv_code_name().to_string(),
+                frame.cfa().opencv_code_name().to_string(),
                 a.frames.max(1).to_string(),
                 a.threads.to_string(),
                 a.scale_step.to_string(),
@@ -253,8 +269,8 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         .as_ref()
         .map(|p| p["demosaic_s"].as_f64().unwrap_or(0.0) + p["detect_s"].as_f64().unwrap_or(0.0));
     let report = serde_json::json!({
-        "input": path.display().to_string(), "width": a.width, "height": a.height, "bit_depth": a.bit_depth,
-        "cfa": a.cfa.name(), "threads": a.threads, "frames": a.frames, "commit": commit,
+        "input": path.display().to_string(), "width": frame.width(), "height": frame.height(), "bit_depth": a.bit_depth,
+        "cfa": frame.cfa().name(), "threads": a.threads, "frames": a.frames, "commit": commit,
         "kernels": super::bench_gradients::kernels_json(),
         "detector": det.kind().name(), "model": a.model, "mosaic_tone": tone, "threshold": a.threshold,
         "smallest_window": [win.0, win.1],
@@ -289,10 +305,10 @@ pub fn run(a: BenchDetectArgs) -> anyhow::Result<()> {
         };
         println!(
             "bench detect: {}x{} {}-bit {} mosaic, {} threads each, {} detector ({}, {tone} tone), {pyramid}, {windows} windows/frame, smallest window {}x{} both sides, commit {commit}",
-            a.width,
-            a.height,
+            frame.width(),
+            frame.height(),
             a.bit_depth,
-            a.cfa.name(),
+            frame.cfa().name(),
             a.threads,
             det.kind(),
             a.model,

@@ -16,7 +16,6 @@ use mosaicd::progress::Progress;
 
 use mosaicd::features::sift::{features_from_frame, SiftSpec};
 use mosaicd::kernels;
-use mosaicd::raw::{Cfa, Levels, RawFrame};
 
 use super::bench_gradients::kernels_json;
 
@@ -76,22 +75,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// Run `mosaicd bench sift`.
 pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.reps > 0, "--reps must be at least 1");
-    let path = mosaicd::data::data_path("raw/openisp/test.RAW")?;
-    let (w, h) = (1920usize, 1080usize);
-    let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-    anyhow::ensure!(
-        bytes.len() >= w * h * 2,
-        "{} is not a 1920x1080 u16 frame",
-        path.display()
-    );
-    let data: Vec<u16> = bytes
-        .chunks_exact(2)
-        .take(w * h)
-        .map(|b| u16::from_le_bytes([b[0], b[1]]).min(1023) << 2)
-        .collect();
-    let white = 4095u16;
-    let cfa = Cfa::Rggb;
-    let frame = RawFrame::from_u16(w, h, data.clone(), cfa, 12, Levels::uniform(0, white))?;
+    // the real 10-bit chart through the library's loader, promoted to a 12-bit container
+    let frame = mosaicd::data::load_raw_frame(&mosaicd::data::OPENISP_TEST)?.promoted(2)?;
+    let (w, h) = (frame.width(), frame.height());
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -142,7 +128,7 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
     let mut tmp = tempfile_path()?;
     {
         // One buffered write (2 M unbuffered 2-byte writes took seconds of system time).
-        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let bytes: Vec<u8> = frame.to_u16_vec().iter().flat_map(|v| v.to_le_bytes()).collect();
         let mut f = std::fs::File::create(&tmp.0)?;
         f.write_all(&bytes)?;
     }
@@ -152,10 +138,10 @@ pub fn run(args: BenchSiftArgs) -> anyhow::Result<()> {
         .arg(&tmp.0)
         .arg(w.to_string())
         .arg(h.to_string())
-        .arg(cfa.opencv_code_name())
+        .arg(frame.cfa().opencv_code_name())
         .arg(args.reps.to_string())
         .arg(args.threads.to_string())
-        .arg(white.to_string())
+        .arg(frame.levels().white.to_string())
         .output()
         .with_context(|| format!("running {}", args.python))?;
     tmp.cleanup();

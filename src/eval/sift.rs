@@ -284,18 +284,15 @@ pub fn grey_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
     rgb.map(|p| grey_f32(p.map(f32::from)).round())
 }
 
-/// RGGB mosaic sampled from an RGB image (cropped to even size).
+/// RGGB mosaic sampled from an RGB image (cropped to even size), as f32:
+/// [`crate::raw::mosaic_from_rgb`] on the even crop.
 pub fn rggb_mosaic_from_rgb8(rgb: &Image<[u8; 3]>) -> Image<f32> {
     let (w, h) = (rgb.width() / 2 * 2, rgb.height() / 2 * 2);
-    Image::from_fn(w, h, |x, y| {
-        let p = rgb.get(x, y);
-        let ch = match (x % 2, y % 2) {
-            (0, 0) => 0,
-            (1, 1) => 2,
-            _ => 1,
-        };
-        p[ch] as f32
-    })
+    let even = rgb
+        .view()
+        .crop(0, 0, w, h)
+        .expect("an even crop lies inside the image");
+    crate::raw::mosaic_from_rgb(&even, crate::raw::Cfa::Rggb).map(f32::from)
 }
 
 /// Repeatability and match statistics of one image pair.
@@ -607,6 +604,18 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_rggb_mosaic_is_cropped_to_even_size_and_samples_r_g_b() {
+        let rgb = Image::from_fn(5, 3, |x, y| {
+            [(10 * x + y) as u8, 100 + (10 * x + y) as u8, 200 + y as u8]
+        });
+        let m = rggb_mosaic_from_rgb8(&rgb);
+        assert_eq!(m.dimensions(), (4, 2));
+        assert_eq!(m.row(0), &[0.0, 110.0, 20.0, 130.0]);
+        assert_eq!(m.row(1), &[101.0, 201.0, 121.0, 201.0]);
+        assert_eq!(rggb_mosaic_from_rgb8(&Image::new(1, 1)).dimensions(), (0, 0));
+    }
 
     #[test]
     fn ground_truth_rotation_keeps_the_centre() {

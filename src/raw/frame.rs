@@ -348,6 +348,31 @@ impl RawFrame {
         self
     }
 
+    /// The frame as a sensor `shift` bits deeper would deliver it (e.g. a 10-bit frame in a
+    /// 12-bit container, `shift = 2`): every sample and black level multiplied by `2^shift`, the
+    /// white level mapped to the top of the values its own level stands for,
+    /// `white·2^shift + 2^shift − 1` (a full-scale white stays full scale: 1023 → 4095). The
+    /// result is a contiguous `u16` frame of depth `bit_depth + shift` with the same pattern,
+    /// gains and metadata. Refused when the depth would exceed 16 bits.
+    pub fn promoted(&self, shift: u8) -> Result<RawFrame, RawError> {
+        let bit_depth = self.bit_depth.saturating_add(shift);
+        if bit_depth > 16 {
+            return Err(RawError::BitDepth {
+                bit_depth,
+                container_bits: 16,
+            });
+        }
+        let data: Vec<u16> = self.to_u16_vec().into_iter().map(|v| v << shift).collect();
+        let levels = Levels {
+            black: self.levels.black.map(|b| b << shift),
+            white: (self.levels.white << shift) | ((1u16 << shift) - 1),
+        };
+        let mut f = RawFrame::from_u16(self.width, self.height, data, self.cfa, bit_depth, levels)?;
+        f.wb_gains = self.wb_gains;
+        f.meta = self.meta.clone();
+        Ok(f)
+    }
+
     /// Widen to a contiguous `u16` buffer (copy).
     pub fn to_u16_vec(&self) -> Vec<u16> {
         let mut out = Vec::with_capacity(self.width * self.height);
@@ -437,5 +462,29 @@ mod tests {
         )
         .unwrap();
         assert_eq!(f.to_u16_vec(), vec![1, 2, 3, 4]);
+    }
+
+    #[test]
+    fn promotion_scales_samples_and_levels() {
+        let f = RawFrame::from_u16(
+            2,
+            2,
+            vec![0, 1, 512, 1020],
+            Cfa::Grbg,
+            10,
+            Levels::uniform(16, 1023),
+        )
+        .unwrap()
+        .with_wb_gains([2.0, 1.0, 1.5]);
+        let p = f.promoted(2).unwrap();
+        assert_eq!(p.bit_depth(), 12);
+        assert_eq!(p.to_u16_vec(), vec![0, 4, 2048, 4080]);
+        assert_eq!(p.levels(), &Levels::uniform(64, 4095));
+        assert_eq!((p.cfa(), p.wb_gains), (Cfa::Grbg, Some([2.0, 1.0, 1.5])));
+        assert_eq!(f.promoted(0).unwrap(), f);
+        assert!(matches!(
+            f.promoted(7),
+            Err(RawError::BitDepth { bit_depth: 17, .. })
+        ));
     }
 }
