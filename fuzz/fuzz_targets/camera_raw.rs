@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::raw::load::camera_raw_from_bytes;
+use mosaicd::raw::camera_raw_from_bytes;
 
 fuzz_target!(|data: &[u8]| {
     let _ = camera_raw_from_bytes(data, "fuzz.kdc".as_ref());

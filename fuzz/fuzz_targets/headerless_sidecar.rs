@@ -6,8 +6,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::capture::files::Sidecar;
-use mosaicd::raw::load::{frame_from_bytes, load_headerless};
+use mosaicd::capture::Sidecar;
+use mosaicd::raw::{frame_from_bytes, load_headerless};
 
 fuzz_target!(|data: &[u8]| {
     let (text, bytes) = match data.iter().position(|&b| b == 0) {

@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::detect::model::{Domain, LinearModel};
+use mosaicd::detect::{Domain, LinearModel};
 use mosaicd::npy::NpyArray;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::raw::load::{load_input_bytes, pgm_from_bytes, InputOptions};
+use mosaicd::raw::{load_input_bytes, pgm_from_bytes, InputOptions};
 use mosaicd::raw::Cfa;
 
 fuzz_target!(|data: &[u8]| {

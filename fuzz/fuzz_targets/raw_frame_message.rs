@@ -3,7 +3,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use mosaicd::raw::FrameLimits;
-use mosaicd::record::schema::{decode_raw_frame, decode_raw_frame_header};
+use mosaicd::wire::schema::{decode_raw_frame, decode_raw_frame_header};
 
 fuzz_target!(|data: &[u8]| {
     if let Ok((h, _)) = decode_raw_frame_header(data) {

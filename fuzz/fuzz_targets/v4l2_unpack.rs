@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mosaicd::capture::v4l2_formats::{
+use mosaicd::capture::{
     bayer_format, raw_frame_from_v4l2, unpack_into, unpack_into_serial, SUPPORTED, SUPPORTED_PACKED12,
 };
 

@@ -23,7 +23,8 @@ pub use mcap_source::{McapSource, McapSourceOptions, Pacing};
 pub use synthetic::{SyntheticSource, SyntheticSpec};
 pub use v4l2::{Backoff, Negotiated, V4l2Options, V4l2Source};
 pub use v4l2_formats::{
-    bayer_format, parse_fourcc, raw_frame_from_v4l2, BayerFormat, Packing, V4l2FormatError,
+    bayer_format, parse_fourcc, raw_frame_from_v4l2, unpack_into, unpack_into_serial, BayerFormat, Packing,
+    V4l2FormatError, SUPPORTED, SUPPORTED_PACKED12,
 };
 
 /// How frames from a source may be treated when compute falls behind.

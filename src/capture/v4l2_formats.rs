@@ -139,7 +139,7 @@ pub enum V4l2FormatError {
 }
 
 /// Every supported FourCC, in the table's order.
-pub(crate) const SUPPORTED: [[u8; 4]; 24] = [
+pub const SUPPORTED: [[u8; 4]; 24] = [
     *b"BA81", *b"GBRG", *b"GRBG", *b"RGGB", // 8-bit
     *b"BG10", *b"GB10", *b"BA10", *b"RG10", // 10-bit unpacked
     *b"BG12", *b"GB12", *b"BA12", *b"RG12", // 12-bit unpacked
@@ -149,7 +149,7 @@ pub(crate) const SUPPORTED: [[u8; 4]; 24] = [
 ];
 
 /// 12-bit packed FourCCs (kept apart so [`SUPPORTED`] stays a readable table).
-pub(crate) const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
+pub const SUPPORTED_PACKED12: [[u8; 4]; 4] = [*b"pBCC", *b"pGCC", *b"pgCC", *b"pRCC"];
 
 /// A FourCC written as text (`"pRAA"`): its four bytes, or `None` unless it is exactly four
 /// bytes long. The inverse of `fourcc_str` for printable codes.
@@ -328,7 +328,7 @@ fn unpack_row(fmt: &BayerFormat, src: &[u8], dst: &mut [u16]) -> Option<(usize, 
 
 /// Unpack a driver buffer into `dst` (`width * height` u16 values, row-major, contiguous).
 /// Rows are unpacked in parallel strips of `STRIP_ROWS` on the current rayon pool.
-pub(crate) fn unpack_into(
+pub fn unpack_into(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,
@@ -378,9 +378,9 @@ pub(crate) fn unpack_into(
     Ok(())
 }
 
-/// Serial reference of [`unpack_into`] (the test oracle for the parallel path).
-#[cfg(test)]
-pub(crate) fn unpack_into_serial(
+/// Serial reference of [`unpack_into`] (the test oracle for the parallel path; the `v4l2_unpack`
+/// fuzz target compares the two).
+pub fn unpack_into_serial(
     fmt: &BayerFormat,
     buf: &[u8],
     width: usize,

@@ -29,8 +29,8 @@ pub use levels::{
 pub use limits::{FrameLimits, FrameTooLarge, DEFAULT_MAX_PIXELS};
 pub use load::{
     camera_raw_from_bytes, decode_image, frame_from_bytes, load_camera_raw, load_headerless, load_input,
-    load_input_bytes, load_png_mosaic, rawloader_ifd_visits, Container, Endian, InputOptions, LoadedInput,
-    MosaicFormat, RawFormat, MAX_TIFF_IFD_VISITS,
+    load_input_bytes, load_png_mosaic, pgm_from_bytes, rawloader_ifd_visits, Container, Endian, InputOptions,
+    LoadedInput, MosaicFormat, RawFormat, MAX_TIFF_IFD_VISITS,
 };
 pub use sample::{frame_from_rgb8, mosaic_from_rgb};
 pub use tone::{MosaicTone, ToneTables};

@@ -68,6 +68,7 @@ pub use camera::{camera_raw_from_bytes, load_camera_raw};
 pub use common::{Container, Endian, InputOptions, LoadedInput, MosaicFormat};
 pub(crate) use headerless::headerless_format;
 pub use headerless::{frame_from_bytes, load_headerless, RawFormat};
+pub use pgm::pgm_from_bytes;
 pub(crate) use pgm::{load_pgm_mosaic, pgm_mosaic_from_bytes};
 pub use png::load_png_mosaic;
 pub use rgb::decode_image;

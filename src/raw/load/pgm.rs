@@ -10,10 +10,7 @@ pub(super) const MAX_PGM_HEADER_BYTES: u64 = 1 << 20;
 
 /// Parse a binary PGM (`P5`) from bytes: width, height, maxval, samples (big-endian when
 /// maxval > 255, as the Netpbm specification says).
-pub(super) fn pgm_from_bytes(
-    bytes: &[u8],
-    origin: &Path,
-) -> Result<(usize, usize, u16, RawPixels), RawError> {
+pub fn pgm_from_bytes(bytes: &[u8], origin: &Path) -> Result<(usize, usize, u16, RawPixels), RawError> {
     let bad = |what: &str| format_err(origin, format!("not a binary PGM (P5): {what}"));
     if bytes.len() < 2 || &bytes[..2] != b"P5" {
         return Err(bad("magic number is not P5"));
